@@ -1,0 +1,266 @@
+//! The plain scene description: what a scene file says, with every name resolved and every
+//! default applied, but no rendering types. Both XML dialects (torrey 0.5/0.6 camelCase and
+//! Mitsuba 3 snake_case) map onto these types, so the renderer never sees the dialect except
+//! through [`Dialect`], which decides the sidedness convention.
+//!
+//! Geometry is stored in object space together with its `to_world` transform; the renderer
+//! applies it. Colours are linear RGB.
+
+use glam::{Affine2, Mat4, Vec2, Vec3};
+use std::path::PathBuf;
+
+/// Index into [`Scene::bsdfs`].
+pub type BsdfId = usize;
+/// Index into [`Scene::textures`].
+pub type TextureId = usize;
+
+/// Which XML dialect a scene is written in, from `<scene version="...">`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dialect {
+    /// Versions below 2.0.0 (the torrey course's 0.5/0.6): surfaces shade on both sides.
+    Torrey,
+    /// Versions 2.0.0 and up: one-sided bsdfs unless wrapped in `twosided`.
+    Mitsuba3,
+}
+
+/// A position in a scene file, for diagnostics. Lines and columns count from 1.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct SourceLocation {
+    pub file: PathBuf,
+    pub line: u32,
+    pub column: u32,
+}
+
+impl std::fmt::Display for SourceLocation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}:{}", self.file.display(), self.line, self.column)
+    }
+}
+
+/// A non-fatal remark about the scene (an unknown but harmless parameter, say).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Warning {
+    pub location: SourceLocation,
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: warning: {}", self.location, self.message)
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene file this was read from (relative paths inside were resolved against its folder).
+    pub path: PathBuf,
+    pub dialect: Dialect,
+    pub camera: Camera,
+    pub film: Film,
+    pub sampler: Sampler,
+    pub integrator: Integrator,
+    pub textures: Vec<Texture>,
+    pub bsdfs: Vec<Bsdf>,
+    pub shapes: Vec<Shape>,
+    /// Point lights, environment maps and constant backgrounds. Area lights live on their shapes.
+    pub lights: Vec<Light>,
+    pub warnings: Vec<Warning>,
+}
+
+/// Perspective pinhole camera, Mitsuba 3 semantics: camera space looks along +z, +x is left,
+/// +y is up; `to_world` maps camera space to world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub to_world: Mat4,
+    /// Full field of view in degrees along `fov_axis`.
+    pub fov_degrees: f32,
+    pub fov_axis: FovAxis,
+    pub near_clip: f32,
+    pub far_clip: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FovAxis {
+    X,
+    Y,
+    Diagonal,
+    Smaller,
+    Larger,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Output file name from the scene, if it names one.
+    pub filename: Option<String>,
+    pub filter: PixelFilter,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PixelFilter {
+    /// One pixel wide box: torrey's default and the references'.
+    Box,
+    /// Mitsuba's gaussian (stddev in pixels; Mitsuba's default 0.5).
+    Gaussian { stddev: f32 },
+    /// Mitsuba's tent filter (radius in pixels).
+    Tent { radius: f32 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sampler {
+    pub sample_count: u32,
+    pub seed: u64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Integrator {
+    /// Mitsuba's `max_depth`: path segments; 1 = emitters seen directly, 2 = direct light, -1 = unbounded.
+    pub max_depth: i32,
+    /// Russian roulette starts at this depth (Mitsuba's `rr_depth`, default 5).
+    pub rr_depth: i32,
+    /// The integrator's type name (`path`, `direct`, ...), kept for information.
+    pub kind: String,
+}
+
+/// A colour that may be a constant or come from a texture.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColorParam {
+    Constant(Vec3),
+    Texture(TextureId),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub id: Option<String>,
+    pub kind: TextureKind,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum TextureKind {
+    Bitmap(Bitmap),
+    /// Mitsuba's checkerboard: color0 where floor(u') + floor(v') is even, else color1.
+    Checkerboard {
+        color0: Vec3,
+        color1: Vec3,
+        to_uv: Affine2,
+    },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bitmap {
+    /// Absolute (resolved) path of the image.
+    pub filename: PathBuf,
+    /// Texture-coordinate transform: uv' = to_uv(uv). torrey's uscale/vscale/uoffset/voffset
+    /// give `Affine2::from_scale_angle_translation((uscale, vscale), 0, (uoffset, voffset))`;
+    /// Mitsuba 3's `to_uv` transform maps directly.
+    pub to_uv: Affine2,
+    /// Do not sRGB-decode 8-bit images (normal maps are always raw).
+    pub raw: bool,
+    pub filter: FilterType,
+    pub wrap: WrapMode,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterType {
+    Bilinear,
+    Nearest,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WrapMode {
+    Repeat,
+    Mirror,
+    Clamp,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bsdf {
+    pub id: Option<String>,
+    pub kind: BsdfKind,
+    /// Wrapped in `twosided`. In torrey-dialect scenes every bsdf is two-sided anyway.
+    pub two_sided: bool,
+    /// Tangent-space normal map (a raw bitmap texture), from the seed dialect's
+    /// `<texture name="normal_map">` or Mitsuba 3's `normalmap` wrapper.
+    pub normal_map: Option<TextureId>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum BsdfKind {
+    Diffuse {
+        reflectance: ColorParam,
+    },
+    /// torrey's mirror: perfect reflection weighted by Schlick Fresnel with F0 = reflectance.
+    Mirror {
+        reflectance: ColorParam,
+    },
+    /// torrey's plastic: Schlick-Fresnel (F0 from `eta`) weighted mirror over a diffuse base.
+    Plastic {
+        reflectance: ColorParam,
+        eta: f32,
+    },
+    /// Normalised Phong lobe around the mirror direction: reflectance (a+1)/(2pi) cos^a.
+    Phong {
+        reflectance: ColorParam,
+        exponent: f32,
+    },
+    /// Normalised Blinn-Phong: reflectance (a+2)/(4pi(2-2^(-a/2))) (n.h)^a.
+    Blinn {
+        reflectance: ColorParam,
+        exponent: f32,
+    },
+    /// Microfacet with a Blinn distribution, Schlick Fresnel (F0 = reflectance) and Walter et
+    /// al.'s rational Smith shadowing fit.
+    BlinnMicrofacet {
+        reflectance: ColorParam,
+        exponent: f32,
+    },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shape {
+    pub geometry: Geometry,
+    /// Object to world.
+    pub to_world: Mat4,
+    /// `None` means Mitsuba's default: a diffuse bsdf with reflectance 0.5.
+    pub bsdf: Option<BsdfId>,
+    /// Area emitter radiance, if the shape is an area light (one-sided, along the normal).
+    pub emitter: Option<Vec3>,
+    pub flip_normals: bool,
+    /// Where the shape was declared, for renderer-side diagnostics.
+    pub location: SourceLocation,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Geometry {
+    Mesh(TriangleMesh),
+    /// Mitsuba sphere: `center` and `radius` in object space (then `to_world`); pole axis +z.
+    Sphere { center: Vec3, radius: f32 },
+    /// Mitsuba rectangle: [-1,1]^2 in the z = 0 plane, normal +z, uv = ((x+1)/2, (y+1)/2).
+    Rectangle,
+}
+
+/// A triangle mesh in object space. Texture coordinates are already in Mitsuba's convention
+/// (OBJ v flipped on load). `normals` is empty when the shape asked for face normals;
+/// otherwise it holds the file's normals or, when the file has none, area-weighted smooth ones.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct TriangleMesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// Radiant intensity in W/sr.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Constant radiance from every direction (torrey's `<background>`, Mitsuba's `constant`).
+    Constant { radiance: Vec3 },
+    /// Lat-long environment map in Mitsuba 3's orientation, rotated by `to_world`.
+    Envmap {
+        bitmap: Bitmap,
+        scale: f32,
+        to_world: Mat4,
+    },
+}

@@ -1,0 +1,1 @@
+//! Geometry, BVH, camera, materials, path integrator and film.

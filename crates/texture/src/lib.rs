@@ -1,0 +1,1 @@
+//! Image loading, sRGB decoding, box-filtered mip pyramids and ray-cone driven lookups.
