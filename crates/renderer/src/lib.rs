@@ -1,1 +1,4 @@
 //! Geometry, BVH, camera, materials, path integrator and film.
+
+pub mod bsdf;
+pub mod sampling;

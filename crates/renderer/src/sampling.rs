@@ -1,0 +1,1 @@
+//! Warps from the unit square to directions and shapes, with their pdfs.
