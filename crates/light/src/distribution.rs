@@ -1,0 +1,414 @@
+//! Piecewise-constant 1D and 2D distributions: the building block of environment-map and
+//! light-selection importance sampling.
+//!
+//! Both tolerate bad weights rather than panicking: negative, NaN and infinite weights count as 0,
+//! and a distribution whose weights are all zero samples uniformly (with finite, non-NaN pdfs), so
+//! callers never have to special-case black inputs to stay NaN-free.
+
+use glam::Vec2;
+
+/// The largest f32 below 1, so that samples stay inside the half-open interval [0, 1).
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// A piecewise-constant density over [0, 1) with `len()` equal-width bins.
+///
+/// Used for discrete choices (which light, which row) and continuous ones (where in a row), so both
+/// views are offered over the same tables.
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    /// Sanitised bin weights (never negative or NaN).
+    func: Vec<f32>,
+    /// Normalised running sum, `len() + 1` entries, `cdf[0] = 0`, `cdf[len()] = 1`.
+    cdf: Vec<f32>,
+    /// Integral of `func` over [0, 1): sum of weights divided by the bin count.
+    integral: f32,
+    /// Sum of the weights (kept in f64 so discrete probabilities of huge maps stay exact).
+    sum: f64,
+}
+
+impl Distribution1D {
+    /// Builds the tables. Negative, NaN and infinite weights are treated as 0; an empty slice is
+    /// treated as a single zero-weight bin; an all-zero distribution samples uniformly.
+    pub fn new(weights: &[f32]) -> Self {
+        let mut func: Vec<f32> = weights
+            .iter()
+            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
+            .collect();
+        if func.is_empty() {
+            func.push(0.0);
+        }
+        let n = func.len();
+        let sum: f64 = func.iter().map(|&w| w as f64).sum();
+        let mut cdf = Vec::with_capacity(n + 1);
+        cdf.push(0.0f32);
+        if sum > 0.0 {
+            let mut acc = 0.0f64;
+            for &w in &func {
+                acc += w as f64;
+                // Zero-weight bins repeat the previous value exactly, and the last positive bin
+                // reaches exactly 1 because `acc == sum` there.
+                cdf.push((acc / sum) as f32);
+            }
+        } else {
+            for i in 1..=n {
+                cdf.push(i as f32 / n as f32);
+            }
+        }
+        *cdf.last_mut().unwrap() = 1.0;
+        Self {
+            integral: (sum / n as f64) as f32,
+            func,
+            cdf,
+            sum,
+        }
+    }
+
+    /// Integral of the (unnormalised) step function over [0, 1): the average weight. Zero means
+    /// "nothing to sample" even though sampling still works (uniformly).
+    pub fn integral(&self) -> f32 {
+        self.integral
+    }
+
+    /// Number of bins (at least 1).
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    /// Always false: an empty weight slice becomes one zero-weight bin. Present for API symmetry.
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// The sanitised weight of bin `i` (0 outside the range), for callers that need the raw value.
+    pub fn weight(&self, i: usize) -> f32 {
+        self.func.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// Finds the bin whose cdf interval contains `u`, skipping zero-width bins.
+    #[inline]
+    fn find(&self, u: f32) -> usize {
+        let n = self.func.len();
+        // Largest i in [0, n-1] with cdf[i] <= u; since cdf[n] = 1 > u, bin i has positive width.
+        let i = self.cdf[..n].partition_point(|&c| c <= u);
+        i.saturating_sub(1)
+    }
+
+    #[inline]
+    fn clamp_u(u: f32) -> f32 {
+        if u.is_nan() {
+            0.0
+        } else {
+            u.clamp(0.0, ONE_MINUS_EPSILON)
+        }
+    }
+
+    /// Density of bin `i` over [0, 1) (1 for an all-zero distribution, which samples uniformly).
+    #[inline]
+    fn bin_density(&self, i: usize) -> f32 {
+        if self.sum > 0.0 {
+            (self.func[i] as f64 * self.func.len() as f64 / self.sum) as f32
+        } else {
+            1.0
+        }
+    }
+
+    /// Continuous sample in [0,1): returns (x, pdf(x) density over [0,1), bin index).
+    #[inline]
+    pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
+        let u = Self::clamp_u(u);
+        let i = self.find(u);
+        let lo = self.cdf[i];
+        let width = self.cdf[i + 1] - lo;
+        let du = if width > 0.0 {
+            ((u - lo) / width).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let n = self.func.len() as f32;
+        let mut x = ((i as f32 + du) / n).min(ONE_MINUS_EPSILON);
+        // Rounding can push x across a bin edge (possibly into a zero-density neighbour); nudge it
+        // back so that `pdf_continuous(x)` agrees with the returned pdf.
+        while self.bin_of(x) > i {
+            x = f32::from_bits(x.to_bits() - 1);
+        }
+        while self.bin_of(x) < i {
+            x = f32::from_bits(x.to_bits() + 1);
+        }
+        let pdf = self.bin_density(i);
+        (x, pdf, i)
+    }
+
+    /// Discrete: (index, probability, u remapped to [0,1) within the chosen bin).
+    #[inline]
+    pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        let u = Self::clamp_u(u);
+        let i = self.find(u);
+        let lo = self.cdf[i];
+        let width = self.cdf[i + 1] - lo;
+        let remapped = if width > 0.0 {
+            ((u - lo) / width).clamp(0.0, ONE_MINUS_EPSILON)
+        } else {
+            0.0
+        };
+        (i, self.pdf_discrete(i), remapped)
+    }
+
+    /// Probability of choosing bin `i` with [`Self::sample_discrete`] (0 outside the range).
+    #[inline]
+    pub fn pdf_discrete(&self, i: usize) -> f32 {
+        if i >= self.func.len() {
+            0.0
+        } else if self.sum > 0.0 {
+            (self.func[i] as f64 / self.sum) as f32
+        } else {
+            1.0 / self.func.len() as f32
+        }
+    }
+
+    /// Density at `x` of [`Self::sample_continuous`] (0 outside [0, 1]; x = 1 counts as the last bin).
+    #[inline]
+    pub fn pdf_continuous(&self, x: f32) -> f32 {
+        if !(0.0..=1.0).contains(&x) {
+            return 0.0;
+        }
+        let n = self.func.len();
+        let i = ((x * n as f32) as usize).min(n - 1);
+        self.bin_density(i)
+    }
+
+    /// Bin that [`Self::pdf_continuous`] uses for `x` (clamped into range).
+    #[inline]
+    pub fn bin_of(&self, x: f32) -> usize {
+        let n = self.func.len();
+        if x.is_nan() || x <= 0.0 {
+            0
+        } else {
+            ((x * n as f32) as usize).min(n - 1)
+        }
+    }
+}
+
+/// A piecewise-constant density over the unit square on a `width` x `height` grid: a marginal
+/// over rows (v) and one conditional per row (u). Used for environment-map sampling, where row 0 is
+/// the top of the image (v = 0).
+#[derive(Clone, Debug)]
+pub struct Distribution2D {
+    conditionals: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// Builds from row-major weights (`weights[row * width + col]`). A zero `width`/`height` is
+    /// treated as 1, and missing weights (slice too short) as 0, so bad input cannot panic.
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Self {
+        let width = width.max(1);
+        let height = height.max(1);
+        let mut row = vec![0.0f32; width];
+        let mut conditionals = Vec::with_capacity(height);
+        for r in 0..height {
+            for (c, w) in row.iter_mut().enumerate() {
+                *w = weights.get(r * width + c).copied().unwrap_or(0.0);
+            }
+            conditionals.push(Distribution1D::new(&row));
+        }
+        let marginal_weights: Vec<f32> = conditionals.iter().map(|d| d.integral()).collect();
+        let marginal = Distribution1D::new(&marginal_weights);
+        Self {
+            conditionals,
+            marginal,
+        }
+    }
+
+    /// Integral of the step function over the unit square (0 for an all-zero map).
+    pub fn integral(&self) -> f32 {
+        self.marginal.integral()
+    }
+
+    /// Grid width (columns, u).
+    pub fn width(&self) -> usize {
+        self.conditionals[0].len()
+    }
+
+    /// Grid height (rows, v).
+    pub fn height(&self) -> usize {
+        self.conditionals.len()
+    }
+
+    /// Returns (uv in [0,1)^2, density over the unit square).
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
+        let (x, pdf_u, _) = self.conditionals[row].sample_continuous(u.x);
+        (Vec2::new(x, v), pdf_v * pdf_u)
+    }
+
+    /// Density of [`Self::sample`] at `uv` (0 outside the unit square).
+    #[inline]
+    pub fn pdf(&self, uv: Vec2) -> f32 {
+        if !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y) {
+            return 0.0;
+        }
+        let row = self.marginal.bin_of(uv.y);
+        self.marginal.pdf_continuous(uv.y) * self.conditionals[row].pdf_continuous(uv.x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_chi_square, Rng};
+
+    #[test]
+    fn continuous_histogram_matches_pdf() {
+        let weights = [1.0, 0.0, 3.0, 0.5, 7.0, 2.0, 0.0, 4.0];
+        let d = Distribution1D::new(&weights);
+        assert_eq!(d.len(), 8);
+        assert!((d.integral() - 17.5 / 8.0).abs() < 1e-6);
+        // Histogram on 32 bins (4 per distribution bin): checks the within-bin placement too.
+        let bins = 32;
+        let n = 100_000;
+        let mut hist = vec![0.0f64; bins];
+        let mut rng = Rng::new(1);
+        for _ in 0..n {
+            let (x, pdf, i) = d.sample_continuous(rng.f32());
+            assert!((0.0..1.0).contains(&x));
+            assert_eq!(i, (x * 8.0) as usize);
+            assert_eq!(pdf, d.pdf_continuous(x));
+            assert!(pdf > 0.0);
+            hist[(x * bins as f32) as usize] += 1.0;
+        }
+        let expected: Vec<f64> = (0..bins)
+            .map(|b| {
+                let x = (b as f32 + 0.5) / bins as f32;
+                d.pdf_continuous(x) as f64 / bins as f64 * n as f64
+            })
+            .collect();
+        assert_chi_square("Distribution1D::sample_continuous", &hist, &expected);
+    }
+
+    #[test]
+    fn discrete_histogram_matches_probabilities() {
+        let weights: Vec<f32> = (0..40).map(|i| ((i * 7919) % 13) as f32).collect();
+        let d = Distribution1D::new(&weights);
+        let total: f32 = weights.iter().sum();
+        let n = 100_000;
+        let mut hist = vec![0.0f64; weights.len()];
+        let mut rng = Rng::new(2);
+        for _ in 0..n {
+            let (i, p, rem) = d.sample_discrete(rng.f32());
+            assert!((0.0..1.0).contains(&rem));
+            assert!((p - weights[i] / total).abs() < 1e-6);
+            assert_eq!(p, d.pdf_discrete(i));
+            hist[i] += 1.0;
+        }
+        let expected: Vec<f64> = (0..weights.len())
+            .map(|i| d.pdf_discrete(i) as f64 * n as f64)
+            .collect();
+        assert_chi_square("Distribution1D::sample_discrete", &hist, &expected);
+        // The remapped u of a chosen bin is itself uniform.
+        let mut rem_hist = vec![0.0f64; 16];
+        for _ in 0..n {
+            let (_, _, rem) = d.sample_discrete(rng.f32());
+            rem_hist[(rem * 16.0) as usize] += 1.0;
+        }
+        assert_chi_square("remapped u", &rem_hist, &[n as f64 / 16.0; 16]);
+    }
+
+    #[test]
+    fn bad_and_zero_weights_give_no_nan() {
+        let d = Distribution1D::new(&[0.0, -1.0, f32::NAN, f32::INFINITY]);
+        assert_eq!(d.integral(), 0.0);
+        for k in 0..100 {
+            let u = k as f32 / 100.0;
+            let (x, pdf, i) = d.sample_continuous(u);
+            assert!((x - u).abs() < 1e-6, "all-zero should be uniform: u {u} x {x}");
+            assert_eq!(pdf, 1.0);
+            assert_eq!(i, (u * 4.0) as usize);
+            let (j, p, _) = d.sample_discrete(u);
+            assert_eq!(j, (u * 4.0) as usize);
+            assert_eq!(p, 0.25);
+        }
+        // Out-of-range u is clamped, not a panic.
+        for u in [-1.0, 1.0, 2.0, f32::NAN, f32::INFINITY] {
+            let (x, pdf, _) = d.sample_continuous(u);
+            assert!(x.is_finite() && (0.0..1.0).contains(&x) && pdf.is_finite());
+        }
+        let empty = Distribution1D::new(&[]);
+        assert_eq!(empty.len(), 1);
+        assert_eq!(empty.sample_continuous(0.3).1, 1.0);
+        // Negative weights count as zero: never sampled.
+        let d = Distribution1D::new(&[-5.0, 1.0]);
+        for k in 0..100 {
+            let (x, _, i) = d.sample_continuous(k as f32 / 100.0);
+            assert_eq!(i, 1);
+            assert!(x >= 0.5);
+        }
+        assert_eq!(d.pdf_continuous(0.25), 0.0);
+        assert_eq!(d.pdf_continuous(0.75), 2.0);
+        assert_eq!(d.pdf_continuous(-0.1), 0.0);
+        assert_eq!(d.pdf_discrete(7), 0.0);
+    }
+
+    #[test]
+    fn distribution_2d_histogram_matches_pdf() {
+        let (w, h) = (12, 8);
+        // Includes a zero row and zero cells.
+        let weights: Vec<f32> = (0..w * h)
+            .map(|k| {
+                let (i, j) = (k % w, k / w);
+                if j == 3 {
+                    0.0
+                } else {
+                    ((i * 3 + j * 5) % 7) as f32 + if i == j { 10.0 } else { 0.0 }
+                }
+            })
+            .collect();
+        let d = Distribution2D::new(&weights, w, h);
+        let total: f32 = weights.iter().sum();
+        assert!((d.integral() - total / (w * h) as f32).abs() < 1e-5);
+        let n = 200_000;
+        let (bw, bh) = (2 * w, 2 * h);
+        let mut hist = vec![0.0f64; bw * bh];
+        let mut rng = Rng::new(3);
+        for _ in 0..n {
+            let (uv, pdf) = d.sample(rng.vec2());
+            assert!((0.0..1.0).contains(&uv.x) && (0.0..1.0).contains(&uv.y));
+            let rel = (pdf - d.pdf(uv)).abs() / pdf;
+            assert!(rel < 1e-6, "pdf mismatch at {uv}: {pdf} vs {}", d.pdf(uv));
+            let cell = (uv.y * h as f32) as usize * w + (uv.x * w as f32) as usize;
+            assert!(weights[cell] > 0.0, "sampled a zero cell");
+            assert!((pdf - weights[cell] * (w * h) as f32 / total).abs() < 1e-4 * pdf);
+            hist[(uv.y * bh as f32) as usize * bw + (uv.x * bw as f32) as usize] += 1.0;
+        }
+        let expected: Vec<f64> = (0..bw * bh)
+            .map(|k| {
+                let c = Vec2::new(
+                    ((k % bw) as f32 + 0.5) / bw as f32,
+                    ((k / bw) as f32 + 0.5) / bh as f32,
+                );
+                d.pdf(c) as f64 / (bw * bh) as f64 * n as f64
+            })
+            .collect();
+        assert_chi_square("Distribution2D::sample", &hist, &expected);
+    }
+
+    #[test]
+    fn distribution_2d_all_zero_and_bad_sizes() {
+        let d = Distribution2D::new(&[0.0; 12], 4, 3);
+        assert_eq!(d.integral(), 0.0);
+        let mut rng = Rng::new(4);
+        for _ in 0..1000 {
+            let (uv, pdf) = d.sample(rng.vec2());
+            assert!(uv.is_finite());
+            assert_eq!(pdf, 1.0);
+            assert_eq!(d.pdf(uv), 1.0);
+        }
+        // Too few weights and zero sizes do not panic.
+        let d = Distribution2D::new(&[1.0, 2.0], 4, 0);
+        assert_eq!((d.width(), d.height()), (4, 1));
+        let (uv, pdf) = d.sample(Vec2::new(0.9, 0.5));
+        assert!(uv.x < 0.5 && pdf > 0.0, "{uv} {pdf}");
+        assert_eq!(d.pdf(Vec2::new(0.7, 0.5)), 0.0);
+        assert_eq!(d.pdf(Vec2::new(1.5, 0.5)), 0.0);
+    }
+}
