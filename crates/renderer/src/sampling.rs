@@ -1,1 +1,681 @@
-//! Warps from the unit square to directions and shapes, with their pdfs.
+//! Warps from the unit square to directions and shapes, with their pdfs, plus the shading frame
+//! and the multiple-importance-sampling heuristic.
+//!
+//! Every warp comes with the density it produces (over solid angle for directions, over area for
+//! shapes) so that estimators can divide by exactly the density they sampled from; the unit tests
+//! check each pair against each other with chi-square tests.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+
+/// Maps the unit square to the unit disk with Shirley and Chiu's concentric mapping, which keeps
+/// strata compact (unlike the polar map) so stratified samples stay well spread on the disk.
+pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
+    let a = 2.0 * u.x - 1.0;
+    let b = 2.0 * u.y - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, FRAC_PI_4 * (b / a))
+    } else {
+        (b, FRAC_PI_2 - FRAC_PI_4 * (a / b))
+    };
+    let (sin, cos) = phi.sin_cos();
+    Vec2::new(r * cos, r * sin)
+}
+
+/// Cosine-weighted direction on the +z hemisphere (Malley's method): the importance-sampling
+/// density for diffuse reflection, pdf = cos θ / π ([`cosine_hemisphere_pdf`]).
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Solid-angle density of [`square_to_cosine_hemisphere`]; zero below the horizon.
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    if cos_theta > 0.0 {
+        cos_theta * FRAC_1_PI
+    } else {
+        0.0
+    }
+}
+
+/// Uniformly distributed direction on the unit sphere, for isotropic sampling (point-light
+/// emission, test quadrature); pdf = 1 / 4π ([`uniform_sphere_pdf`]).
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (sin, cos) = (TAU * u.y).sin_cos();
+    Vec3::new(r * cos, r * sin, z)
+}
+
+/// Solid-angle density of [`square_to_uniform_sphere`].
+pub fn uniform_sphere_pdf() -> f32 {
+    1.0 / (4.0 * PI)
+}
+
+/// Uniformly distributed direction on the +z hemisphere; pdf = 1 / 2π
+/// ([`uniform_hemisphere_pdf`]). Handy as an unbiased fallback when no better density is known.
+pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
+    let z = u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (sin, cos) = (TAU * u.y).sin_cos();
+    Vec3::new(r * cos, r * sin, z)
+}
+
+/// Solid-angle density of [`square_to_uniform_hemisphere`] (for directions with z >= 0).
+pub fn uniform_hemisphere_pdf() -> f32 {
+    1.0 / TAU
+}
+
+/// Uniform direction inside the cone of directions within angle acos(`cos_theta_max`) of +z: the
+/// density used to sample a sphere light by the solid angle it subtends; pdf =
+/// 1 / (2π (1 − cos θmax)) ([`uniform_cone_pdf`]).
+pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
+    let z = 1.0 - u.x * (1.0 - cos_theta_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (sin, cos) = (TAU * u.y).sin_cos();
+    Vec3::new(r * cos, r * sin, z)
+}
+
+/// Solid-angle density of [`square_to_uniform_cone`] inside the cone (callers check membership).
+pub fn uniform_cone_pdf(cos_theta_max: f32) -> f32 {
+    1.0 / (TAU * (1.0 - cos_theta_max))
+}
+
+/// Uniformly distributed point on a triangle, returned as the barycentric weights (b1, b2) of the
+/// second and third vertex (b0 = 1 − b1 − b2); the area density is 1 / area. Used to sample
+/// triangle area lights.
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(su * (1.0 - u.y), su * u.y)
+}
+
+/// Direction on the +z hemisphere with density ∝ cos^exponent θ: the Phong lobe (around the
+/// mirror direction) and the Blinn half-vector distribution. pdf = (n + 1)/(2π) cos^n θ
+/// ([`cosine_power_pdf`]). Written so that large exponents keep their precision near the pole.
+pub fn square_to_cosine_power(u: Vec2, exponent: f32) -> Vec3 {
+    // cos θ = u^(1/(n+1)); 1 − cos θ computed with expm1 so sin θ stays accurate for sharp lobes.
+    let log_cos = u.x.ln() / (exponent + 1.0);
+    let one_minus_cos = -log_cos.exp_m1();
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin_theta = (one_minus_cos * (1.0 + cos_theta)).max(0.0).sqrt();
+    let (sin, cos) = (TAU * u.y).sin_cos();
+    Vec3::new(sin_theta * cos, sin_theta * sin, cos_theta)
+}
+
+/// Solid-angle density of [`square_to_cosine_power`]; zero below the horizon.
+pub fn cosine_power_pdf(cos_theta: f32, exponent: f32) -> f32 {
+    if cos_theta > 0.0 {
+        (exponent + 1.0) / TAU * cos_theta.powf(exponent)
+    } else {
+        0.0
+    }
+}
+
+/// An orthonormal shading frame: `n` is the shading normal (local +z), `s` and `t` span the
+/// tangent plane (local +x, +y). BSDFs work in this frame so they only ever see z = cos θ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// Builds a frame around a unit normal with Duff et al.'s branchless construction
+    /// ("Building an Orthonormal Basis, Revisited", JCGT 2017): continuous except across the
+    /// z = 0 plane, no normalisation, no precision loss near the poles.
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+
+    /// Builds a frame whose `s` follows a tangent (e.g. dp/du) projected into the tangent plane
+    /// (Gram-Schmidt), so anisotropic or normal-mapped shading keeps a texture-aligned frame.
+    /// Falls back to [`Frame::from_normal`] when the tangent is (nearly) parallel to `n`.
+    pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Self {
+        let s = tangent - n * n.dot(tangent);
+        let len2 = s.length_squared();
+        if !(len2 > 1e-10 * tangent.length_squared()) || !len2.is_finite() {
+            return Self::from_normal(n);
+        }
+        let s = s / len2.sqrt();
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
+    }
+
+    /// World direction to local coordinates (z = component along the normal).
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local coordinates back to a world direction.
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Veach's power heuristic (β = 2): the MIS weight of a sample drawn from the strategy with
+/// density `pdf_a` when strategy b (density `pdf_b`) could also have produced it. Robust to the
+/// edge cases an integrator meets: an infinite `pdf_a` (a delta lobe) gets weight 1, an infinite
+/// `pdf_b` weight 0, both zero gives 0, and huge finite densities do not overflow when squared.
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    if pdf_a.is_infinite() {
+        return if pdf_b.is_infinite() { 0.5 } else { 1.0 };
+    }
+    if pdf_b.is_infinite() || !(pdf_a > 0.0) {
+        return 0.0;
+    }
+    if !(pdf_b > 0.0) {
+        return 1.0;
+    }
+    if pdf_a >= pdf_b {
+        let r = pdf_b / pdf_a;
+        1.0 / (1.0 + r * r)
+    } else {
+        let r = pdf_a / pdf_b;
+        let r2 = r * r;
+        r2 / (1.0 + r2)
+    }
+}
+
+/// Statistical helpers shared by the sampling and BSDF tests: a small deterministic RNG,
+/// chi-square goodness-of-fit testing (pbrt/Mitsuba style) and 2D Gauss-Legendre quadrature.
+#[cfg(test)]
+pub(crate) mod testutil {
+    /// splitmix64: deterministic, dependency-free, good enough for statistical tests.
+    pub struct Rng(u64);
+
+    impl Rng {
+        pub fn new(seed: u64) -> Self {
+            Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+        }
+        pub fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        /// Uniform in [0, 1).
+        pub fn f32(&mut self) -> f32 {
+            (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+        }
+        pub fn vec2(&mut self) -> glam::Vec2 {
+            glam::Vec2::new(self.f32(), self.f32())
+        }
+    }
+
+    fn ln_gamma(x: f64) -> f64 {
+        // Lanczos approximation (g = 7, n = 9), accurate to ~1e-15 for x > 0.
+        const C: [f64; 9] = [
+            0.999_999_999_999_809_9,
+            676.520_368_121_885_1,
+            -1_259.139_216_722_402_8,
+            771.323_428_777_653_1,
+            -176.615_029_162_140_6,
+            12.507_343_278_686_905,
+            -0.138_571_095_265_720_12,
+            9.984_369_578_019_572e-6,
+            1.505_632_735_149_311_6e-7,
+        ];
+        if x < 0.5 {
+            let pi = std::f64::consts::PI;
+            return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+        }
+        let x = x - 1.0;
+        let mut a = C[0];
+        let t = x + 7.5;
+        for (i, c) in C.iter().enumerate().skip(1) {
+            a += c / (x + i as f64);
+        }
+        0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+    }
+
+    /// Regularised upper incomplete gamma Q(a, x).
+    pub fn gamma_q(a: f64, x: f64) -> f64 {
+        if x <= 0.0 {
+            return 1.0;
+        }
+        let lg = ln_gamma(a);
+        if x < a + 1.0 {
+            // Series for P(a, x).
+            let mut sum = 1.0 / a;
+            let mut term = sum;
+            let mut ap = a;
+            for _ in 0..10_000 {
+                ap += 1.0;
+                term *= x / ap;
+                sum += term;
+                if term.abs() < sum.abs() * 1e-15 {
+                    break;
+                }
+            }
+            1.0 - sum * (-x + a * x.ln() - lg).exp()
+        } else {
+            // Continued fraction for Q(a, x) (modified Lentz).
+            let tiny = 1e-300;
+            let mut b = x + 1.0 - a;
+            let mut c = 1.0 / tiny;
+            let mut d = 1.0 / b;
+            let mut h = d;
+            for i in 1..10_000 {
+                let an = -(i as f64) * (i as f64 - a);
+                b += 2.0;
+                d = an * d + b;
+                if d.abs() < tiny {
+                    d = tiny;
+                }
+                c = b + an / c;
+                if c.abs() < tiny {
+                    c = tiny;
+                }
+                d = 1.0 / d;
+                let del = d * c;
+                h *= del;
+                if (del - 1.0).abs() < 1e-15 {
+                    break;
+                }
+            }
+            (-x + a * x.ln() - lg).exp() * h
+        }
+    }
+
+    /// P(X > x) for X chi-square distributed with `dof` degrees of freedom.
+    pub fn chi2_sf(x: f64, dof: f64) -> f64 {
+        gamma_q(0.5 * dof, 0.5 * x)
+    }
+
+    /// Pearson chi-square test of observed against expected counts. Cells with expected counts
+    /// below 5 are pooled (smallest first) as pbrt and Mitsuba do; an observation in a cell whose
+    /// expected count is (numerically) zero fails outright. Returns (p-value, statistic, dof).
+    pub fn chi2_test(observed: &[f64], expected: &[f64]) -> Result<(f64, f64, usize), String> {
+        assert_eq!(observed.len(), expected.len());
+        let mut cells: Vec<(f64, f64)> = observed
+            .iter()
+            .zip(expected)
+            .map(|(&o, &e)| (e, o))
+            .collect();
+        cells.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+        let (mut pool_e, mut pool_o) = (0.0, 0.0);
+        let (mut stat, mut n_cells) = (0.0, 0usize);
+        for &(e, o) in &cells {
+            if e < 1e-9 {
+                if o > 0.0 {
+                    return Err(format!(
+                        "{o} samples fell in a cell with expected count {e}"
+                    ));
+                }
+                continue;
+            }
+            if e < 5.0 || pool_e > 0.0 && pool_e < 5.0 {
+                pool_e += e;
+                pool_o += o;
+                if pool_e >= 5.0 {
+                    stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+                    n_cells += 1;
+                    pool_e = 0.0;
+                    pool_o = 0.0;
+                }
+                continue;
+            }
+            stat += (o - e) * (o - e) / e;
+            n_cells += 1;
+        }
+        if pool_e > 0.0 {
+            stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+            n_cells += 1;
+        }
+        if n_cells < 2 {
+            return Ok((1.0, stat, 0));
+        }
+        let dof = n_cells - 1;
+        Ok((chi2_sf(stat, dof as f64), stat, dof))
+    }
+
+    /// Composite 4-point Gauss-Legendre rule of `f(x, y)` over [x0, x1] × [y0, y1] with `m`
+    /// sub-intervals per axis. It never evaluates on cell edges, so a pdf that jumps exactly at a
+    /// bin boundary (a horizon, a cone edge) is integrated without edge bias.
+    pub fn gauss_2d(
+        f: &mut impl FnMut(f64, f64) -> f64,
+        (x0, x1): (f64, f64),
+        (y0, y1): (f64, f64),
+        m: usize,
+    ) -> f64 {
+        const X: [f64; 4] = [
+            -0.861_136_311_594_052_6,
+            -0.339_981_043_584_856_3,
+            0.339_981_043_584_856_3,
+            0.861_136_311_594_052_6,
+        ];
+        const W: [f64; 4] = [
+            0.347_854_845_137_453_9,
+            0.652_145_154_862_546_1,
+            0.652_145_154_862_546_1,
+            0.347_854_845_137_453_9,
+        ];
+        let hx = (x1 - x0) / m as f64;
+        let hy = (y1 - y0) / m as f64;
+        let mut sum = 0.0;
+        for i in 0..m {
+            let cx = x0 + hx * (i as f64 + 0.5);
+            for (xi, wi) in X.iter().zip(W) {
+                let x = cx + 0.5 * hx * xi;
+                for j in 0..m {
+                    let cy = y0 + hy * (j as f64 + 0.5);
+                    for (yj, wj) in X.iter().zip(W) {
+                        sum += wi * wj * f(x, cy + 0.5 * hy * yj);
+                    }
+                }
+            }
+        }
+        sum * 0.25 * hx * hy
+    }
+
+    /// Jittered-stratified Monte Carlo estimate of ∫ f(ω) dω over the unit sphere, with `nz` × `np`
+    /// strata in (z, φ) (equal-area cells). Resolution is finest around the equator's width in z.
+    pub fn stratified_sphere_integral(
+        mut f: impl FnMut(glam::Vec3) -> f64,
+        nz: usize,
+        np: usize,
+        seed: u64,
+    ) -> f64 {
+        let mut rng = Rng::new(seed);
+        let mut sum = 0.0;
+        for i in 0..nz {
+            for j in 0..np {
+                let u = glam::Vec2::new(
+                    (i as f32 + rng.f32()) / nz as f32,
+                    (j as f32 + rng.f32()) / np as f32,
+                );
+                sum += f(super::square_to_uniform_sphere(u));
+            }
+        }
+        sum * 4.0 * std::f64::consts::PI / (nz * np) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testutil::*;
+    use super::*;
+
+    #[test]
+    fn chi2_sf_matches_tables() {
+        // Critical values from standard chi-square tables.
+        assert!((chi2_sf(3.841, 1.0) - 0.05).abs() < 1e-4);
+        assert!((chi2_sf(18.307, 10.0) - 0.05).abs() < 1e-4);
+        assert!((chi2_sf(124.342, 100.0) - 0.05).abs() < 1e-4);
+        assert!((chi2_sf(6.635, 1.0) - 0.01).abs() < 1e-4);
+        assert!((chi2_sf(2.0, 2.0) - (-1.0f64).exp()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn chi2_test_detects_a_wrong_distribution() {
+        let expected = vec![1000.0; 10];
+        let mut observed = expected.clone();
+        observed[0] += 150.0;
+        observed[1] -= 150.0;
+        let (p, _, dof) = chi2_test(&observed, &expected).unwrap();
+        assert_eq!(dof, 9);
+        assert!(p < 1e-3, "p = {p}");
+        assert!(chi2_test(&[1.0, 10.0], &[0.0, 11.0]).is_err());
+    }
+
+    fn assert_orthonormal(f: &Frame) {
+        for (a, b) in [(f.s, f.t), (f.t, f.n), (f.n, f.s)] {
+            assert!(a.dot(b).abs() < 1e-5, "{f:?}");
+        }
+        for v in [f.s, f.t, f.n] {
+            assert!((v.length() - 1.0).abs() < 1e-5, "{f:?}");
+        }
+        // Right-handed: s × t = n, so local +z maps to the normal with positive orientation.
+        assert!((f.s.cross(f.t) - f.n).length() < 1e-5, "{f:?}");
+    }
+
+    #[test]
+    fn frame_is_orthonormal_and_round_trips() {
+        let mut rng = Rng::new(1);
+        let mut normals = vec![
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            -Vec3::Y,
+            Vec3::new(0.0, 1e-7, -1.0).normalize(),
+            Vec3::new(1e-8, 0.0, 1.0).normalize(),
+        ];
+        for _ in 0..1000 {
+            normals.push(square_to_uniform_sphere(rng.vec2()));
+        }
+        for n in normals {
+            let f = Frame::from_normal(n);
+            assert_eq!(f.n, n);
+            assert_orthonormal(&f);
+            let v = square_to_uniform_sphere(rng.vec2());
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+            assert!((f.to_local(n) - Vec3::Z).length() < 1e-5);
+            let tangent = square_to_uniform_sphere(rng.vec2());
+            let g = Frame::from_normal_tangent(n, tangent);
+            assert_orthonormal(&g);
+            assert_eq!(g.n, n);
+            let projected = (tangent - n * n.dot(tangent)).normalize();
+            assert!((g.s - projected).length() < 1e-4, "{g:?} {tangent}");
+        }
+        // Degenerate tangent falls back instead of producing NaNs.
+        assert_orthonormal(&Frame::from_normal_tangent(Vec3::Z, Vec3::Z * 2.0));
+        assert_orthonormal(&Frame::from_normal_tangent(Vec3::Z, Vec3::ZERO));
+    }
+
+    #[test]
+    fn warps_map_to_their_domains() {
+        let mut rng = Rng::new(2);
+        let mut us: Vec<Vec2> = (0..20_000).map(|_| rng.vec2()).collect();
+        us.extend([
+            Vec2::ZERO,
+            Vec2::ONE,
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 0.5),
+        ]);
+        for u in us {
+            let d = square_to_concentric_disk(u);
+            assert!(d.length() <= 1.0 + 1e-6);
+            let w = square_to_cosine_hemisphere(u);
+            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0, "{w}");
+            let w = square_to_uniform_sphere(u);
+            assert!((w.length() - 1.0).abs() < 1e-5, "{w}");
+            let w = square_to_uniform_hemisphere(u);
+            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0, "{w}");
+            let w = square_to_uniform_cone(u, 0.8);
+            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.8 - 1e-6, "{w}");
+            for e in [0.0, 1.0, 1000.0, 1e6] {
+                let w = square_to_cosine_power(u, e);
+                assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0, "{w}");
+                assert!(w.is_finite());
+            }
+            let b = square_to_uniform_triangle(u);
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+        }
+    }
+
+    /// Bins directions on a (cos θ, φ) grid, which has equal-area cells, and compares the
+    /// counts with the pdf integrated over each cell.
+    fn chi2_direction_warp(
+        warp: impl Fn(Vec2) -> Vec3,
+        pdf: impl Fn(Vec3) -> f64,
+        seed: u64,
+    ) -> f64 {
+        const NZ: usize = 20;
+        const NP: usize = 40;
+        const N: usize = 400_000;
+        let mut rng = Rng::new(seed);
+        let mut observed = vec![0.0; NZ * NP];
+        for _ in 0..N {
+            let w = warp(rng.vec2());
+            let iz = (((w.z as f64 + 1.0) * 0.5 * NZ as f64) as usize).min(NZ - 1);
+            let phi = (w.y as f64)
+                .atan2(w.x as f64)
+                .rem_euclid(std::f64::consts::TAU);
+            let ip = ((phi / std::f64::consts::TAU * NP as f64) as usize).min(NP - 1);
+            observed[iz * NP + ip] += 1.0;
+        }
+        let mut expected = vec![0.0; NZ * NP];
+        let mut f = |z: f64, phi: f64| {
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let w = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+            pdf(w)
+        };
+        for iz in 0..NZ {
+            for ip in 0..NP {
+                let z0 = -1.0 + 2.0 * iz as f64 / NZ as f64;
+                let z1 = -1.0 + 2.0 * (iz + 1) as f64 / NZ as f64;
+                let p0 = std::f64::consts::TAU * ip as f64 / NP as f64;
+                let p1 = std::f64::consts::TAU * (ip + 1) as f64 / NP as f64;
+                expected[iz * NP + ip] = N as f64 * gauss_2d(&mut f, (z0, z1), (p0, p1), 2);
+            }
+        }
+        let (p, stat, dof) = chi2_test(&observed, &expected).unwrap();
+        eprintln!("chi2 = {stat:.1}, dof = {dof}, p = {p:.3}");
+        p
+    }
+
+    #[test]
+    fn direction_warps_pass_chi2() {
+        let p = chi2_direction_warp(square_to_uniform_sphere, |_| uniform_sphere_pdf() as f64, 3);
+        assert!(p > 1e-3);
+        let p = chi2_direction_warp(
+            square_to_uniform_hemisphere,
+            |w| {
+                if w.z > 0.0 {
+                    uniform_hemisphere_pdf() as f64
+                } else {
+                    0.0
+                }
+            },
+            4,
+        );
+        assert!(p > 1e-3);
+        let p = chi2_direction_warp(
+            square_to_cosine_hemisphere,
+            |w| cosine_hemisphere_pdf(w.z) as f64,
+            5,
+        );
+        assert!(p > 1e-3);
+        let p = chi2_direction_warp(
+            |u| square_to_uniform_cone(u, 0.3),
+            |w| {
+                if w.z > 0.3 {
+                    uniform_cone_pdf(0.3) as f64
+                } else {
+                    0.0
+                }
+            },
+            6,
+        );
+        assert!(p > 1e-3);
+        for (e, seed) in [(0.0, 7), (1.0, 8), (4.0, 9), (20.0, 10)] {
+            let p = chi2_direction_warp(
+                |u| square_to_cosine_power(u, e),
+                |w| cosine_power_pdf(w.z, e) as f64,
+                seed,
+            );
+            assert!(p > 1e-3, "exponent {e}");
+        }
+    }
+
+    #[test]
+    fn chi2_rejects_a_mismatched_warp() {
+        // Cosine-power samples against a slightly wrong exponent must be caught.
+        let p = chi2_direction_warp(
+            |u| square_to_cosine_power(u, 4.0),
+            |w| cosine_power_pdf(w.z, 4.4) as f64,
+            11,
+        );
+        assert!(p < 1e-3, "p = {p}");
+    }
+
+    #[test]
+    fn warp_pdfs_integrate_to_one() {
+        // Lobes are turned to point along +x (the equator of the stratification) so that even the
+        // exponent-1000 lobe spans many strata.
+        let checks: [(&str, Box<dyn Fn(Vec3) -> f64>); 5] = [
+            ("cosine", Box::new(|w| cosine_hemisphere_pdf(w.x) as f64)),
+            ("power 10", Box::new(|w| cosine_power_pdf(w.x, 10.0) as f64)),
+            (
+                "power 1000",
+                Box::new(|w| cosine_power_pdf(w.x, 1000.0) as f64),
+            ),
+            (
+                "cone",
+                Box::new(|w| {
+                    if w.x > 0.9 {
+                        uniform_cone_pdf(0.9) as f64
+                    } else {
+                        0.0
+                    }
+                }),
+            ),
+            (
+                "hemisphere",
+                Box::new(|w| {
+                    if w.x > 0.0 {
+                        uniform_hemisphere_pdf() as f64
+                    } else {
+                        0.0
+                    }
+                }),
+            ),
+        ];
+        for (name, pdf) in checks {
+            let integral = stratified_sphere_integral(|w| pdf(w), 1024, 1024, 12);
+            assert!((integral - 1.0).abs() < 2e-3, "{name}: {integral}");
+        }
+    }
+
+    #[test]
+    fn uniform_triangle_is_uniform() {
+        // Mean barycentrics are 1/3 each, and the fraction in the sub-triangle b1 + b2 < 1/2 is 1/4.
+        let mut rng = Rng::new(13);
+        let n = 200_000;
+        let (mut m1, mut m2, mut inner) = (0.0f64, 0.0f64, 0usize);
+        for _ in 0..n {
+            let b = square_to_uniform_triangle(rng.vec2());
+            m1 += b.x as f64;
+            m2 += b.y as f64;
+            inner += (b.x + b.y < 0.5) as usize;
+        }
+        let frac = inner as f64 / n as f64;
+        assert!((m1 / n as f64 - 1.0 / 3.0).abs() < 3e-3);
+        assert!((m2 / n as f64 - 1.0 / 3.0).abs() < 3e-3);
+        assert!((frac - 0.25).abs() < 5.0 * (0.25f64 * 0.75 / n as f64).sqrt());
+    }
+
+    #[test]
+    fn power_heuristic_edge_cases() {
+        assert_eq!(power_heuristic(f32::INFINITY, 3.0), 1.0);
+        assert_eq!(power_heuristic(3.0, f32::INFINITY), 0.0);
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(0.0, 2.0), 0.0);
+        assert_eq!(power_heuristic(2.0, 0.0), 1.0);
+        assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
+        assert!((power_heuristic(1.0, 2.0) - 0.2).abs() < 1e-7);
+        assert!((power_heuristic(2.0, 1.0) - 0.8).abs() < 1e-7);
+        // Would overflow if squared naively.
+        assert!((power_heuristic(1e30, 1e30) - 0.5).abs() < 1e-7);
+        assert!((power_heuristic(3e25, 1e25) - 0.9).abs() < 1e-6);
+        // The two weights of a pair sum to one.
+        for (a, b) in [(0.3, 7.0), (1e-20, 1e-21), (5.0, 5e10)] {
+            assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-6);
+        }
+        assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+    }
+}
