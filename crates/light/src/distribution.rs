@@ -321,7 +321,10 @@ mod tests {
         for k in 0..100 {
             let u = k as f32 / 100.0;
             let (x, pdf, i) = d.sample_continuous(u);
-            assert!((x - u).abs() < 1e-6, "all-zero should be uniform: u {u} x {x}");
+            assert!(
+                (x - u).abs() < 1e-6,
+                "all-zero should be uniform: u {u} x {x}"
+            );
             assert_eq!(pdf, 1.0);
             assert_eq!(i, (u * 4.0) as usize);
             let (j, p, _) = d.sample_discrete(u);

@@ -79,7 +79,11 @@ impl EnvMap {
             }
             image
         };
-        let scale = if scale.is_finite() && scale > 0.0 { scale } else { 0.0 };
+        let scale = if scale.is_finite() && scale > 0.0 {
+            scale
+        } else {
+            0.0
+        };
         let (width, height) = (image.width as usize, image.height as usize);
         let mut weights = Vec::with_capacity(width * height);
         for j in 0..height {

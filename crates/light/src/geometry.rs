@@ -95,7 +95,9 @@ pub fn sample_sphere_solid_angle(
             return None;
         }
         let pdf = len2 / (cos * 4.0 * PI * radius * radius);
-        return pdf.is_finite().then_some(SphereSample { point, normal, pdf });
+        return pdf
+            .is_finite()
+            .then_some(SphereSample { point, normal, pdf });
     }
 
     let dist = dist2.sqrt();
@@ -114,8 +116,8 @@ pub fn sample_sphere_solid_angle(
     };
     // Angle alpha at the sphere centre between -w and the hit point's normal (law of sines in the
     // triangle reference-centre-hit, taking the nearer intersection).
-    let cos_alpha = sin2_theta / sin_max
-        + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
+    let cos_alpha =
+        sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
     let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
     let (t1, t2) = orthonormal_basis(w);
@@ -165,4 +167,227 @@ pub fn sphere_solid_angle_pdf(center: Vec3, radius: f32, reference: Vec3, direct
         return 0.0;
     }
     1.0 / (2.0 * PI * one_minus_cos_max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_chi_square, Rng};
+
+    #[test]
+    fn triangle_samples_are_uniform() {
+        // Reference triangle (0,0), (1,0), (0,1): the point is (b1, b2). Split it into n^2 equal
+        // sub-triangles on a grid; each should get 1/n^2 of the samples.
+        let n = 8usize;
+        let samples = 100_000;
+        let mut hist = vec![0.0f64; n * n * 2];
+        let mut rng = Rng::new(10);
+        for _ in 0..samples {
+            let (b1, b2) = sample_triangle_uniform(rng.vec2());
+            assert!(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 + 1e-6, "{b1} {b2}");
+            let (x, y) = (b1 * n as f32, b2 * n as f32);
+            let (i, j) = ((x as usize).min(n - 1), (y as usize).min(n - 1));
+            let upper = (x - i as f32) + (y - j as f32) > 1.0;
+            hist[(j * n + i) * 2 + upper as usize] += 1.0;
+        }
+        let expected: Vec<f64> = (0..n * n * 2)
+            .map(|k| {
+                let (cell, upper) = (k / 2, k % 2 == 1);
+                let (i, j) = (cell % n, cell / n);
+                let inside = if upper { i + j + 1 < n } else { i + j < n };
+                if inside {
+                    samples as f64 / (n * n) as f64
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        assert_chi_square("sample_triangle_uniform", &hist, &expected);
+    }
+
+    /// Nearest positive intersection of a ray with a sphere (in f64, as an independent check).
+    fn intersect(center: Vec3, radius: f32, o: Vec3, d: Vec3) -> Option<Vec3> {
+        let (c, o, d) = (center.as_dvec3(), o.as_dvec3(), d.as_dvec3().normalize());
+        let oc = o - c;
+        let b = oc.dot(d);
+        let cc = oc.length_squared() - (radius as f64).powi(2);
+        let disc = b * b - cc;
+        // Grazing directions may miss by rounding; treat them as tangent.
+        let s = disc.max(0.0).sqrt();
+        let t = if -b - s > 0.0 { -b - s } else { -b + s };
+        (t > 0.0).then(|| (o + t * d).as_vec3())
+    }
+
+    /// A basis around `w` built independently of the code under test.
+    fn frame(w: Vec3) -> (Vec3, Vec3) {
+        let a = if w.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+        let t1 = a.cross(w).normalize();
+        (t1, w.cross(t1))
+    }
+
+    /// Samples the sphere from outside, checks geometry and pdf consistency, and runs a
+    /// chi-square test on (1 - cos theta, phi) bins around the axis, extending past the cone.
+    fn check_cone(center: Vec3, radius: f32, reference: Vec3, seed: u64) {
+        let to_c = center - reference;
+        let w = to_c.normalize();
+        let sin2_max = radius * radius / to_c.length_squared();
+        let omc_max = cone_one_minus_cos(sin2_max) as f64;
+        let (t1, t2) = frame(w);
+        let (nt, np) = (10usize, 8usize);
+        let t_range = 1.25; // bins cover t = (1 - cos) / omc_max in [0, 1.25)
+        let samples = 100_000;
+        let mut hist = vec![0.0f64; nt * np];
+        let mut rng = Rng::new(seed);
+        for _ in 0..samples {
+            let s = sample_sphere_solid_angle(center, radius, reference, rng.vec2()).unwrap();
+            // On the sphere, normal outward, facing the reference point.
+            assert!(((s.point - center).length() - radius).abs() < 1e-4 * radius.max(1.0));
+            assert!((s.normal - (s.point - center) / radius).length() < 1e-3);
+            let d = (s.point - reference).normalize();
+            assert!(s.normal.dot(-d) >= -1e-3, "sampled the back side");
+            // The ray towards the sample hits the sphere first at the sample.
+            let hit = intersect(center, radius, reference, d).expect("sample direction misses");
+            let tol = 2e-3 * radius + 1e-4 * (s.point - reference).length();
+            assert!((hit - s.point).length() < tol, "{hit} vs {}", s.point);
+            let pdf = sphere_solid_angle_pdf(center, radius, reference, d);
+            assert!((pdf - s.pdf).abs() <= 1e-5 * s.pdf, "{pdf} vs {}", s.pdf);
+            // 1 - cos via the chord, precise for tiny cones.
+            let omc = 0.5 * (d - w).length_squared() as f64;
+            let t = omc / omc_max;
+            let phi = (d.dot(t2) as f64)
+                .atan2(d.dot(t1) as f64)
+                .rem_euclid(std::f64::consts::TAU);
+            let it = ((t / t_range * nt as f64) as usize).min(nt - 1);
+            let ip = ((phi / std::f64::consts::TAU * np as f64) as usize).min(np - 1);
+            hist[it * np + ip] += 1.0;
+        }
+        // Expected counts: integrate the pdf over each bin (dω = omc_max dt dphi).
+        let sub = 8;
+        let mut expected = vec![0.0f64; nt * np];
+        let mut total = 0.0;
+        for it in 0..nt {
+            for ip in 0..np {
+                let mut acc = 0.0;
+                for a in 0..sub {
+                    for b in 0..sub {
+                        let t = (it as f64 + (a as f64 + 0.5) / sub as f64) / nt as f64 * t_range;
+                        let phi = (ip as f64 + (b as f64 + 0.5) / sub as f64) / np as f64
+                            * std::f64::consts::TAU;
+                        let omc = t * omc_max;
+                        let cos = 1.0 - omc;
+                        let sin = (omc * (2.0 - omc)).max(0.0).sqrt();
+                        let d = w * cos as f32
+                            + (t1 * phi.cos() as f32 + t2 * phi.sin() as f32) * sin as f32;
+                        acc += sphere_solid_angle_pdf(center, radius, reference, d) as f64;
+                    }
+                }
+                let dw = omc_max * t_range / nt as f64 * std::f64::consts::TAU / np as f64;
+                let mass = acc / (sub * sub) as f64 * dw;
+                total += mass;
+                expected[it * np + ip] = mass * samples as f64;
+            }
+        }
+        assert!((total - 1.0).abs() < 2e-3, "cone pdf integrates to {total}");
+        // Bins straddling the cone edge have quadrature error; the pdf check above is exact.
+        assert_chi_square("sample_sphere_solid_angle (cone)", &hist, &expected);
+    }
+
+    #[test]
+    fn sphere_cone_sampling_matches_pdf() {
+        check_cone(
+            Vec3::new(0.3, -0.2, 2.0),
+            0.9,
+            Vec3::new(0.1, 0.1, -0.5),
+            11,
+        );
+        check_cone(Vec3::new(1.0, 2.0, 3.0), 1.0, Vec3::new(1.0, 2.0, 4.2), 12);
+        // Tiny / distant sphere: the Taylor branch.
+        check_cone(
+            Vec3::new(0.0, 100.0, 0.0),
+            1.0,
+            Vec3::new(0.5, 0.0, -0.3),
+            13,
+        );
+    }
+
+    #[test]
+    fn sphere_inside_sampling_matches_pdf() {
+        let center = Vec3::new(0.2, -0.1, 0.3);
+        let radius = 1.5;
+        let reference = Vec3::new(0.9, 0.2, 0.0);
+        let (nt, np) = (8usize, 16usize);
+        let samples = 100_000;
+        let mut hist = vec![0.0f64; nt * np];
+        let mut rng = Rng::new(14);
+        for _ in 0..samples {
+            let s = sample_sphere_solid_angle(center, radius, reference, rng.vec2()).unwrap();
+            assert!(((s.point - center).length() - radius).abs() < 1e-4);
+            let d = (s.point - reference).normalize();
+            let pdf = sphere_solid_angle_pdf(center, radius, reference, d);
+            assert!((pdf - s.pdf).abs() <= 1e-3 * s.pdf, "{pdf} vs {}", s.pdf);
+            let theta = d.z.clamp(-1.0, 1.0).acos();
+            let phi = d.y.atan2(d.x).rem_euclid(std::f32::consts::TAU);
+            let it = ((theta / PI * nt as f32) as usize).min(nt - 1);
+            let ip = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
+            hist[it * np + ip] += 1.0;
+        }
+        let sub = 16;
+        let mut expected = vec![0.0f64; nt * np];
+        let mut total = 0.0;
+        for it in 0..nt {
+            for ip in 0..np {
+                let mut acc = 0.0;
+                for a in 0..sub {
+                    for b in 0..sub {
+                        let theta = (it as f64 + (a as f64 + 0.5) / sub as f64) / nt as f64
+                            * std::f64::consts::PI;
+                        let phi = (ip as f64 + (b as f64 + 0.5) / sub as f64) / np as f64
+                            * std::f64::consts::TAU;
+                        let d = Vec3::new(
+                            (theta.sin() * phi.cos()) as f32,
+                            (theta.sin() * phi.sin()) as f32,
+                            theta.cos() as f32,
+                        );
+                        acc += sphere_solid_angle_pdf(center, radius, reference, d) as f64
+                            * theta.sin();
+                    }
+                }
+                let mass = acc / (sub * sub) as f64
+                    * (std::f64::consts::PI / nt as f64)
+                    * (std::f64::consts::TAU / np as f64);
+                total += mass;
+                expected[it * np + ip] = mass * samples as f64;
+            }
+        }
+        assert!(
+            (total - 1.0).abs() < 2e-3,
+            "inside pdf integrates to {total}"
+        );
+        assert_chi_square("sample_sphere_solid_angle (inside)", &hist, &expected);
+    }
+
+    #[test]
+    fn sphere_degenerate_input() {
+        let u = Vec2::new(0.3, 0.7);
+        assert!(sample_sphere_solid_angle(Vec3::ZERO, 0.0, Vec3::X * 3.0, u).is_none());
+        assert!(sample_sphere_solid_angle(Vec3::ZERO, f32::NAN, Vec3::X * 3.0, u).is_none());
+        assert!(sample_sphere_solid_angle(Vec3::NAN, 1.0, Vec3::X * 3.0, u).is_none());
+        assert_eq!(
+            sphere_solid_angle_pdf(Vec3::ZERO, -1.0, Vec3::X * 3.0, -Vec3::X),
+            0.0
+        );
+        assert_eq!(
+            sphere_solid_angle_pdf(Vec3::ZERO, 1.0, Vec3::X * 3.0, Vec3::ZERO),
+            0.0
+        );
+        // Direction away from the sphere: zero.
+        assert_eq!(
+            sphere_solid_angle_pdf(Vec3::ZERO, 1.0, Vec3::X * 3.0, Vec3::X),
+            0.0
+        );
+        // Analytic value: sphere of radius 1 at distance 2 subtends cos(theta_max) = sqrt(3)/2.
+        let pdf = sphere_solid_angle_pdf(Vec3::ZERO, 1.0, Vec3::X * 2.0, -Vec3::X);
+        let expected = 1.0 / (2.0 * PI * (1.0 - 3.0f32.sqrt() / 2.0));
+        assert!((pdf - expected).abs() < 1e-4 * expected);
+    }
 }

@@ -69,7 +69,10 @@ pub fn assert_chi_square(name: &str, observed: &[f64], expected: &[f64]) {
         "{name}: expected counts sum to {total_e}, observed {total_o}"
     );
     let (stat, dof, z) = chi_square(observed, expected);
-    assert!(z < 3.09, "{name}: chi-square {stat:.1} with {dof} dof (z = {z:.2}) rejects at p=0.001");
+    assert!(
+        z < 3.09,
+        "{name}: chi-square {stat:.1} with {dof} dof (z = {z:.2}) rejects at p=0.001"
+    );
 }
 
 /// Sanity check of the test itself: a clearly wrong distribution must be rejected.
