@@ -26,9 +26,9 @@ fi
 if [ ! -x "$venv/bin/python" ]; then
     "$py" -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c 'import bpy, numpy, sys; sys.exit(0 if bpy.app.version_string.startswith("5.0.1") else 1)' >/dev/null 2>&1; then
+if ! "$venv/bin/python" -c 'import bpy, numpy, OpenEXR, sys; sys.exit(0 if bpy.app.version_string.startswith("5.0.1") else 1)' >/dev/null 2>&1; then
     "$venv/bin/python" -m pip install --quiet --upgrade pip
-    "$venv/bin/python" -m pip install --quiet "bpy==5.0.1" numpy
+    "$venv/bin/python" -m pip install --quiet "bpy==5.0.1" numpy OpenEXR
 fi
 # Blender's OpenGL-free build still loads libX* / libSM at import time on some systems.
 if ! "$venv/bin/python" -c 'import bpy' >/dev/null 2>&1; then
