@@ -1,3 +1,177 @@
+//! `torrey`: render a Mitsuba-style XML scene to a linear EXR and a tonemapped PNG.
+
 mod compare;
 
-fn main() {}
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Parser, Debug)]
+#[command(name = "torrey", version, about = "A small physically based renderer for Mitsuba-style XML scenes")]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    render: RenderArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Compare two images: RMSE, relative MSE, mean ratios; optional heatmap and side-by-side.
+    Compare(compare::CompareArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct RenderArgs {
+    /// The scene file (Mitsuba-style XML).
+    #[arg(required = true)]
+    scene: Option<PathBuf>,
+    /// Output EXR; a PNG is written beside it. Default: the film's filename or <scene stem>.exr.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Samples per pixel (default: the scene's sampleCount).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Film size as WIDTHxHEIGHT (the camera and its field of view are kept).
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Maximum path depth in Mitsuba's convention (1 = emitters only, 2 = direct light, -1 = unbounded).
+    #[arg(long, allow_negative_numbers = true)]
+    max_depth: Option<i32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Random seed (default: the scene's sampler seed).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Set a scene <default> parameter, as Mitsuba's -D: -D spp=16.
+    #[arg(short = 'D', value_parser = parse_define)]
+    define: Vec<(String, String)>,
+    /// Do not draw a progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got '{s}'"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("film size must be positive, got '{s}'"));
+    }
+    Ok((w, h))
+}
+
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected name=value, got '{s}'"))?;
+    Ok((k.trim().to_string(), v.trim().to_string()))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Some(Command::Compare(args)) => compare::run(args),
+        None => render_command(&cli.render),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("{message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn render_command(args: &RenderArgs) -> Result<(), String> {
+    let scene_path = args.scene.as_ref().ok_or("no scene file given")?;
+    let load_start = Instant::now();
+    let scene = torrey_parser::load_scene(scene_path, &args.define).map_err(|e| e.to_string())?;
+    for w in &scene.warnings {
+        eprintln!("{w}");
+    }
+    let parse_time = load_start.elapsed();
+    let (width, height) = args.size.unwrap_or((scene.film.width, scene.film.height));
+    let build_start = Instant::now();
+    let render_scene =
+        torrey_renderer::RenderScene::build(&scene, width, height).map_err(|e| e.to_string())?;
+    for w in &render_scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let build_time = build_start.elapsed();
+    let settings = torrey_renderer::RenderSettings {
+        spp: args.spp.unwrap_or(scene.sampler.sample_count).max(1),
+        max_depth: args.max_depth.unwrap_or(scene.integrator.max_depth),
+        rr_depth: scene.integrator.rr_depth,
+        seed: args.seed.unwrap_or(scene.sampler.seed),
+        filter: scene.film.filter,
+        tile_size: 16,
+    };
+    let output = output_path(args.output.as_deref(), scene_path, scene.film.filename.as_deref());
+
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let bar = ProgressBar::new(1);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% eta {eta}")
+                .expect("valid progress template"),
+        );
+        bar
+    };
+    let progress = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done);
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let out = pool.install(|| torrey_renderer::render(&render_scene, &settings, &progress));
+    bar.finish_and_clear();
+
+    torrey_texture::write_exr(&output, &out.image).map_err(|e| e.to_string())?;
+    let png = output.with_extension("png");
+    let tonemapped = torrey_texture::Image::new(
+        out.image.width,
+        out.image.height,
+        out.image.pixels.iter().map(|p| p.max(glam::Vec3::ZERO)).collect(),
+    );
+    torrey_texture::write_png_srgb(&png, &tonemapped).map_err(|e| e.to_string())?;
+
+    let samples = width as u64 * height as u64 * out.spp as u64;
+    let secs = out.elapsed.as_secs_f64();
+    eprintln!(
+        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s",
+        scene_path.display(),
+        width,
+        height,
+        out.spp,
+        settings.max_depth,
+        render_scene.triangle_count(),
+        parse_time.as_secs_f64(),
+        build_time.as_secs_f64(),
+        secs,
+        samples as f64 / secs.max(1e-9) / 1e6,
+    );
+    if out.nonfinite_samples > 0 {
+        eprintln!("warning: {} samples were NaN or infinite and were dropped", out.nonfinite_samples);
+    }
+    eprintln!("wrote {} and {}", output.display(), png.display());
+    Ok(())
+}
+
+/// The output EXR: `-o`, else the film's filename (with .exr), else `<scene stem>.exr`, in the
+/// current directory.
+fn output_path(explicit: Option<&Path>, scene: &Path, film_name: Option<&str>) -> PathBuf {
+    if let Some(p) = explicit {
+        return p.to_path_buf();
+    }
+    if let Some(name) = film_name {
+        return PathBuf::from(name).with_extension("exr");
+    }
+    let stem = scene.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
+    PathBuf::from(format!("{stem}.exr"))
+}

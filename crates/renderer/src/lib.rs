@@ -1,4 +1,16 @@
-//! Geometry, BVH, camera, materials, path integrator and film.
+//! Geometry, BVH, camera, materials, path integrator and film: everything between a parsed scene
+//! description and a linear radiance image.
 
+pub mod accel;
 pub mod bsdf;
+pub mod camera;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod render;
 pub mod sampling;
+pub mod scene;
+pub mod texture;
+
+pub use render::{render, RenderOutput, RenderSettings};
+pub use scene::{BuildError, RenderScene};

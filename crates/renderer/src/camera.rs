@@ -1,0 +1,151 @@
+//! Mitsuba 3's perspective pinhole camera. Camera space looks along +z with +x to the left and
+//! +y up, so image x grows towards camera -x; pixel (0, 0) is the top-left of the film.
+
+use glam::{Mat4, Vec2, Vec3};
+use torrey_parser::FovAxis;
+
+#[derive(Clone, Debug)]
+pub struct Camera {
+    origin: Vec3,
+    /// Camera-to-world rotation/scale columns, for directions.
+    to_world: Mat4,
+    /// tan(fov_x / 2) and tan(fov_y / 2).
+    tan_half: Vec2,
+    width: u32,
+    height: u32,
+    /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
+    pub pixel_spread: f32,
+}
+
+impl Camera {
+    pub fn new(to_world: Mat4, fov_degrees: f32, axis: FovAxis, width: u32, height: u32) -> Self {
+        let (w, h) = (width as f32, height as f32);
+        let t = (fov_degrees.to_radians() * 0.5).tan();
+        // Express the given fov as the horizontal half-extent of the image plane at z = 1.
+        let tan_x = match axis {
+            FovAxis::X => t,
+            FovAxis::Y => t * w / h,
+            FovAxis::Diagonal => t * w / (w * w + h * h).sqrt(),
+            FovAxis::Smaller => {
+                if w <= h {
+                    t
+                } else {
+                    t * w / h
+                }
+            }
+            FovAxis::Larger => {
+                if w >= h {
+                    t
+                } else {
+                    t * w / h
+                }
+            }
+        };
+        let tan_half = Vec2::new(tan_x, tan_x * h / w);
+        let origin = to_world.transform_point3(Vec3::ZERO);
+        Self {
+            origin,
+            to_world,
+            tan_half,
+            width,
+            height,
+            pixel_spread: (2.0 * tan_half.y / h).atan(),
+        }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The primary ray through film position `film` (in pixels, (0,0) = top-left corner).
+    /// Returns the origin and the normalised world direction.
+    #[inline]
+    pub fn generate_ray(&self, film: Vec2) -> (Vec3, Vec3) {
+        let sx = film.x / self.width as f32;
+        let sy = film.y / self.height as f32;
+        let local = Vec3::new(
+            (1.0 - 2.0 * sx) * self.tan_half.x,
+            (1.0 - 2.0 * sy) * self.tan_half.y,
+            1.0,
+        );
+        let dir = self.to_world.transform_vector3(local).normalize();
+        (self.origin, dir)
+    }
+
+    /// The film position (pixels) a world direction from the camera origin projects to, if it is
+    /// in front of the camera. Used by tests to check orientation.
+    pub fn project(&self, dir_world: Vec3) -> Option<Vec2> {
+        let local = self.to_world.inverse().transform_vector3(dir_world);
+        if local.z <= 0.0 {
+            return None;
+        }
+        let x = local.x / local.z / self.tan_half.x;
+        let y = local.y / local.z / self.tan_half.y;
+        Some(Vec2::new(
+            (1.0 - x) * 0.5 * self.width as f32,
+            (1.0 - y) * 0.5 * self.height as f32,
+        ))
+    }
+}
+
+/// Mitsuba's look-at frame: d = normalize(target - origin), left = normalize(cross(up, d)),
+/// up' = cross(d, left); the camera-to-world matrix has columns (left, up', d, origin).
+pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+    let d = (target - origin).normalize();
+    let left = up.cross(d).normalize();
+    let new_up = d.cross(left);
+    Mat4::from_cols(left.extend(0.0), new_up.extend(0.0), d.extend(0.0), origin.extend(1.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn world_x_is_on_the_right() {
+        let cam = Camera::new(look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y), 90.0, FovAxis::X, 100, 50);
+        let p = cam.project(Vec3::new(0.5, 0.0, -1.0)).unwrap();
+        assert!(p.x > 50.0, "world +x should land right of centre, got {p}");
+        let p = cam.project(Vec3::new(0.0, 0.2, -1.0)).unwrap();
+        assert!(p.y < 25.0, "world +y should land above centre, got {p}");
+    }
+
+    #[test]
+    fn fov_axes() {
+        let m = look_at(Vec3::ZERO, Vec3::Z, Vec3::Y);
+        // fov 90 along x: the right edge of the film at x = width is 45 degrees off-axis.
+        let cam = Camera::new(m, 90.0, FovAxis::X, 200, 100);
+        let (_, d) = cam.generate_ray(Vec2::new(200.0, 50.0));
+        assert!((d.x.abs() - d.z).abs() < 1e-6);
+        // fov 90 along y: the top edge is 45 degrees off-axis.
+        let cam = Camera::new(m, 90.0, FovAxis::Y, 200, 100);
+        let (_, d) = cam.generate_ray(Vec2::new(100.0, 0.0));
+        assert!((d.y - d.z).abs() < 1e-6);
+        // smaller = y for a landscape film, larger = x.
+        let a = Camera::new(m, 60.0, FovAxis::Smaller, 200, 100).generate_ray(Vec2::new(100.0, 0.0)).1;
+        let b = Camera::new(m, 60.0, FovAxis::Y, 200, 100).generate_ray(Vec2::new(100.0, 0.0)).1;
+        assert!((a - b).length() < 1e-6);
+        let a = Camera::new(m, 60.0, FovAxis::Larger, 200, 100).generate_ray(Vec2::new(0.0, 50.0)).1;
+        let b = Camera::new(m, 60.0, FovAxis::X, 200, 100).generate_ray(Vec2::new(0.0, 50.0)).1;
+        assert!((a - b).length() < 1e-6);
+        // diagonal: the corner ray is fov/2 off-axis.
+        let cam = Camera::new(m, 90.0, FovAxis::Diagonal, 300, 400);
+        let (_, d) = cam.generate_ray(Vec2::new(0.0, 0.0));
+        assert!((d.z - (45f32).to_radians().cos()).abs() < 1e-5);
+    }
+
+    #[test]
+    fn generate_and_project_round_trip() {
+        let m = look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 0.5, 0.0), Vec3::new(0.1, 1.0, 0.0));
+        let cam = Camera::new(m, 39.3, FovAxis::Y, 64, 48);
+        for &(x, y) in &[(0.5, 0.5), (10.25, 40.0), (63.0, 1.0)] {
+            let (_, d) = cam.generate_ray(Vec2::new(x, y));
+            let p = cam.project(d).unwrap();
+            assert!((p - Vec2::new(x, y)).length() < 1e-3);
+        }
+    }
+}

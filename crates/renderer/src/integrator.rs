@@ -1,0 +1,215 @@
+//! Unidirectional path tracing with next-event estimation, combined with BSDF sampling by
+//! multiple importance sampling (power heuristic), as Mitsuba 3's `path` integrator does.
+//!
+//! Depth counts path segments like Mitsuba's `max_depth`: 1 shows only emitters seen directly,
+//! 2 adds direct lighting, -1 is unbounded. Russian roulette starts at `rr_depth`.
+//!
+//! Ray cones: every camera ray starts with the pixel's spread angle; the cone's width grows with
+//! distance and picks the texture mip level. Delta (mirror) bounces keep the spread; a rough bounce
+//! adds its lobe width (`BsdfModel::roughness`, about one radian for diffuse), so textures seen
+//! through diffuse interreflection are looked up prefiltered. Environment maps are filtered by the
+//! cone only along purely specular chains; after a rough bounce they are read at full resolution so
+//! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
+
+use crate::geometry::{offset_origin, Ray};
+use crate::sampling::{power_heuristic, Frame};
+use crate::scene::{RenderScene, SurfaceHit};
+use glam::{Vec2, Vec3};
+use torrey_texture::RayCone;
+
+/// A source of uniform numbers in [0, 1).
+pub trait Sampler {
+    fn next_1d(&mut self) -> f32;
+    fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next_1d(), self.next_1d())
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct PathSettings {
+    pub max_depth: i32,
+    pub rr_depth: i32,
+}
+
+/// Radiance arriving at the camera along the primary ray.
+pub fn radiance(
+    scene: &RenderScene,
+    origin: Vec3,
+    dir: Vec3,
+    cone: RayCone,
+    settings: PathSettings,
+    sampler: &mut impl Sampler,
+) -> Vec3 {
+    let max_depth = if settings.max_depth < 0 { u32::MAX } else { settings.max_depth as u32 };
+    if max_depth == 0 {
+        return Vec3::ZERO;
+    }
+    let light_count = scene.lights.len();
+    let light_select_pdf = if light_count > 0 { 1.0 / light_count as f32 } else { 0.0 };
+
+    let mut result = Vec3::ZERO;
+    let mut throughput = Vec3::ONE;
+    let mut ray = Ray { origin, dir, tmax: f32::INFINITY };
+    let mut cone = cone;
+    // Pdf of the BSDF sample that produced `ray` (for MIS at emitters it hits).
+    let mut prev_bsdf_pdf = 0.0f32;
+    let mut prev_delta = true;
+    let mut prev_p = origin;
+    let mut specular_chain = true;
+    let mut depth: u32 = 0;
+
+    loop {
+        let Some(hit) = scene.intersect(&ray) else {
+            // Escaped: lights at infinity.
+            for &li in &scene.infinite_lights {
+                let light = &scene.lights[li as usize];
+                let spread = if specular_chain { cone.spread } else { 0.0 };
+                let (le, pdf) = light.eval_infinite(ray.dir, spread);
+                let w = if prev_delta {
+                    1.0
+                } else {
+                    power_heuristic(prev_bsdf_pdf, pdf * light_select_pdf)
+                };
+                result += throughput * le * w;
+            }
+            break;
+        };
+        let wo = -ray.dir;
+        let shape = &scene.shapes[hit.shape as usize];
+
+        // Emission from an area light hit (one-sided: only along its normal).
+        if let Some(li) = shape.area_light {
+            if hit.ng.dot(wo) > 0.0 {
+                let light = &scene.lights[li as usize];
+                if let crate::light::LightKind::Area { radiance, .. } = light.kind {
+                    let w = if prev_delta {
+                        1.0
+                    } else {
+                        let pdf = light.pdf_area_hit(prev_p, ray.dir, hit.t, hit.ng) * light_select_pdf;
+                        power_heuristic(prev_bsdf_pdf, pdf)
+                    };
+                    result += throughput * radiance * w;
+                }
+            }
+        }
+
+        if depth + 1 >= max_depth {
+            break;
+        }
+
+        // Shading frame, with the normal map applied and turned towards wo when two-sided.
+        cone = cone.at_distance(hit.t);
+        let footprint = cone.uv_footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv);
+        let material = &scene.materials[shape.material as usize];
+        let Some(frame) = shading_frame(scene, &hit, wo, material, footprint) else {
+            break; // the back of a one-sided bsdf is black
+        };
+        let wo_local = frame.to_local(wo);
+        if wo_local.z <= 0.0 {
+            break;
+        }
+        let reflectance =
+            material.reflectance.eval(&scene.textures, hit.uv, footprint);
+        let model = material.model;
+
+        // Next-event estimation.
+        if !model.is_delta() && light_count > 0 {
+            let u_light = sampler.next_1d();
+            let u_pos = sampler.next_2d();
+            let index = ((u_light * light_count as f32) as usize).min(light_count - 1);
+            let light = &scene.lights[index];
+            if let Some(ls) = light.sample(hit.p, u_pos, &scene.mesh, &scene.prims) {
+                let wi_local = frame.to_local(ls.wi);
+                let f = model.eval(reflectance, wo_local, wi_local);
+                if f.max_element() > 0.0 && ls.pdf > 0.0 {
+                    let origin = offset_origin(hit.p, hit.ng, ls.wi);
+                    let tmax = if ls.dist.is_finite() { ls.dist * (1.0 - 2e-4) } else { f32::INFINITY };
+                    if scene.visible(origin, ls.wi, tmax) {
+                        let light_pdf = ls.pdf * light_select_pdf;
+                        let w = if ls.is_delta {
+                            1.0
+                        } else {
+                            power_heuristic(light_pdf, model.pdf(reflectance, wo_local, wi_local))
+                        };
+                        result += throughput * f * ls.radiance * (w / light_pdf);
+                    }
+                }
+            }
+        }
+
+        // BSDF sampling continues the path.
+        let u_lobe = sampler.next_1d();
+        let u_dir = sampler.next_2d();
+        let Some(bs) = model.sample(reflectance, wo_local, u_dir, u_lobe) else {
+            break;
+        };
+        if !(bs.weight.max_element() > 0.0) {
+            break;
+        }
+        throughput *= bs.weight;
+        let wi = frame.to_world(bs.wi);
+        if !bs.is_delta {
+            cone.spread += model.roughness();
+            specular_chain = false;
+        }
+        prev_bsdf_pdf = bs.pdf;
+        prev_delta = bs.is_delta;
+        prev_p = hit.p;
+        ray = Ray { origin: offset_origin(hit.p, hit.ng, wi), dir: wi, tmax: f32::INFINITY };
+        depth += 1;
+
+        // Russian roulette, as Mitsuba: survive with probability min(max throughput, 0.95).
+        if depth as i32 >= settings.rr_depth {
+            let q = throughput.max_element().min(0.95);
+            if sampler.next_1d() >= q {
+                break;
+            }
+            throughput /= q;
+        }
+    }
+    result
+}
+
+/// The local shading frame at a hit, its normal on the side `wo` leaves from; None when that is
+/// the back of a one-sided material.
+///
+/// Without a normal map the side is decided by the shading normal, as Mitsuba's `twosided` does.
+/// With one, the side is decided by the geometric normal, the map perturbs the normal on that side
+/// (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns, b = ns x t), and a perturbed normal
+/// that would face away from `wo` is bent back until it is just visible, so normal-mapped surfaces
+/// never turn black or leak light at grazing angles.
+#[inline]
+fn shading_frame(
+    scene: &RenderScene,
+    hit: &SurfaceHit,
+    wo: Vec3,
+    material: &crate::scene::Material,
+    footprint: f32,
+) -> Option<Frame> {
+    let Some(tex) = material.normal_map else {
+        let ns = hit.ns;
+        if ns.dot(wo) >= 0.0 {
+            return Some(Frame::from_normal(ns));
+        }
+        return material.two_sided.then(|| Frame::from_normal(-ns));
+    };
+    let front = hit.ng.dot(wo) >= 0.0;
+    if !front && !material.two_sided {
+        return None;
+    }
+    let rgb = scene.textures[tex as usize].eval(hit.uv, footprint);
+    let local = (rgb * 2.0 - Vec3::ONE).normalize_or(Vec3::Z);
+    let ns = hit.ns;
+    let t = (hit.dpdu - ns * ns.dot(hit.dpdu)).normalize_or(crate::scene::orthonormal_basis(ns).0);
+    let b = ns.cross(t);
+    let mut n = (t * local.x + b * local.y + ns * local.z).normalize_or(ns);
+    if !front {
+        n = -n;
+    }
+    const MIN_COS: f32 = 0.01;
+    let cos = n.dot(wo);
+    if cos < MIN_COS {
+        n = (n + wo * (MIN_COS - cos)).normalize_or(n);
+    }
+    Some(Frame::from_normal(n))
+}

@@ -1,0 +1,183 @@
+//! The scene's lights and next-event estimation: sampling a point (or direction) on a light from a
+//! shading point, and the solid-angle pdf of the same event for multiple importance sampling.
+//! Lights are chosen uniformly, as Mitsuba 3 does, so the pdfs here include the 1/N factor only
+//! where the integrator multiplies it in.
+
+use crate::scene::{MeshData, PrimInfo};
+use glam::{Vec2, Vec3};
+use torrey_light::{
+    sample_sphere_solid_angle, sample_triangle_uniform, sphere_solid_angle_pdf, Distribution1D,
+    EnvMap,
+};
+
+/// Geometry an area light samples from.
+pub enum AreaShape {
+    /// Triangles `first_prim ..` of the primitive list, chosen by area.
+    Mesh { first_prim: u32, total_area: f32, triangles: Distribution1D },
+    Sphere { center: Vec3, radius: f32 },
+}
+
+pub enum LightKind {
+    Point { position: Vec3, intensity: Vec3 },
+    /// One-sided diffuse emitter on a shape: radiance along the (possibly flipped) normal only.
+    Area { shape: u32, radiance: Vec3, area: AreaShape, flip_normals: bool },
+    Constant { radiance: Vec3 },
+    Env(Box<EnvMap>),
+}
+
+pub struct Light {
+    pub kind: LightKind,
+}
+
+/// A sampled light connection from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point (infinite for lights at infinity).
+    pub dist: f32,
+    /// Emitted radiance (or intensity / r² for point lights) arriving along -wi.
+    pub radiance: Vec3,
+    /// Solid-angle pdf of this light's sampling (not including light selection).
+    pub pdf: f32,
+    /// Point lights cannot be hit by BSDF samples: no MIS.
+    pub is_delta: bool,
+}
+
+impl Light {
+    pub fn is_infinite(&self) -> bool {
+        matches!(self.kind, LightKind::Constant { .. } | LightKind::Env(_))
+    }
+
+    /// Samples a connection from `p`. Returns None when the sample carries no energy.
+    #[inline]
+    pub fn sample(
+        &self,
+        p: Vec3,
+        u: Vec2,
+        mesh: &MeshData,
+        prims: &[PrimInfo],
+    ) -> Option<LightSample> {
+        match &self.kind {
+            LightKind::Point { position, intensity } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                if dist2 == 0.0 {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                Some(LightSample {
+                    wi: d / dist,
+                    dist,
+                    radiance: *intensity / dist2,
+                    pdf: 1.0,
+                    is_delta: true,
+                })
+            }
+            LightKind::Area { radiance, area, flip_normals, .. } => match area {
+                AreaShape::Mesh { first_prim, total_area, triangles } => {
+                    let (index, _, u_rest) = triangles.sample_discrete(u.x);
+                    let prim = prims[(*first_prim as usize) + index];
+                    let [a, b, c] = mesh.indices[prim.triangle as usize];
+                    let (p0, p1, p2) = (
+                        mesh.positions[a as usize],
+                        mesh.positions[b as usize],
+                        mesh.positions[c as usize],
+                    );
+                    let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
+                    let q = (1.0 - b1 - b2) * p0 + b1 * p1 + b2 * p2;
+                    let mut n = (p1 - p0).cross(p2 - p0).normalize_or(Vec3::Z);
+                    if *flip_normals {
+                        n = -n;
+                    }
+                    let d = q - p;
+                    let dist2 = d.length_squared();
+                    let dist = dist2.sqrt();
+                    if dist == 0.0 {
+                        return None;
+                    }
+                    let wi = d / dist;
+                    let cos_light = -n.dot(wi);
+                    if cos_light <= 0.0 {
+                        return None; // back of a one-sided emitter
+                    }
+                    Some(LightSample {
+                        wi,
+                        dist,
+                        radiance: *radiance,
+                        pdf: dist2 / (cos_light * total_area),
+                        is_delta: false,
+                    })
+                }
+                AreaShape::Sphere { center, radius } => {
+                    let s = sample_sphere_solid_angle(*center, *radius, p, u)?;
+                    let mut n = s.normal;
+                    if *flip_normals {
+                        n = -n;
+                    }
+                    let d = s.point - p;
+                    let dist = d.length();
+                    if dist == 0.0 || !(s.pdf > 0.0) {
+                        return None;
+                    }
+                    let wi = d / dist;
+                    if n.dot(wi) >= 0.0 {
+                        return None;
+                    }
+                    Some(LightSample { wi, dist, radiance: *radiance, pdf: s.pdf, is_delta: false })
+                }
+            },
+            LightKind::Constant { radiance } => {
+                let wi = crate::sampling::square_to_uniform_sphere(u);
+                Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    radiance: *radiance,
+                    pdf: crate::sampling::uniform_sphere_pdf(),
+                    is_delta: false,
+                })
+            }
+            LightKind::Env(env) => {
+                let s = env.sample(u)?;
+                Some(LightSample {
+                    wi: s.direction,
+                    dist: f32::INFINITY,
+                    radiance: s.radiance,
+                    pdf: s.pdf,
+                    is_delta: false,
+                })
+            }
+        }
+    }
+
+    /// Solid-angle pdf that [`Light::sample`] from `p` produces direction `wi` hitting this
+    /// (area) light at distance `dist` where the light's normal is `n_light`.
+    #[inline]
+    pub fn pdf_area_hit(&self, p: Vec3, wi: Vec3, dist: f32, n_light: Vec3) -> f32 {
+        match &self.kind {
+            LightKind::Area { area: AreaShape::Mesh { total_area, .. }, .. } => {
+                let cos = n_light.dot(wi).abs();
+                if cos == 0.0 {
+                    0.0
+                } else {
+                    dist * dist / (cos * total_area)
+                }
+            }
+            LightKind::Area { area: AreaShape::Sphere { center, radius }, .. } => {
+                sphere_solid_angle_pdf(*center, *radius, p, wi)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Radiance from an infinite light along a ray leaving the scene in direction `dir`, and the pdf
+    /// its own sampling gives that direction.
+    #[inline]
+    pub fn eval_infinite(&self, dir: Vec3, spread: f32) -> (Vec3, f32) {
+        match &self.kind {
+            LightKind::Constant { radiance } => (*radiance, crate::sampling::uniform_sphere_pdf()),
+            LightKind::Env(env) => (env.eval(dir, spread), env.pdf(dir)),
+            _ => (Vec3::ZERO, 0.0),
+        }
+    }
+}

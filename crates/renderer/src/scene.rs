@@ -1,0 +1,461 @@
+//! The scene as the integrator sees it: world-space geometry in one BVH, resolved materials and
+//! textures, and the light list. Built once from the parser's plain description.
+
+use crate::accel::{Accel, ClosestHit, PrimGeom};
+use crate::bsdf::BsdfModel;
+use crate::camera::Camera;
+use crate::geometry::{sphere_uv, Ray};
+use crate::light::{AreaShape, Light, LightKind};
+use crate::texture::{ColorSource, Texture};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use torrey_light::{Distribution1D, EnvMap};
+use torrey_parser as desc;
+use torrey_texture::{BitmapTexture, MipMap};
+
+/// Why a parsed scene could not be prepared for rendering (texture files that do not decode, say).
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("{location}: error: {message}")]
+    Texture { location: String, message: String },
+    #[error("{0}")]
+    Other(String),
+}
+
+/// A material ready to shade: the model, where its reflectance comes from, and its sidedness.
+#[derive(Clone, Copy, Debug)]
+pub struct Material {
+    pub model: BsdfModel,
+    pub reflectance: ColorSource,
+    /// Shades both sides (torrey-dialect scenes, or Mitsuba's `twosided`).
+    pub two_sided: bool,
+    pub normal_map: Option<u32>,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub enum ShapeKind {
+    Mesh { has_normals: bool, has_uvs: bool },
+    /// World-space centre and radius, and the world-to-object rotation that fixes the uv poles.
+    Sphere { center: Vec3, radius: f32, to_object: Mat3 },
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct ShapeInfo {
+    pub material: u32,
+    pub area_light: Option<u32>,
+    pub kind: ShapeKind,
+    pub flip_normals: bool,
+}
+
+/// Which shape a BVH primitive belongs to, and for triangles its index into `Mesh::indices`.
+#[derive(Clone, Copy, Debug)]
+pub struct PrimInfo {
+    pub shape: u32,
+    pub triangle: u32,
+}
+
+/// All triangles of the scene in world space, concatenated.
+#[derive(Default)]
+pub struct MeshData {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+/// The differential geometry at a ray hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub t: f32,
+    pub p: Vec3,
+    /// Geometric normal (after `flipNormals`), not turned towards the ray.
+    pub ng: Vec3,
+    /// Shading normal (interpolated vertex normal, or `ng`), not turned towards the ray.
+    pub ns: Vec3,
+    pub uv: Vec2,
+    pub dpdu: Vec3,
+    pub dpdv: Vec3,
+    pub shape: u32,
+    pub prim: u32,
+}
+
+pub struct RenderScene {
+    pub camera: Camera,
+    pub accel: Accel,
+    pub mesh: MeshData,
+    pub prims: Vec<PrimInfo>,
+    pub shapes: Vec<ShapeInfo>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<Light>,
+    /// Indices of lights at infinity (constant background, environment maps).
+    pub infinite_lights: Vec<u32>,
+    pub warnings: Vec<String>,
+}
+
+impl RenderScene {
+    /// Prepares `scene` for a `width` x `height` film.
+    pub fn build(scene: &desc::Scene, width: u32, height: u32) -> Result<Self, BuildError> {
+        let camera = Camera::new(
+            scene.camera.to_world,
+            scene.camera.fov_degrees,
+            scene.camera.fov_axis,
+            width,
+            height,
+        );
+        let mut warnings = Vec::new();
+        let textures = scene
+            .textures
+            .iter()
+            .map(|t| build_texture(t, &mut warnings))
+            .collect::<Result<Vec<_>, _>>()?;
+        let torrey_dialect = scene.dialect == desc::Dialect::Torrey;
+        let mut materials: Vec<Material> =
+            scene.bsdfs.iter().map(|b| build_material(b, torrey_dialect)).collect();
+        // Shapes without a bsdf get Mitsuba's default: diffuse, reflectance 0.5.
+        let default_material = materials.len() as u32;
+        materials.push(Material {
+            model: BsdfModel::Diffuse,
+            reflectance: ColorSource::Constant(Vec3::splat(0.5)),
+            two_sided: torrey_dialect,
+            normal_map: None,
+        });
+
+        let mut mesh = MeshData::default();
+        let mut geoms = Vec::new();
+        let mut prims = Vec::new();
+        let mut shapes = Vec::new();
+        let mut lights = Vec::new();
+        for (shape_index, shape) in scene.shapes.iter().enumerate() {
+            let shape_id = shape_index as u32;
+            let first_prim = prims.len() as u32;
+            let kind = match &shape.geometry {
+                desc::Geometry::Mesh(m) => {
+                    add_mesh(&mut mesh, &mut geoms, &mut prims, shape_id, m, shape.to_world)
+                }
+                desc::Geometry::Rectangle => add_mesh(
+                    &mut mesh,
+                    &mut geoms,
+                    &mut prims,
+                    shape_id,
+                    &rectangle_mesh(),
+                    shape.to_world,
+                ),
+                desc::Geometry::Sphere { center, radius } => {
+                    // Mitsuba: to_world * translate(center) * scale(radius); scale must be uniform.
+                    let m = shape.to_world;
+                    let c = m.transform_point3(*center);
+                    let linear = Mat3::from_mat4(m);
+                    let scale = linear.x_axis.length();
+                    let r = radius * scale;
+                    let rot = if scale > 0.0 { linear * (1.0 / scale) } else { Mat3::IDENTITY };
+                    geoms.push(PrimGeom::Sphere { center: c, radius: r });
+                    prims.push(PrimInfo { shape: shape_id, triangle: 0 });
+                    ShapeKind::Sphere { center: c, radius: r, to_object: rot.transpose() }
+                }
+            };
+            let prim_count = prims.len() as u32 - first_prim;
+            let area_light = match shape.emitter {
+                Some(radiance) if radiance.max_element() > 0.0 && prim_count > 0 => {
+                    let area_shape = match kind {
+                        ShapeKind::Sphere { center, radius, .. } => AreaShape::Sphere { center, radius },
+                        ShapeKind::Mesh { .. } => {
+                            let areas: Vec<f32> = (first_prim..first_prim + prim_count)
+                                .map(|p| {
+                                    let [a, b, c] = mesh.indices[prims[p as usize].triangle as usize];
+                                    let (a, b, c) = (
+                                        mesh.positions[a as usize],
+                                        mesh.positions[b as usize],
+                                        mesh.positions[c as usize],
+                                    );
+                                    0.5 * (b - a).cross(c - a).length()
+                                })
+                                .collect();
+                            let total: f32 = areas.iter().sum();
+                            AreaShape::Mesh {
+                                first_prim,
+                                total_area: total,
+                                triangles: Distribution1D::new(&areas),
+                            }
+                        }
+                    };
+                    lights.push(Light {
+                        kind: LightKind::Area {
+                            shape: shape_id,
+                            radiance,
+                            area: area_shape,
+                            flip_normals: shape.flip_normals,
+                        },
+                    });
+                    Some(lights.len() as u32 - 1)
+                }
+                _ => None,
+            };
+            shapes.push(ShapeInfo {
+                material: shape.bsdf.map_or(default_material, |b| b as u32),
+                area_light,
+                kind,
+                flip_normals: shape.flip_normals,
+            });
+        }
+
+        let mut infinite_lights = Vec::new();
+        for light in &scene.lights {
+            let kind = match light {
+                desc::Light::Point { position, intensity } => {
+                    LightKind::Point { position: *position, intensity: *intensity }
+                }
+                desc::Light::Constant { radiance } => LightKind::Constant { radiance: *radiance },
+                desc::Light::Envmap { bitmap, scale, to_world } => {
+                    let image = load_bitmap_image(bitmap, &mut warnings)?;
+                    let rotation = Mat3::from_mat4(*to_world);
+                    LightKind::Env(Box::new(EnvMap::new(image, *scale, rotation)))
+                }
+            };
+            if matches!(kind, LightKind::Constant { .. } | LightKind::Env(_)) {
+                infinite_lights.push(lights.len() as u32);
+            }
+            lights.push(Light { kind });
+        }
+
+        let accel = Accel::build(&geoms);
+        Ok(Self {
+            camera,
+            accel,
+            mesh,
+            prims,
+            shapes,
+            materials,
+            textures,
+            lights,
+            infinite_lights,
+            warnings,
+        })
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.mesh.indices.len()
+    }
+
+    /// Closest surface along the ray, with its differential geometry.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        let hit = self.accel.intersect(ray)?;
+        Some(self.surface_hit(ray, &hit))
+    }
+
+    fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
+        let prim = self.prims[hit.prim as usize];
+        let shape = &self.shapes[prim.shape as usize];
+        let mut sh = match shape.kind {
+            ShapeKind::Mesh { has_normals, has_uvs } => {
+                let [i0, i1, i2] = self.mesh.indices[prim.triangle as usize];
+                let (i0, i1, i2) = (i0 as usize, i1 as usize, i2 as usize);
+                let (p0, p1, p2) =
+                    (self.mesh.positions[i0], self.mesh.positions[i1], self.mesh.positions[i2]);
+                let b0 = 1.0 - hit.b1 - hit.b2;
+                let p = b0 * p0 + hit.b1 * p1 + hit.b2 * p2;
+                let e1 = p1 - p0;
+                let e2 = p2 - p0;
+                let ng = e1.cross(e2).normalize_or(Vec3::Z);
+                let ns = if has_normals {
+                    let n = b0 * self.mesh.normals[i0]
+                        + hit.b1 * self.mesh.normals[i1]
+                        + hit.b2 * self.mesh.normals[i2];
+                    n.normalize_or(ng)
+                } else {
+                    ng
+                };
+                // Without uvs Mitsuba uses the barycentrics as uv, so dp/du = e1, dp/dv = e2.
+                let (uv, dpdu, dpdv) = if has_uvs {
+                    let (t0, t1, t2) = (self.mesh.uvs[i0], self.mesh.uvs[i1], self.mesh.uvs[i2]);
+                    let uv = b0 * t0 + hit.b1 * t1 + hit.b2 * t2;
+                    let (d1, d2) = (t1 - t0, t2 - t0);
+                    let det = d1.x * d2.y - d1.y * d2.x;
+                    if det.abs() > 1e-12 {
+                        let inv = 1.0 / det;
+                        let dpdu = (d2.y * e1 - d1.y * e2) * inv;
+                        let dpdv = (d1.x * e2 - d2.x * e1) * inv;
+                        (uv, dpdu, dpdv)
+                    } else {
+                        let (s, t) = orthonormal_basis(ng);
+                        (uv, s, t)
+                    }
+                } else {
+                    (Vec2::new(hit.b1, hit.b2), e1, e2)
+                };
+                SurfaceHit {
+                    t: hit.t,
+                    p,
+                    ng,
+                    ns,
+                    uv,
+                    dpdu,
+                    dpdv,
+                    shape: prim.shape,
+                    prim: hit.prim,
+                }
+            }
+            ShapeKind::Sphere { center, radius, to_object } => {
+                let p_ray = ray.origin + hit.t * ray.dir;
+                let n = (p_ray - center).normalize_or(Vec3::Z);
+                // Re-project onto the surface: the ray's point carries the cancellation error.
+                let p = center + radius * n;
+                let local = to_object * n;
+                let (uv, dpdu_l, dpdv_l) = sphere_uv(local);
+                let to_world = to_object.transpose();
+                SurfaceHit {
+                    t: hit.t,
+                    p,
+                    ng: n,
+                    ns: n,
+                    uv,
+                    dpdu: to_world * dpdu_l * radius,
+                    dpdv: to_world * dpdv_l * radius,
+                    shape: prim.shape,
+                    prim: hit.prim,
+                }
+            }
+        };
+        if shape.flip_normals {
+            sh.ng = -sh.ng;
+            sh.ns = -sh.ns;
+        }
+        sh
+    }
+
+    /// True when nothing blocks the segment from `origin` along `dir` up to `tmax`.
+    #[inline]
+    pub fn visible(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        !self.accel.occluded(&Ray { origin, dir, tmax })
+    }
+}
+
+/// Any orthonormal pair perpendicular to `n` (Duff et al.'s branchless construction).
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// Mitsuba's rectangle: [-1,1]^2 at z = 0, normal +z, uv = ((x+1)/2, (y+1)/2).
+fn rectangle_mesh() -> desc::TriangleMesh {
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
+    let uvs = positions.iter().map(|p| Vec2::new((p.x + 1.0) * 0.5, (p.y + 1.0) * 0.5)).collect();
+    desc::TriangleMesh {
+        positions,
+        normals: vec![Vec3::Z; 4],
+        uvs,
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+    }
+}
+
+/// Transforms a mesh to world space and appends it. Degenerate (zero-area) triangles are dropped:
+/// they can never be hit and would only cost traversal time.
+fn add_mesh(
+    mesh: &mut MeshData,
+    geoms: &mut Vec<PrimGeom>,
+    prims: &mut Vec<PrimInfo>,
+    shape: u32,
+    m: &desc::TriangleMesh,
+    to_world: Mat4,
+) -> ShapeKind {
+    let base = mesh.positions.len() as u32;
+    let has_normals = m.normals.len() == m.positions.len() && !m.normals.is_empty();
+    let has_uvs = m.uvs.len() == m.positions.len() && !m.uvs.is_empty();
+    mesh.positions.extend(m.positions.iter().map(|&p| to_world.transform_point3(p)));
+    // Normals transform with the inverse transpose.
+    let normal_matrix = Mat3::from_mat4(to_world).inverse().transpose();
+    if has_normals {
+        mesh.normals.extend(m.normals.iter().map(|&n| (normal_matrix * n).normalize_or(Vec3::Z)));
+    } else {
+        mesh.normals.extend(std::iter::repeat_n(Vec3::Z, m.positions.len()));
+    }
+    if has_uvs {
+        mesh.uvs.extend(m.uvs.iter().copied());
+    } else {
+        mesh.uvs.extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len()));
+    }
+    for tri in &m.indices {
+        let idx = [tri[0] + base, tri[1] + base, tri[2] + base];
+        let p0 = mesh.positions[idx[0] as usize];
+        let p1 = mesh.positions[idx[1] as usize];
+        let p2 = mesh.positions[idx[2] as usize];
+        if (p1 - p0).cross(p2 - p0).length_squared() == 0.0 {
+            continue;
+        }
+        prims.push(PrimInfo { shape, triangle: mesh.indices.len() as u32 });
+        mesh.indices.push(idx);
+        geoms.push(PrimGeom::Triangle { p0, p1, p2 });
+    }
+    ShapeKind::Mesh { has_normals, has_uvs }
+}
+
+fn build_material(b: &desc::Bsdf, torrey_dialect: bool) -> Material {
+    let color = |c: &desc::ColorParam| match c {
+        desc::ColorParam::Constant(v) => ColorSource::Constant(*v),
+        desc::ColorParam::Texture(t) => ColorSource::Texture(*t as u32),
+    };
+    let (model, reflectance) = match &b.kind {
+        desc::BsdfKind::Diffuse { reflectance } => (BsdfModel::Diffuse, color(reflectance)),
+        desc::BsdfKind::Mirror { reflectance } => (BsdfModel::Mirror, color(reflectance)),
+        desc::BsdfKind::Plastic { reflectance, eta } => {
+            (BsdfModel::Plastic { eta: *eta }, color(reflectance))
+        }
+        desc::BsdfKind::Phong { reflectance, exponent } => {
+            (BsdfModel::Phong { exponent: *exponent }, color(reflectance))
+        }
+        desc::BsdfKind::Blinn { reflectance, exponent } => {
+            (BsdfModel::Blinn { exponent: *exponent }, color(reflectance))
+        }
+        desc::BsdfKind::BlinnMicrofacet { reflectance, exponent } => {
+            (BsdfModel::BlinnMicrofacet { exponent: *exponent }, color(reflectance))
+        }
+    };
+    Material {
+        model,
+        reflectance,
+        two_sided: b.two_sided || torrey_dialect,
+        normal_map: b.normal_map.map(|t| t as u32),
+    }
+}
+
+fn load_bitmap_image(
+    bitmap: &desc::Bitmap,
+    warnings: &mut Vec<String>,
+) -> Result<torrey_texture::Image, BuildError> {
+    let loaded = torrey_texture::load_image(&bitmap.filename, bitmap.raw).map_err(|e| {
+        BuildError::Texture { location: bitmap.filename.display().to_string(), message: e.to_string() }
+    })?;
+    warnings.extend(loaded.warnings);
+    Ok(loaded.image)
+}
+
+fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Texture, BuildError> {
+    Ok(match &t.kind {
+        desc::TextureKind::Bitmap(bitmap) => {
+            let image = load_bitmap_image(bitmap, warnings)?;
+            let wrap = match bitmap.wrap {
+                desc::WrapMode::Repeat => torrey_texture::WrapMode::Repeat,
+                desc::WrapMode::Mirror => torrey_texture::WrapMode::Mirror,
+                desc::WrapMode::Clamp => torrey_texture::WrapMode::Clamp,
+            };
+            let filter = match bitmap.filter {
+                desc::FilterType::Bilinear => torrey_texture::FilterType::Bilinear,
+                desc::FilterType::Nearest => torrey_texture::FilterType::Nearest,
+            };
+            Texture::Bitmap(BitmapTexture::new(MipMap::new(image, wrap, filter), bitmap.to_uv))
+        }
+        desc::TextureKind::Checkerboard { color0, color1, to_uv } => {
+            Texture::Checkerboard { color0: *color0, color1: *color1, to_uv: *to_uv }
+        }
+    })
+}

@@ -1,0 +1,121 @@
+//! Shared helpers for the integration tests: render a scene file small, and compare an image with
+//! a reference using a tolerance derived from the render's own noise.
+
+#![allow(dead_code)]
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use torrey_texture::Image;
+
+/// The workspace root (the root package's manifest directory).
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `../shared` beside the workspace, if present (absent on a fresh clone).
+pub fn shared() -> Option<PathBuf> {
+    let p = root().join("..").join("shared");
+    p.is_dir().then_some(p)
+}
+
+pub struct Rendered {
+    pub image: Image,
+    pub variance: Image,
+    pub nonfinite: u64,
+}
+
+/// Renders `scene` at `width` x `height`, `spp` samples, optionally overriding the max depth.
+pub fn render_scene(scene: &Path, width: u32, height: u32, spp: u32, max_depth: Option<i32>, seed: u64) -> Rendered {
+    let desc = torrey_parser::load_scene(scene, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let rs = torrey_renderer::RenderScene::build(&desc, width, height).unwrap_or_else(|e| panic!("{e}"));
+    let settings = torrey_renderer::RenderSettings {
+        spp,
+        max_depth: max_depth.unwrap_or(desc.integrator.max_depth),
+        rr_depth: desc.integrator.rr_depth,
+        seed,
+        filter: desc.film.filter,
+        tile_size: 16,
+    };
+    let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
+    Rendered { image: out.image, variance: out.variance, nonfinite: out.nonfinite_samples }
+}
+
+/// The outcome of a noise-aware comparison.
+#[derive(Debug)]
+pub struct NoiseComparison {
+    /// Share of blocks whose mean differs from the reference by more than `z_limit` standard errors.
+    pub outlier_blocks: f64,
+    /// Largest |z| over all blocks.
+    pub max_z: f64,
+    /// Mean over the image, ours / reference, per channel.
+    pub mean_ratio: [f64; 3],
+    /// Standard error of that ratio from our noise, per channel.
+    pub mean_ratio_sigma: [f64; 3],
+    pub blocks: usize,
+}
+
+/// Compares `ours` (with per-pixel variance of the mean `var`) against `reference`, averaged over
+/// `block` x `block` pixel blocks so the heavy-tailed path-tracing noise becomes near-Gaussian.
+/// Each block's allowed deviation is `sqrt(sigma^2 + (rel_bias * ref)^2 + abs_bias^2)`: our noise
+/// plus a small systematic allowance for documented convention differences (mip-mapping,
+/// cell-centred envmap texels). Reference noise is assumed negligible (references use far more spp).
+pub fn compare_with_noise(ours: &Image, var: &Image, reference: &Image, block: u32, rel_bias: f64, abs_bias: f64, z_limit: f64) -> NoiseComparison {
+    assert_eq!((ours.width, ours.height), (reference.width, reference.height), "image sizes differ");
+    let (w, h) = (ours.width, ours.height);
+    let mut outliers = 0usize;
+    let mut blocks = 0usize;
+    let mut max_z = 0f64;
+    for by in (0..h).step_by(block as usize) {
+        for bx in (0..w).step_by(block as usize) {
+            let mut sum_o = [0f64; 3];
+            let mut sum_r = [0f64; 3];
+            let mut sum_v = [0f64; 3];
+            let mut n = 0f64;
+            for y in by..(by + block).min(h) {
+                for x in bx..(bx + block).min(w) {
+                    let (o, r, v) = (ours.get(x, y), reference.get(x, y), var.get(x, y));
+                    for c in 0..3 {
+                        sum_o[c] += o[c] as f64;
+                        sum_r[c] += r[c] as f64;
+                        sum_v[c] += v[c] as f64;
+                    }
+                    n += 1.0;
+                }
+            }
+            blocks += 1;
+            let mut block_out = false;
+            for c in 0..3 {
+                let mo = sum_o[c] / n;
+                let mr = sum_r[c] / n;
+                let sigma2 = sum_v[c] / (n * n);
+                let allowed = (sigma2 + (rel_bias * mr).powi(2) + abs_bias * abs_bias).sqrt();
+                let z = (mo - mr).abs() / allowed.max(1e-12);
+                max_z = max_z.max(z);
+                block_out |= z > z_limit;
+            }
+            if block_out {
+                outliers += 1;
+            }
+        }
+    }
+    let mut mean_ratio = [0f64; 3];
+    let mut mean_ratio_sigma = [0f64; 3];
+    let npx = (w * h) as f64;
+    for c in 0..3 {
+        let so: f64 = ours.pixels.iter().map(|p| p[c] as f64).sum();
+        let sr: f64 = reference.pixels.iter().map(|p| p[c] as f64).sum();
+        let sv: f64 = var.pixels.iter().map(|p| p[c] as f64).sum();
+        mean_ratio[c] = so / sr.max(1e-12);
+        mean_ratio_sigma[c] = (sv / (npx * npx)).sqrt() / (sr / npx).max(1e-12);
+    }
+    NoiseComparison { outlier_blocks: outliers as f64 / blocks as f64, max_z, mean_ratio, mean_ratio_sigma, blocks }
+}
+
+pub fn load(path: &Path) -> Image {
+    torrey_texture::load_image(path, false).unwrap_or_else(|e| panic!("{e}")).image
+}
+
+/// Mean of an image per channel.
+pub fn mean(img: &Image) -> Vec3 {
+    img.pixels.iter().copied().sum::<Vec3>() / img.pixels.len() as f32
+}
