@@ -1,6 +1,46 @@
 //! torrey's scene parser: Mitsuba-style XML (torrey 0.5/0.6 and Mitsuba 3 dialects) to a plain
 //! [`Scene`] description. No rendering types live here.
+//!
+//! Every error carries `file:line:column`; harmless oddities (unknown parameters, media) become
+//! [`Warning`]s in [`Scene::warnings`]. See `docs/scene-format.md` for all plugins and
+//! parameters.
 
+mod context;
+mod error;
+mod mesh;
+mod plugins;
+mod props;
 pub mod scene;
+mod transform;
+mod values;
+mod xml;
 
+pub use error::ParseError;
+pub use mesh::smooth_normals;
 pub use scene::*;
+
+use std::path::Path;
+
+/// Reads a scene file; `overrides` are `-D name=value` pairs that replace `<default>` values.
+/// Relative file names inside are resolved against the scene file's folder.
+pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, ParseError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ParseError {
+        location: SourceLocation {
+            file: path.to_path_buf(),
+            line: 1,
+            column: 1,
+        },
+        message: format!("cannot read scene file: {e}"),
+    })?;
+    parse_scene_str(&text, path, overrides)
+}
+
+/// Same, from a string; `path` names the file for messages and resolving relative file names.
+pub fn parse_scene_str(
+    xml: &str,
+    path: &Path,
+    overrides: &[(String, String)],
+) -> Result<Scene, ParseError> {
+    let root = xml::parse_document(xml, path)?;
+    plugins::parse_scene(root, path, overrides)
+}

@@ -1,0 +1,71 @@
+//! Mesh file readers (OBJ through tobj, PLY and Mitsuba's serialized format by hand) and the
+//! shared post-processing: index validation and smooth vertex normals.
+//!
+//! Readers return plain messages; the shape parser adds the mesh file name and the XML
+//! position of the `filename` element.
+
+pub(crate) mod obj;
+pub(crate) mod ply;
+pub(crate) mod serialized;
+
+use crate::scene::TriangleMesh;
+use glam::Vec3;
+
+/// Area-weighted vertex normals: each triangle adds its unnormalised normal (whose length is
+/// twice its area) to its three vertices. Vertices touched only by degenerate triangles get +z.
+pub fn smooth_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in indices {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let face = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += face;
+        }
+    }
+    n.into_iter()
+        .map(|v| v.try_normalize().unwrap_or(Vec3::Z))
+        .collect()
+}
+
+/// Checks that every index names a vertex and the per-vertex arrays have matching lengths.
+pub(crate) fn validate(mesh: &TriangleMesh) -> Result<(), String> {
+    let n = mesh.positions.len();
+    for (k, t) in mesh.indices.iter().enumerate() {
+        if let Some(&i) = t.iter().find(|&&i| i as usize >= n) {
+            return Err(format!(
+                "triangle {k} uses vertex {i}, but there are only {n} vertices"
+            ));
+        }
+    }
+    if !mesh.normals.is_empty() && mesh.normals.len() != n {
+        return Err(format!("{} normals for {n} vertices", mesh.normals.len()));
+    }
+    if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
+        return Err(format!("{} texture coordinates for {n} vertices", mesh.uvs.len()));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn smooth_normals_are_area_weighted() {
+        // Two triangles sharing vertex 0: a big one in the z=0 plane (normal +z, area 2) and a
+        // small one in the x=0 plane (normal +x, area 0.5).
+        let p = vec![
+            Vec3::ZERO,
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let idx = vec![[0, 1, 2], [0, 3, 4]];
+        let n = smooth_normals(&p, &idx);
+        let expect = Vec3::new(1.0, 0.0, 4.0).normalize();
+        assert!((n[0] - expect).length() < 1e-6, "{:?}", n[0]);
+        assert!((n[1] - Vec3::Z).length() < 1e-6);
+        assert!((n[4] - Vec3::X).length() < 1e-6);
+    }
+}

@@ -1,0 +1,88 @@
+//! Emitter plugins outside shapes: `point`, `envmap`, `constant` (and torrey's `<background>`).
+
+use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
+use crate::error::Result;
+use crate::plugins::texture::{bitmap_element, parse_bitmap};
+use crate::props::Props;
+use crate::scene::Light;
+use crate::xml::Element;
+use glam::{Mat4, Vec3};
+
+const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
+
+/// Parses a top-level `<emitter>`.
+///
+/// | type | name | type | default |
+/// | --- | --- | --- | --- |
+/// | `point` | `intensity` | colour | 1 (W/sr) |
+/// | `point` | `position` | point | 0, then moved by `to_world` |
+/// | `point` | `to_world` | transform | identity |
+/// | `envmap` | `filename` + bitmap parameters | string | required unless a nested bitmap `<texture>` is given |
+/// | `envmap` | nested `<texture type="bitmap">` (seed dialect, e.g. `name="reflectance"`) | texture | |
+/// | `envmap` | `scale`, `intensity_scale` | float | 1 (both multiply) |
+/// | `envmap` | `to_world` | transform | identity |
+/// | `constant` | `radiance` | colour | 1 |
+pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
+    let ty = plugin_type(ctx, elem)?;
+    if !KNOWN.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "emitter", &KNOWN[..3]));
+    }
+    if ty == "area" {
+        return Err(ctx.err(
+            elem.pos,
+            "an area emitter must be nested inside a <shape>",
+        ));
+    }
+    let mut props = Props::new(ctx, elem, format!("emitter '{ty}'"))?;
+    ctx.register_id(elem, IdTarget::Other)?;
+    let light = match ty {
+        "point" => {
+            let intensity = props.color(ctx, &["intensity"], Vec3::ONE)?;
+            let position = props.point(ctx, &["position"])?.unwrap_or(Vec3::ZERO);
+            let to_world = props
+                .transform(ctx, &["to_world"], false)?
+                .unwrap_or(Mat4::IDENTITY);
+            Light::Point {
+                position: to_world.transform_point3(position),
+                intensity,
+            }
+        }
+        "constant" => Light::Constant {
+            radiance: props.color(ctx, &["radiance"], Vec3::ONE)?,
+        },
+        _ => {
+            let bitmap = if props.has(&["filename"]) {
+                parse_bitmap(ctx, &mut props, elem)?
+            } else {
+                let textures = props.take_tag("texture");
+                let Some(t) = textures.first() else {
+                    return Err(ctx.err(
+                        elem.pos,
+                        "emitter 'envmap' needs a 'filename' or a nested bitmap <texture>",
+                    ));
+                };
+                bitmap_element(ctx, t)?
+            };
+            let scale = props.float(ctx, &["scale"], 1.0)?
+                * props.float(ctx, &["intensity_scale"], 1.0)?;
+            let to_world = props
+                .transform(ctx, &["to_world"], false)?
+                .unwrap_or(Mat4::IDENTITY);
+            Light::Envmap {
+                bitmap,
+                scale,
+                to_world,
+            }
+        }
+    };
+    props.finish(ctx);
+    Ok(light)
+}
+
+/// torrey's `<background>`: `radiance` colour, default 0.5 → a constant environment.
+pub(crate) fn parse_background(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
+    let mut props = Props::new(ctx, elem, "<background>".into())?;
+    let radiance = props.color(ctx, &["radiance"], Vec3::splat(0.5))?;
+    props.finish(ctx);
+    Ok(Light::Constant { radiance })
+}

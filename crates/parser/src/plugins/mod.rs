@@ -1,0 +1,170 @@
+//! Plugin parsers (one module per kind, as in Mitsuba) and the scene assembly.
+
+pub(crate) mod bsdf;
+pub(crate) mod emitter;
+pub(crate) mod sensor;
+pub(crate) mod shape;
+pub(crate) mod texture;
+
+use crate::context::Ctx;
+use crate::error::{ParseError, Result};
+use crate::props::{describe, SKIPPED_TAGS};
+use crate::scene::{Dialect, Light, Scene};
+use crate::values;
+use crate::xml::{location, Element};
+use glam::Vec3;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Reads `<scene version>`: below 2.0.0 is the torrey dialect.
+fn dialect(root: &Element, file: &Path) -> Result<Dialect> {
+    let err = |pos, message: String| ParseError {
+        location: location(file, pos),
+        message,
+    };
+    let Some(v) = root.attr("version") else {
+        return Err(err(root.pos, "missing required attribute 'version' on <scene>".into()));
+    };
+    let major = v
+        .value
+        .split('.')
+        .next()
+        .and_then(|m| m.trim().parse::<u32>().ok())
+        .ok_or_else(|| err(v.value_pos, format!("cannot parse scene version '{}'", v.value)))?;
+    Ok(if major < 2 {
+        Dialect::Torrey
+    } else {
+        Dialect::Mitsuba3
+    })
+}
+
+/// Applies `$name` substitution to every attribute below `elem`, except `<default>`s' own.
+fn substitute_tree(
+    elem: &mut Element,
+    defaults: &HashMap<String, String>,
+    file: &Path,
+) -> Result<()> {
+    for child in &mut elem.children {
+        if child.tag == "default" {
+            continue;
+        }
+        for a in &mut child.attrs {
+            a.value = values::substitute(&a.value, defaults).map_err(|name| ParseError {
+                location: location(file, a.value_pos),
+                message: format!(
+                    "undefined parameter '${name}' in attribute '{}' of <{}> (add <default name=\"{name}\" .../> or -D {name}=...)",
+                    a.name, child.tag
+                ),
+            })?;
+        }
+        substitute_tree(child, defaults, file)?;
+    }
+    Ok(())
+}
+
+/// Builds a [`Scene`] from the parsed document.
+pub(crate) fn parse_scene(
+    mut root: Element,
+    path: &Path,
+    overrides: &[(String, String)],
+) -> Result<Scene> {
+    if root.tag != "scene" {
+        return Err(ParseError {
+            location: location(path, root.pos),
+            message: format!("the root element must be <scene>, found <{}>", root.tag),
+        });
+    }
+    let dialect = dialect(&root, path)?;
+    let mut defaults = HashMap::new();
+    for d in root.children.iter().filter(|c| c.tag == "default") {
+        let get = |n: &str| {
+            d.attr_value(n).ok_or_else(|| ParseError {
+                location: location(path, d.pos),
+                message: format!("missing required attribute '{n}' on <default>"),
+            })
+        };
+        defaults.insert(get("name")?.to_string(), get("value")?.to_string());
+    }
+    for (k, v) in overrides {
+        defaults.insert(k.clone(), v.clone());
+    }
+    substitute_tree(&mut root, &defaults, path)?;
+
+    let mut ctx = Ctx::new(path, dialect);
+    let mut camera_parts = None;
+    let mut integrator = None;
+    let mut shapes = Vec::new();
+    let mut lights = Vec::new();
+    let mut has_background = false;
+    for child in &root.children {
+        match child.tag.as_str() {
+            "default" => {}
+            "sensor" => {
+                if camera_parts.is_some() {
+                    ctx.warn(child.pos, "only the first <sensor> is used; this one is ignored");
+                } else {
+                    camera_parts = Some(sensor::parse_sensor(&mut ctx, child)?);
+                }
+            }
+            "integrator" => {
+                let i = sensor::parse_integrator(&mut ctx, child)?;
+                if integrator.is_some() {
+                    ctx.warn(child.pos, "only the first <integrator> is used; this one is ignored");
+                } else {
+                    integrator = Some(i);
+                }
+            }
+            "bsdf" => {
+                bsdf::parse_bsdf(&mut ctx, child)?;
+            }
+            "texture" => {
+                texture::parse_texture(&mut ctx, child)?;
+            }
+            "shape" => shapes.push(shape::parse_shape(&mut ctx, child)?),
+            "emitter" => {
+                let light = emitter::parse_emitter(&mut ctx, child)?;
+                has_background |= matches!(light, Light::Envmap { .. } | Light::Constant { .. });
+                lights.push(light);
+            }
+            "background" => {
+                lights.push(emitter::parse_background(&mut ctx, child)?);
+                has_background = true;
+            }
+            t if SKIPPED_TAGS.contains(&t) => {
+                ctx.warn(child.pos, format!("{} is not supported; ignored", describe(child)));
+            }
+            t @ ("film" | "sampler" | "rfilter") => {
+                return Err(ctx.err(child.pos, format!("<{t}> must be inside a <sensor>")));
+            }
+            t => {
+                return Err(ctx.err(child.pos, format!("unknown tag <{t}> in <scene>")));
+            }
+        }
+    }
+    if dialect == Dialect::Torrey && !has_background {
+        // The torrey course renderer's default environment: constant 0.5 grey.
+        lights.push(Light::Constant {
+            radiance: Vec3::splat(0.5),
+        });
+    }
+    let (camera, film, sampler) = camera_parts.unwrap_or_else(|| {
+        (
+            sensor::default_camera(dialect),
+            sensor::default_film(),
+            sensor::default_sampler(),
+        )
+    });
+    Ok(Scene {
+        path: path.to_path_buf(),
+        dialect,
+        camera,
+        film,
+        sampler,
+        integrator: integrator.unwrap_or_else(sensor::default_integrator),
+        textures: ctx.textures,
+        bsdfs: ctx.bsdfs,
+        shapes,
+        lights,
+        warnings: ctx.warnings,
+    })
+}

@@ -1,0 +1,174 @@
+//! Shape plugins: `obj`, `ply`, `serialized`, `sphere`, `rectangle`.
+
+use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
+use crate::error::Result;
+use crate::mesh::{obj, ply, serialized, smooth_normals, validate};
+use crate::plugins::bsdf::parse_bsdf;
+use crate::props::Props;
+use crate::scene::{BsdfId, Geometry, Shape, TriangleMesh};
+use crate::xml::{location, Element};
+use glam::{Mat4, Vec3};
+
+const KNOWN: &[&str] = &["obj", "ply", "serialized", "sphere", "rectangle"];
+
+/// Reads a mesh file named by the `filename` parameter; errors name the file and point at it.
+fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<TriangleMesh> {
+    let Some(file) = props.string(ctx, &["filename"])? else {
+        return Err(ctx.err(
+            elem.pos,
+            format!("missing required parameter 'filename' of {}", props.owner),
+        ));
+    };
+    let path = ctx.resolve(&file.value);
+    if !path.is_file() {
+        return Err(ctx.err(
+            file.value_pos,
+            format!(
+                "mesh file '{}' not found (looked for '{}')",
+                file.value,
+                path.display()
+            ),
+        ));
+    }
+    let face_normals = props.boolean(ctx, &["face_normals"], false)?;
+    let flip_v = props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
+    let shape_index = match props.opt_int_pos(ctx, &["shape_index"])? {
+        None => 0,
+        Some((i, _)) if i >= 0 && ty == "serialized" => i as usize,
+        Some((_, pos)) if ty == "serialized" => {
+            return Err(ctx.err(pos, "shape_index must not be negative"))
+        }
+        Some((_, pos)) => {
+            ctx.warn(pos, format!("shape_index only applies to serialized shapes; ignored"));
+            0
+        }
+    };
+    let loaded = match ty {
+        "obj" => obj::load(&path, flip_v),
+        "ply" => ply::load(&path),
+        _ => serialized::load(&path, shape_index),
+    };
+    let mut mesh = loaded
+        .and_then(|m| validate(&m).map(|_| m))
+        .map_err(|m| ctx.err(file.value_pos, format!("in mesh file '{}': {m}", file.value)))?;
+    if mesh.indices.is_empty() {
+        return Err(ctx.err(
+            file.value_pos,
+            format!("mesh file '{}' has no triangles", file.value),
+        ));
+    }
+    if flip_v && ty != "obj" {
+        for uv in &mut mesh.uvs {
+            uv.y = 1.0 - uv.y;
+        }
+    }
+    if face_normals {
+        mesh.normals.clear();
+    } else if mesh.normals.is_empty() {
+        mesh.normals = smooth_normals(&mesh.positions, &mesh.indices);
+    }
+    Ok(mesh)
+}
+
+/// Parses a `<shape>`; inline bsdfs are added to the scene.
+///
+/// | shapes | name | type | default |
+/// | --- | --- | --- | --- |
+/// | all | `to_world` (`toWorld`) | transform | identity |
+/// | all | `flip_normals` (`flipNormals`) | boolean | false |
+/// | all | nested `<bsdf>` or `<ref>` | bsdf | none (Mitsuba's diffuse 0.5) |
+/// | all | nested `<emitter type="area">` | `radiance` colour, default 1 | none |
+/// | obj, ply, serialized | `filename` | string | required |
+/// | obj, ply, serialized | `face_normals` (`faceNormals`) | boolean | false |
+/// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
+/// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
+/// | sphere | `center` | point | 0 |
+/// | sphere | `radius` | float | 1 (negative is an error) |
+pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
+    let ty = plugin_type(ctx, elem)?;
+    if !KNOWN.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "shape", KNOWN));
+    }
+    let mut props = Props::new(ctx, elem, format!("shape '{ty}'"))?;
+    ctx.register_id(elem, IdTarget::Other)?;
+    let to_world = props
+        .transform(ctx, &["to_world"], false)?
+        .unwrap_or(Mat4::IDENTITY);
+    let flip_normals = props.boolean(ctx, &["flip_normals"], false)?;
+    let geometry = match ty {
+        "sphere" => {
+            let center = props.point(ctx, &["center"])?.unwrap_or(Vec3::ZERO);
+            let radius = match props.opt_float_pos(ctx, &["radius"])? {
+                None => 1.0,
+                Some((r, pos)) if r < 0.0 => {
+                    return Err(ctx.err(
+                        pos,
+                        format!("sphere radius must not be negative, found {r}"),
+                    ))
+                }
+                Some((r, _)) => r,
+            };
+            Geometry::Sphere { center, radius }
+        }
+        "rectangle" => Geometry::Rectangle,
+        _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
+    };
+
+    let mut candidates: Vec<&Element> = props.take_tag("bsdf");
+    for r in props.take_tag("ref") {
+        match r.attr_value("name") {
+            None | Some("bsdf") => candidates.push(r),
+            Some(n) => ctx.warn(r.pos, format!("<ref name=\"{n}\"> in {} is not used; ignored", props.owner)),
+        }
+    }
+    candidates.sort_by_key(|e| (e.pos.line, e.pos.column));
+    if let Some(second) = candidates.get(1) {
+        return Err(ctx.err(second.pos, format!("{} has more than one bsdf", props.owner)));
+    }
+    let bsdf: Option<BsdfId> = match candidates.first() {
+        None => None,
+        Some(e) if e.tag == "ref" => match ctx.lookup(e)? {
+            IdTarget::Bsdf(b) => Some(b),
+            _ => {
+                return Err(ctx.err(
+                    e.pos,
+                    format!(
+                        "<ref id=\"{}\"> in a shape must name a bsdf",
+                        e.attr_value("id").unwrap_or("")
+                    ),
+                ))
+            }
+        },
+        Some(e) => Some(parse_bsdf(ctx, e)?),
+    };
+
+    let emitters = props.take_tag("emitter");
+    if let Some(second) = emitters.get(1) {
+        return Err(ctx.err(second.pos, format!("{} has more than one emitter", props.owner)));
+    }
+    let emitter = match emitters.first() {
+        None => None,
+        Some(e) => {
+            let ety = plugin_type(ctx, e)?;
+            if ety != "area" {
+                return Err(ctx.err(
+                    e.pos,
+                    format!("only area emitters can be attached to a shape, found '{ety}'"),
+                ));
+            }
+            let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
+            let radiance = ep.color(ctx, &["radiance"], Vec3::ONE)?;
+            ep.finish(ctx);
+            Some(radiance)
+        }
+    };
+    props.finish(ctx);
+    Ok(Shape {
+        geometry,
+        to_world,
+        bsdf,
+        emitter,
+        flip_normals,
+        location: location(&ctx.file, elem.pos),
+    })
+}

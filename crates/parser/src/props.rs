@@ -1,0 +1,318 @@
+//! A plugin's children as a property bag, Mitsuba style: plugin parsers take the parameters
+//! they know by (snake_case) name, and whatever is left over becomes one warning each.
+
+use crate::context::Ctx;
+use crate::error::Result;
+use crate::transform::parse_transform;
+use crate::values;
+use crate::xml::{Attr, Element, Pos};
+use glam::{Mat4, Vec3};
+
+/// Tags that hold a named value.
+const VALUE_TAGS: &[&str] = &[
+    "float", "integer", "boolean", "string", "rgb", "srgb", "spectrum", "point", "vector",
+    "transform",
+];
+/// Tags that are nested plugins or references (a `name` is optional).
+const OBJECT_TAGS: &[&str] = &[
+    "bsdf", "texture", "ref", "emitter", "sampler", "film", "rfilter", "shape", "sensor",
+    "integrator",
+];
+/// Things a scene may carry that we do not render: warned about and skipped.
+pub(crate) const SKIPPED_TAGS: &[&str] = &["medium", "phase", "volume", "subsurface"];
+
+struct Item<'a> {
+    name: Option<String>,
+    elem: &'a Element,
+    used: bool,
+}
+
+/// The parameters and nested objects of one plugin element.
+pub(crate) struct Props<'a> {
+    /// "bsdf 'diffuse'": how messages name the plugin.
+    pub owner: String,
+    items: Vec<Item<'a>>,
+}
+
+fn value_attr<'e>(ctx: &Ctx, elem: &'e Element) -> Result<&'e Attr> {
+    elem.attr("value").ok_or_else(|| {
+        ctx.err(
+            elem.pos,
+            format!("missing required attribute 'value' on {}", describe(elem)),
+        )
+    })
+}
+
+/// `<float name="fov">` for messages.
+pub(crate) fn describe(elem: &Element) -> String {
+    match elem.attr_value("name") {
+        Some(n) => format!("<{} name=\"{}\">", elem.tag, n),
+        None => format!("<{}>", elem.tag),
+    }
+}
+
+impl<'a> Props<'a> {
+    /// Sorts `elem`'s children into named values and nested objects. Unknown tags are errors;
+    /// unsupported-but-harmless ones (media) are warned about and dropped.
+    pub fn new(ctx: &mut Ctx, elem: &'a Element, owner: String) -> Result<Self> {
+        let mut items: Vec<Item<'a>> = Vec::new();
+        for child in &elem.children {
+            let tag = child.tag.as_str();
+            let name = child.attr_value("name").map(values::snake_case);
+            if VALUE_TAGS.contains(&tag) {
+                let Some(name) = name else {
+                    return Err(ctx.err(
+                        child.pos,
+                        format!("missing required attribute 'name' on <{tag}>"),
+                    ));
+                };
+                if let Some(first) = items
+                    .iter()
+                    .find(|i| i.name.as_deref() == Some(&name) && VALUE_TAGS.contains(&i.elem.tag.as_str()))
+                {
+                    return Err(ctx.err(
+                        child.pos,
+                        format!(
+                            "parameter '{name}' of {owner} is given twice (first at line {}, column {})",
+                            first.elem.pos.line, first.elem.pos.column
+                        ),
+                    ));
+                }
+                items.push(Item {
+                    name: Some(name),
+                    elem: child,
+                    used: false,
+                });
+            } else if OBJECT_TAGS.contains(&tag) {
+                items.push(Item {
+                    name,
+                    elem: child,
+                    used: false,
+                });
+            } else if SKIPPED_TAGS.contains(&tag) {
+                ctx.warn(
+                    child.pos,
+                    format!("{} in {owner} is not supported; ignored", describe(child)),
+                );
+            } else if tag == "default" {
+                return Err(ctx.err(child.pos, "<default> must be a direct child of <scene>"));
+            } else {
+                return Err(ctx.err(
+                    child.pos,
+                    format!("unknown tag <{tag}> in {owner}"),
+                ));
+            }
+        }
+        Ok(Props { owner, items })
+    }
+
+    /// Takes the unused child named `name` (snake_case), whatever its tag.
+    pub fn take(&mut self, name: &str) -> Option<&'a Element> {
+        let item = self
+            .items
+            .iter_mut()
+            .find(|i| !i.used && i.name.as_deref() == Some(name))?;
+        item.used = true;
+        Some(item.elem)
+    }
+
+    /// Takes the first child among `names` (aliases), returning the element.
+    pub fn take_any(&mut self, names: &[&str]) -> Option<&'a Element> {
+        names.iter().find_map(|n| self.take(n))
+    }
+
+    /// Takes every unused child with tag `tag` (named or not), in document order.
+    pub fn take_tag(&mut self, tag: &str) -> Vec<&'a Element> {
+        let mut out = Vec::new();
+        for item in self.items.iter_mut().filter(|i| !i.used && i.elem.tag == tag) {
+            item.used = true;
+            out.push(item.elem);
+        }
+        out
+    }
+
+    fn wrong_type(&self, ctx: &Ctx, elem: &Element, expected: &str) -> crate::error::ParseError {
+        ctx.err(
+            elem.pos,
+            format!(
+                "parameter '{}' of {} must be {expected}, found <{}>",
+                elem.attr_value("name").unwrap_or(""),
+                self.owner,
+                elem.tag
+            ),
+        )
+    }
+
+    fn parse_attr<T>(
+        &self,
+        ctx: &Ctx,
+        elem: &Element,
+        attr: &Attr,
+        f: impl Fn(&str) -> std::result::Result<T, String>,
+    ) -> Result<T> {
+        f(&attr.value).map_err(|m| {
+            ctx.err(
+                attr.value_pos,
+                format!(
+                    "{m} in parameter '{}' of {}",
+                    elem.attr_value("name").unwrap_or(&elem.tag),
+                    self.owner
+                ),
+            )
+        })
+    }
+
+    pub fn opt_float(&mut self, ctx: &Ctx, names: &[&str]) -> Result<Option<f32>> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(None);
+        };
+        if e.tag != "float" && e.tag != "integer" {
+            return Err(self.wrong_type(ctx, e, "a <float>"));
+        }
+        let a = value_attr(ctx, e)?;
+        self.parse_attr(ctx, e, a, values::float).map(Some)
+    }
+
+    /// Like [`Props::opt_float`], also returning where the value is (for range errors).
+    pub fn opt_float_pos(&mut self, ctx: &Ctx, names: &[&str]) -> Result<Option<(f32, Pos)>> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(None);
+        };
+        if e.tag != "float" && e.tag != "integer" {
+            return Err(self.wrong_type(ctx, e, "a <float>"));
+        }
+        let a = value_attr(ctx, e)?;
+        Ok(Some((self.parse_attr(ctx, e, a, values::float)?, a.value_pos)))
+    }
+
+    /// Like [`Props::opt_int`], also returning where the value is (for range errors).
+    pub fn opt_int_pos(&mut self, ctx: &Ctx, names: &[&str]) -> Result<Option<(i64, Pos)>> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(None);
+        };
+        if e.tag != "integer" && e.tag != "float" {
+            return Err(self.wrong_type(ctx, e, "an <integer>"));
+        }
+        let a = value_attr(ctx, e)?;
+        Ok(Some((self.parse_attr(ctx, e, a, values::integer)?, a.value_pos)))
+    }
+
+    /// Takes the child `name` only if it is a `<string>` (for parameters that are a number or
+    /// a name, like Mitsuba's `int_ior`).
+    pub fn clone_string_if(&mut self, name: &str) -> Option<&'a Attr> {
+        let item = self
+            .items
+            .iter_mut()
+            .find(|i| !i.used && i.name.as_deref() == Some(name) && i.elem.tag == "string")?;
+        item.used = true;
+        item.elem.attr("value")
+    }
+
+    /// Whether an unused child has one of these names.
+    pub fn has(&self, names: &[&str]) -> bool {
+        self.items
+            .iter()
+            .any(|i| !i.used && i.name.as_deref().is_some_and(|n| names.contains(&n)))
+    }
+
+    pub fn float(&mut self, ctx: &Ctx, names: &[&str], default: f32) -> Result<f32> {
+        Ok(self.opt_float(ctx, names)?.unwrap_or(default))
+    }
+
+    pub fn boolean(&mut self, ctx: &Ctx, names: &[&str], default: bool) -> Result<bool> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(default);
+        };
+        if e.tag != "boolean" {
+            return Err(self.wrong_type(ctx, e, "a <boolean>"));
+        }
+        let a = value_attr(ctx, e)?;
+        self.parse_attr(ctx, e, a, values::boolean)
+    }
+
+    /// A string parameter with the attribute holding it (for positions of file names).
+    pub fn string(&mut self, ctx: &Ctx, names: &[&str]) -> Result<Option<&'a Attr>> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(None);
+        };
+        if e.tag != "string" {
+            return Err(self.wrong_type(ctx, e, "a <string>"));
+        }
+        value_attr(ctx, e).map(Some)
+    }
+
+    /// A `point`/`vector`: `x`, `y`, `z` attributes (missing ones 0) or a `value`.
+    pub fn point(&mut self, ctx: &Ctx, names: &[&str]) -> Result<Option<Vec3>> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(None);
+        };
+        if e.tag != "point" && e.tag != "vector" {
+            return Err(self.wrong_type(ctx, e, "a <point>"));
+        }
+        self.xyz(ctx, e, 0.0).map(Some)
+    }
+
+    /// Reads `x`/`y`/`z` (defaulting to `default`) or `value` from an element.
+    pub fn xyz(&self, ctx: &Ctx, e: &Element, default: f32) -> Result<Vec3> {
+        if let Some(a) = e.attr("value") {
+            return self.parse_attr(ctx, e, a, values::vec3);
+        }
+        let mut v = Vec3::splat(default);
+        for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+            if let Some(a) = e.attr(axis) {
+                v[i] = self.parse_attr(ctx, e, a, values::float)?;
+            }
+        }
+        Ok(v)
+    }
+
+    /// Reads a constant colour from an `rgb`, `srgb`, `spectrum` or `float` element.
+    pub fn color_of(&self, ctx: &Ctx, e: &Element) -> Result<Vec3> {
+        let a = value_attr(ctx, e)?;
+        match e.tag.as_str() {
+            "rgb" => self.parse_attr(ctx, e, a, values::vec3),
+            "srgb" => self.parse_attr(ctx, e, a, values::srgb),
+            "spectrum" => self.parse_attr(ctx, e, a, values::spectrum),
+            "float" => self.parse_attr(ctx, e, a, values::float).map(Vec3::splat),
+            _ => Err(self.wrong_type(ctx, e, "a colour (<rgb>, <srgb>, <spectrum> or <float>)")),
+        }
+    }
+
+    pub fn color(&mut self, ctx: &Ctx, names: &[&str], default: Vec3) -> Result<Vec3> {
+        match self.take_any(names) {
+            Some(e) => self.color_of(ctx, e),
+            None => Ok(default),
+        }
+    }
+
+    /// A `<transform>` parameter (`uv` selects the 2D reading used by `to_uv`).
+    pub fn transform(&mut self, ctx: &Ctx, names: &[&str], uv: bool) -> Result<Option<Mat4>> {
+        let Some(e) = self.take_any(names) else {
+            return Ok(None);
+        };
+        if e.tag != "transform" {
+            return Err(self.wrong_type(ctx, e, "a <transform>"));
+        }
+        parse_transform(ctx, e, uv).map(Some)
+    }
+
+    /// Marks parameters as accepted without effect (e.g. `focus_distance`).
+    pub fn ignore(&mut self, names: &[&str]) {
+        for n in names {
+            while self.take(n).is_some() {}
+        }
+    }
+
+    /// Warns once for every child no parser took.
+    pub fn finish(self, ctx: &mut Ctx) {
+        for item in self.items.into_iter().filter(|i| !i.used) {
+            let msg = match &item.name {
+                Some(n) if VALUE_TAGS.contains(&item.elem.tag.as_str()) => {
+                    format!("unknown parameter '{n}' of {}; ignored", self.owner)
+                }
+                _ => format!("{} in {} is not used; ignored", describe(item.elem), self.owner),
+            };
+            ctx.warn(item.elem.pos, msg);
+        }
+    }
+}
