@@ -33,7 +33,8 @@ pub struct CompareArgs {
     /// Print the metrics as one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Per-pixel variance of A's estimate (same size); enables the 3-sigma outlier share.
+    /// Per-pixel variance of A - B (A's estimate variance, plus B's if B is noisy; same size):
+    /// enables the share of pixels outside 3 sigma.
     #[arg(long)]
     pub variance: Option<PathBuf>,
     /// Write a false-colour PNG of the per-pixel relative error (log scale, 0.1% .. 100%).
