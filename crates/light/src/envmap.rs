@@ -14,7 +14,7 @@
 use crate::distribution::{Distribution2D, ONE_MINUS_EPSILON};
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
-use torrey_texture::Image;
+use torrey_texture::{FilterType, Image, MipMap, WrapMode};
 
 /// Rec.709 luminance: the importance of a linear RGB radiance for sampling purposes.
 #[inline]
@@ -36,8 +36,10 @@ pub struct EnvSample {
 /// Lat-long environment map in Mitsuba 3's orientation (see CONVENTIONS.md, "Environment map").
 #[derive(Clone, Debug)]
 pub struct EnvMap {
-    /// Sanitised texels (non-negative, finite), row 0 = top = zenith.
-    image: Image,
+    /// Pyramid of the sanitised texels (non-negative, finite), row 0 = top = zenith.
+    mip: MipMap,
+    /// 1 / (angular size of the coarser texel axis), for ray-cone footprints.
+    texels_per_radian: f32,
     width: usize,
     height: usize,
     scale: f32,
@@ -95,8 +97,10 @@ impl EnvMap {
         let distribution = Distribution2D::new(&weights, width, height);
         let samplable = distribution.integral() > 0.0 && scale > 0.0;
         let to_world = orthonormalize(to_world);
+        let texel_angle = (PI / height as f32).max(2.0 * PI / width as f32);
         Self {
-            image,
+            mip: MipMap::new(image, WrapMode::Repeat, FilterType::Bilinear),
+            texels_per_radian: 1.0 / texel_angle,
             width,
             height,
             scale,
@@ -130,7 +134,7 @@ impl EnvMap {
         if u < 0.0 {
             u += 1.0;
         }
-        if !(u < 1.0) {
+        if u.is_nan() || u >= 1.0 {
             u = 0.0;
         }
         let v = (d.y.clamp(-1.0, 1.0).acos() / PI).clamp(0.0, 1.0);
@@ -157,32 +161,39 @@ impl EnvMap {
         self.to_world * Self::uv_to_local_dir(uv)
     }
 
-    /// Bilinear lookup with Mitsuba's texel centres; u repeats, v clamps at the poles.
+    /// Trilinear lookup with Mitsuba's texel centres; u repeats (the map is periodic in phi), v
+    /// clamps at the poles. The pyramid is built with `Repeat`, which would blend the zenith row
+    /// with the nadir row, so each level's v is clamped to its first/last texel centre here.
     #[inline]
-    fn lookup(&self, uv: Vec2, _footprint: f32) -> Vec3 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let x = uv.x * w - 0.5;
-        let y = (uv.y * h - 0.5).clamp(0.0, h - 1.0);
-        let (x0f, y0f) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0f, y - y0f);
-        let wrap = |i: i64| i.rem_euclid(self.width as i64) as usize;
-        let x0 = wrap(x0f as i64);
-        let x1 = wrap(x0f as i64 + 1);
-        let y0 = (y0f as usize).min(self.height - 1);
-        let y1 = (y0 + 1).min(self.height - 1);
-        let p = |i: usize, j: usize| self.image.pixels[j * self.width + i];
-        let top = p(x0, y0) * (1.0 - fx) + p(x1, y0) * fx;
-        let bottom = p(x0, y1) * (1.0 - fx) + p(x1, y1) * fx;
-        top * (1.0 - fy) + bottom * fy
+    fn lookup(&self, uv: Vec2, footprint: f32) -> Vec3 {
+        let level = self.mip.level_for_footprint(footprint);
+        let l0 = level.floor();
+        let t = level - l0;
+        let l0 = l0 as usize;
+        let a = self.lookup_level_clamped(l0, uv);
+        if t <= 0.0 || l0 + 1 >= self.mip.levels() {
+            return a;
+        }
+        a * (1.0 - t) + self.lookup_level_clamped(l0 + 1, uv) * t
     }
 
-    /// Filter width in uv units for a ray cone of angle `spread`: the cone covers about spread/pi
-    /// of v; we use that isotropically (along u near the poles this under-filters a little rather
-    /// than blurring the zenith).
     #[inline]
-    fn footprint(spread: f32) -> f32 {
+    fn lookup_level_clamped(&self, level: usize, uv: Vec2) -> Vec3 {
+        let h = self.mip.level(level).height as f32;
+        let half = 0.5 / h;
+        let v = uv.y.clamp(half, 1.0 - half);
+        self.mip.lookup_level(level, Vec2::new(uv.x, v))
+    }
+
+    /// Filter width in uv units (the MipMap's convention: texels = footprint x max(W, H)) for a
+    /// ray cone of angle `spread`. The cone covers spread/pi of v and spread/(2 pi sin theta) of u;
+    /// we take the isotropic angular size, i.e. spread divided by the coarser texel angle
+    /// (max(pi/H, 2pi/W); equal for the usual 2:1 maps), ignoring the 1/sin theta stretch of u near
+    /// the poles: that under-filters there a little rather than blurring the zenith.
+    #[inline]
+    fn footprint(&self, spread: f32) -> f32 {
         if spread.is_finite() && spread > 0.0 {
-            spread / PI
+            spread * self.texels_per_radian / self.width.max(self.height) as f32
         } else {
             0.0
         }
@@ -196,7 +207,7 @@ impl EnvMap {
             return Vec3::ZERO;
         }
         let uv = self.dir_to_uv(dir);
-        self.lookup(uv, Self::footprint(spread)) * self.scale
+        self.lookup(uv, self.footprint(spread)) * self.scale
     }
 
     /// Importance-samples a direction by luminance x sin(theta). `None` for a black map or a
@@ -207,13 +218,13 @@ impl EnvMap {
             return None;
         }
         let (uv, p) = self.distribution.sample(u);
-        if !(p > 0.0) {
+        if p.is_nan() || p <= 0.0 {
             return None;
         }
         let uv = uv.min(Vec2::splat(ONE_MINUS_EPSILON));
         let local = Self::uv_to_local_dir(uv);
         let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
-        if !(sin_theta > 0.0) {
+        if sin_theta.is_nan() || sin_theta <= 0.0 {
             return None;
         }
         let pdf = p / (2.0 * PI * PI * sin_theta);
@@ -232,10 +243,292 @@ impl EnvMap {
         }
         let local = (self.to_local * dir).normalize_or_zero();
         let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
-        if !(sin_theta > 0.0) {
+        if sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
         let uv = Self::local_dir_to_uv(local);
         self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{assert_chi_square, Rng};
+
+    fn rotation() -> Mat3 {
+        Mat3::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 0.9)
+    }
+
+    /// A structured, strictly positive test map with a bright spot.
+    fn test_image(w: u32, h: u32) -> Image {
+        let px = (0..w * h)
+            .map(|k| {
+                let (i, j) = ((k % w) as f32, (k / w) as f32);
+                let mut c = Vec3::new(
+                    0.2 + 0.8 * (i / w as f32),
+                    0.1 + (j * 0.7).sin().abs(),
+                    0.3 + ((i + 2.0 * j) as u32 % 5) as f32 * 0.2,
+                );
+                if (k % w, k / w) == (w / 3, h / 4) {
+                    c *= 40.0;
+                }
+                c
+            })
+            .collect();
+        Image::new(w, h, px)
+    }
+
+    fn formula_dir(uv: Vec2) -> Vec3 {
+        let (theta, phi) = (PI * uv.y, 2.0 * PI * uv.x);
+        Vec3::new(
+            phi.sin() * theta.sin(),
+            theta.cos(),
+            -phi.cos() * theta.sin(),
+        )
+    }
+
+    #[test]
+    fn orientation_matches_conventions() {
+        let env = EnvMap::new(test_image(16, 8), 1.0, Mat3::IDENTITY);
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+        assert!(close(env.uv_to_dir(Vec2::new(0.0, 0.5)), -Vec3::Z));
+        assert!(close(env.uv_to_dir(Vec2::new(0.25, 0.5)), Vec3::X));
+        assert!(close(env.uv_to_dir(Vec2::new(0.5, 0.5)), Vec3::Z));
+        assert!(close(env.uv_to_dir(Vec2::new(0.75, 0.5)), -Vec3::X));
+        assert!(close(env.uv_to_dir(Vec2::new(0.3, 0.0)), Vec3::Y));
+        assert!(close(env.uv_to_dir(Vec2::new(0.3, 1.0)), -Vec3::Y));
+        for uv in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.6, 0.9),
+            Vec2::new(0.95, 0.45),
+        ] {
+            assert!(close(env.uv_to_dir(uv), formula_dir(uv)));
+        }
+        // Each texel is seen from the direction of its centre, with and without a rotation.
+        for to_world in [Mat3::IDENTITY, rotation()] {
+            let img = test_image(16, 8);
+            let env = EnvMap::new(img.clone(), 2.0, to_world);
+            for (i, j) in [(0u32, 0u32), (5, 2), (15, 7), (8, 4)] {
+                let uv = Vec2::new((i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 8.0);
+                let dir = to_world * formula_dir(uv);
+                let got = env.eval(dir, 0.0);
+                let want = img.get(i, j) * 2.0;
+                assert!(
+                    (got - want).length() < 1e-4 * want.length(),
+                    "{got} vs {want}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn uv_dir_round_trip() {
+        let mut rng = Rng::new(20);
+        for to_world in [Mat3::IDENTITY, rotation()] {
+            let env = EnvMap::new(test_image(8, 4), 1.0, to_world);
+            for _ in 0..1000 {
+                let uv = Vec2::new(rng.f32(), 0.001 + 0.998 * rng.f32());
+                let dir = env.uv_to_dir(uv);
+                assert!((dir.length() - 1.0).abs() < 1e-5);
+                let back = env.dir_to_uv(dir);
+                let du = (back.x - uv.x).abs();
+                let du = du.min(1.0 - du);
+                assert!(du < 2e-4 && (back.y - uv.y).abs() < 2e-4, "{uv} -> {back}");
+                assert!((0.0..1.0).contains(&back.x) && (0.0..=1.0).contains(&back.y));
+            }
+        }
+    }
+
+    /// Midpoint quadrature of the solid-angle pdf over world (theta, phi) with +z as the pole
+    /// (deliberately not the map's own frame).
+    fn integrate_over_sphere(f: impl Fn(Vec3) -> f64, nt: usize, np: usize) -> f64 {
+        let mut acc = 0.0;
+        for it in 0..nt {
+            let theta = (it as f64 + 0.5) / nt as f64 * std::f64::consts::PI;
+            let mut row = 0.0;
+            for ip in 0..np {
+                let phi = (ip as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
+                let d = glam::DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                );
+                row += f(d.as_vec3());
+            }
+            acc += row * theta.sin();
+        }
+        acc * (std::f64::consts::PI / nt as f64) * (std::f64::consts::TAU / np as f64)
+    }
+
+    #[test]
+    fn pdf_integrates_to_one() {
+        for to_world in [Mat3::IDENTITY, rotation()] {
+            let env = EnvMap::new(test_image(32, 16), 1.0, to_world);
+            let total = integrate_over_sphere(|d| env.pdf(d) as f64, 800, 1600);
+            assert!((total - 1.0).abs() < 3e-3, "pdf integrates to {total}");
+        }
+    }
+
+    #[test]
+    fn sample_is_consistent_with_pdf_and_eval() {
+        let env = EnvMap::new(test_image(32, 16), 1.5, rotation());
+        let mut rng = Rng::new(21);
+        for _ in 0..20_000 {
+            let s = env.sample(rng.vec2()).expect("positive map always samples");
+            assert!((s.direction.length() - 1.0).abs() < 1e-5);
+            let pdf = env.pdf(s.direction);
+            assert!((pdf - s.pdf).abs() <= 1e-3 * s.pdf, "{pdf} vs {}", s.pdf);
+            let l = env.eval(s.direction, 0.0);
+            assert!(
+                (l - s.radiance).length() <= 1e-3 * l.length() + 1e-6,
+                "{l} vs {}",
+                s.radiance
+            );
+        }
+    }
+
+    #[test]
+    fn sampled_directions_match_pdf() {
+        let env = EnvMap::new(test_image(16, 8), 1.0, rotation());
+        let (nt, np) = (12usize, 24usize);
+        let samples = 100_000;
+        let mut hist = vec![0.0f64; nt * np];
+        let mut rng = Rng::new(22);
+        for _ in 0..samples {
+            let d = env.sample(rng.vec2()).unwrap().direction;
+            let theta = d.z.clamp(-1.0, 1.0).acos();
+            let phi = d.y.atan2(d.x).rem_euclid(2.0 * PI);
+            let it = ((theta / PI * nt as f32) as usize).min(nt - 1);
+            let ip = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
+            hist[it * np + ip] += 1.0;
+        }
+        // Expected counts by quadrature of the pdf over each world bin (24 x 24 points per bin).
+        let sub = 24;
+        let mut expected = vec![0.0f64; nt * np];
+        for it in 0..nt {
+            for ip in 0..np {
+                let mut acc = 0.0;
+                for a in 0..sub {
+                    let theta = (it as f64 + (a as f64 + 0.5) / sub as f64) / nt as f64
+                        * std::f64::consts::PI;
+                    for b in 0..sub {
+                        let phi = (ip as f64 + (b as f64 + 0.5) / sub as f64) / np as f64
+                            * std::f64::consts::TAU;
+                        let d = glam::DVec3::new(
+                            theta.sin() * phi.cos(),
+                            theta.sin() * phi.sin(),
+                            theta.cos(),
+                        );
+                        acc += env.pdf(d.as_vec3()) as f64 * theta.sin();
+                    }
+                }
+                let dw = (std::f64::consts::PI / nt as f64) * (std::f64::consts::TAU / np as f64);
+                expected[it * np + ip] = acc / (sub * sub) as f64 * dw * samples as f64;
+            }
+        }
+        assert_chi_square("EnvMap::sample", &hist, &expected);
+    }
+
+    #[test]
+    fn furnace_constant_map() {
+        // ∫ L cos θ dω over the hemisphere around n = π L, estimated with env sampling only.
+        let l = Vec3::new(0.5, 0.7, 0.9);
+        let env = EnvMap::new(Image::filled(64, 32, l), 1.0, rotation());
+        let n = Vec3::new(0.3, -0.8, 0.5).normalize();
+        let count = 50_000;
+        let mut rng = Rng::new(23);
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..count {
+            let s = env.sample(rng.vec2()).unwrap();
+            assert!((s.radiance - l).length() < 1e-5);
+            let f = (s.radiance.y * s.direction.dot(n).max(0.0) / s.pdf) as f64;
+            sum += f;
+            sum2 += f * f;
+        }
+        let mean = sum / count as f64;
+        let sigma = ((sum2 / count as f64 - mean * mean) / count as f64).sqrt();
+        let expected = std::f64::consts::PI * l.y as f64;
+        assert!(
+            (mean - expected).abs() < 3.0 * sigma,
+            "furnace: {mean} ± {sigma}, expected {expected}"
+        );
+        assert!(
+            sigma < 0.01 * expected,
+            "furnace estimator too noisy: sigma {sigma}"
+        );
+        // The filtered lookup of a constant map is the constant at any spread.
+        for spread in [0.0, 0.01, 0.3, 3.0, 100.0] {
+            let e = env.eval(Vec3::new(0.2, 0.9, -0.1), spread);
+            assert!((e - l).length() < 1e-5, "spread {spread}: {e}");
+        }
+    }
+
+    #[test]
+    fn black_and_bad_maps() {
+        let env = EnvMap::new(Image::filled(8, 4, Vec3::ZERO), 1.0, Mat3::IDENTITY);
+        assert!(env.sample(Vec2::new(0.3, 0.4)).is_none());
+        assert_eq!(env.pdf(Vec3::Y), 0.0);
+        assert_eq!(env.eval(Vec3::X, 0.0), Vec3::ZERO);
+        // Negative and NaN texels read as 0; the rest of the map still samples.
+        let mut img = Image::filled(4, 2, Vec3::ONE);
+        img.pixels[0] = Vec3::new(-5.0, f32::NAN, f32::INFINITY);
+        let env = EnvMap::new(img, 1.0, Mat3::IDENTITY);
+        let d = env.uv_to_dir(Vec2::new(0.125, 0.25));
+        assert_eq!(env.eval(d, 0.0), Vec3::ZERO);
+        assert_eq!(env.pdf(d), 0.0);
+        let mut rng = Rng::new(24);
+        for _ in 0..1000 {
+            let s = env.sample(rng.vec2()).unwrap();
+            assert!(s.pdf.is_finite() && s.pdf > 0.0 && s.radiance.is_finite());
+            let uv = env.dir_to_uv(s.direction);
+            assert!(
+                !(uv.x < 0.25 && uv.y < 0.5),
+                "sampled the zero texel at {uv}"
+            );
+        }
+        // Empty image, NaN scale, degenerate rotation: no panic, no NaN.
+        let env = EnvMap::new(
+            Image {
+                width: 0,
+                height: 0,
+                pixels: vec![],
+            },
+            f32::NAN,
+            Mat3::ZERO,
+        );
+        assert!(env.sample(Vec2::new(0.5, 0.5)).is_none());
+        assert_eq!(env.eval(Vec3::Z, 0.1), Vec3::ZERO);
+        assert_eq!(env.pdf(Vec3::Z), 0.0);
+        assert_eq!(env.to_world(), Mat3::IDENTITY);
+        let env = EnvMap::new(Image::filled(4, 2, Vec3::ONE), 1.0, Mat3::IDENTITY);
+        assert!(env.pdf(Vec3::ZERO).is_finite());
+        assert!(env.eval(Vec3::NAN, f32::NAN).is_finite());
+    }
+
+    #[test]
+    fn spread_selects_mip_level_and_poles_do_not_wrap() {
+        // One-texel checkerboard of 0 and 1: unfiltered lookups see the texel, a cone two texels
+        // wide sees about the average.
+        let (w, h) = (64u32, 32u32);
+        let px = (0..w * h)
+            .map(|k| Vec3::splat(((k % w + k / w) % 2) as f32))
+            .collect();
+        let env = EnvMap::new(Image::new(w, h, px), 1.0, Mat3::IDENTITY);
+        let uv = Vec2::new((10.0 + 0.5) / w as f32, (16.0 + 0.5) / h as f32);
+        let d = env.uv_to_dir(uv);
+        assert!((env.eval(d, 0.0).x - 0.0).abs() < 1e-5);
+        let texel_angle = PI / h as f32;
+        let e = env.eval(d, 2.0 * texel_angle).x;
+        assert!((e - 0.5).abs() < 0.05, "2-texel cone gave {e}");
+        // Top row bright, bottom row black: the zenith must not blend with the nadir.
+        let mut img = Image::filled(8, 4, Vec3::splat(0.5));
+        for i in 0..8 {
+            img.pixels[i] = Vec3::ONE;
+            img.pixels[3 * 8 + i] = Vec3::ZERO;
+        }
+        let env = EnvMap::new(img, 1.0, Mat3::IDENTITY);
+        assert!((env.eval(Vec3::Y, 0.0) - Vec3::ONE).length() < 1e-5);
+        assert!(env.eval(-Vec3::Y, 0.0).length() < 1e-5);
     }
 }
