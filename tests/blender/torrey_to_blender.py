@@ -799,7 +799,29 @@ def _image(bpy, images, tex):
         if is_float:
             img.colorspace_settings.name = "Linear Rec.709"
         else:
-            img.colorspace_settings.name = "Non-Color" if tex.get("raw") else "sRGB"
+            # Cycles keeps 8-bit sRGB images as bytes and decodes after interpolating, so texel
+            # blends would happen in sRGB. Mitsuba and torrey decode first and interpolate linear
+            # values: hand Cycles a float image with the decoded texels instead.
+            import numpy as np
+
+            img.colorspace_settings.name = "Non-Color"
+            w, h = img.size
+            px = np.empty(w * h * img.channels, dtype=np.float32)
+            img.pixels.foreach_get(px)
+            px = px.reshape(h, w, img.channels)
+            rgba = np.ones((h, w, 4), dtype=np.float32)
+            if img.channels >= 3:
+                rgba[..., :3] = px[..., :3]
+            else:
+                rgba[..., :3] = px[..., :1]
+            if not tex.get("raw"):
+                c = rgba[..., :3]
+                rgba[..., :3] = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+            lin = bpy.data.images.new(os.path.basename(tex["filename"]), w, h, alpha=True, float_buffer=True)
+            lin.colorspace_settings.name = "Non-Color" if tex.get("raw") else "Linear Rec.709"
+            lin.pixels.foreach_set(rgba.ravel())
+            lin.pack()
+            img = lin
         images[key] = img
     return images[key]
 
@@ -965,7 +987,7 @@ def _envmap_nodes(bpy, nt, env, bg, images):
     nt.links.new(u, comb.inputs["X"])
     nt.links.new(_math(nt, "SUBTRACT", 1.0, v), comb.inputs["Y"])
     node = nt.nodes.new("ShaderNodeTexImage")
-    node.image = _image(bpy, images, {"filename": env["filename"], "raw": True})
+    node.image = _image(bpy, images, {"filename": env["filename"], "raw": False})
     node.interpolation = "Linear"
     node.extension = "REPEAT"
     nt.links.new(comb.outputs[0], node.inputs["Vector"])
