@@ -22,7 +22,7 @@ fn checker(size: u32, squares: u32) -> image::RgbImage {
     let dark = image::Rgb([40u8, 90, 100]);
     let cell = size / squares;
     image::RgbImage::from_fn(size, size, |x, y| {
-        if ((x / cell) + (y / cell)) % 2 == 0 {
+        if ((x / cell) + (y / cell)).is_multiple_of(2) {
             light
         } else {
             dark

@@ -5,21 +5,32 @@ use glam::Vec3;
 /// Row-major linear RGB image; row 0 is the top of the picture (Mitsuba's v = 0).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// `width * height` linear RGB values, row by row from the top.
     pub pixels: Vec<Vec3>,
 }
 
 impl Image {
+    /// Wraps existing pixels; panics if the count does not match (a programming error, never
+    /// reachable from file input: loaders build the vector from the decoded size).
     pub fn new(width: u32, height: u32, pixels: Vec<Vec3>) -> Self {
         assert_eq!(pixels.len(), width as usize * height as usize);
-        Self { width, height, pixels }
+        Self {
+            width,
+            height,
+            pixels,
+        }
     }
 
+    /// A constant image, e.g. a stand-in for a missing texture or a test fixture.
     pub fn filled(width: u32, height: u32, value: Vec3) -> Self {
         Self::new(width, height, vec![value; width as usize * height as usize])
     }
 
+    /// The pixel at column `x`, row `y` (row 0 = top); panics when out of range.
     #[inline]
     pub fn get(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[y as usize * self.width as usize + x as usize]

@@ -1,0 +1,326 @@
+//! Reading textures and environment maps from disk, and writing renders back out.
+//!
+//! Every loader produces the same linear-RGB [`Image`], so the renderer never cares where a
+//! texture came from. Bad files give a [`TextureError`] that names the file and the reason.
+
+use std::io::Cursor;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Vec3};
+
+use crate::color::{
+    srgb8_table, srgb_to_linear, to_rec709_matrix, Chromaticities, WhiteAdaptation,
+};
+use crate::image::Image;
+
+/// What went wrong while reading or writing an image; the `Display` text always names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum TextureError {
+    /// The file could not be opened or read at all (missing, permissions, ...).
+    #[error("{path}: cannot read image file: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The bytes are not a recognised image format.
+    #[error("{path}: unrecognised image format ({reason})")]
+    UnknownFormat { path: PathBuf, reason: String },
+    /// The format was recognised but decoding failed (truncated, corrupt, unsupported variant).
+    #[error("{path}: cannot decode image: {reason}")]
+    Decode { path: PathBuf, reason: String },
+    /// Writing an output image failed.
+    #[error("{path}: cannot write image: {reason}")]
+    Write { path: PathBuf, reason: String },
+}
+
+/// A decoded image plus non-fatal problems found while loading it (e.g. clamped NaN texels), so
+/// the caller can decide how loudly to report them.
+#[derive(Clone, Debug)]
+pub struct LoadedImage {
+    pub image: Image,
+    pub warnings: Vec<String>,
+}
+
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// Loads PNG, JPEG, BMP, TGA, Radiance HDR or OpenEXR into linear RGB.
+///
+/// 8-bit and 16-bit integer images are sRGB-decoded unless `raw` (normal maps, roughness maps,
+/// which store data rather than colour); float images (EXR, HDR) are already linear and `raw`
+/// does not change them. An EXR `chromaticities` attribute is honoured by converting to Rec.709
+/// primaries exactly as Mitsuba 3 does (RGB→XYZ→Rec.709 with no white-point adaptation, see
+/// [`WhiteAdaptation::None`]) regardless of `raw`. Gray images give r=g=b and
+/// alpha is dropped. NaN, infinite and negative texels become 0 with one warning per file. The
+/// format is detected from the file's bytes, not its extension.
+pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
+    let bytes = std::fs::read(path).map_err(|source| TextureError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let decode_err = |reason: String| TextureError::Decode {
+        path: path.to_path_buf(),
+        reason,
+    };
+    // Decoders are third-party code fed untrusted bytes: a panic inside one must still come
+    // back as an error naming the file.
+    let decoded = catch_unwind(AssertUnwindSafe(|| {
+        if bytes.starts_with(&EXR_MAGIC) {
+            decode_exr(&bytes, path)
+        } else {
+            decode_with_image_crate(&bytes, raw, path)
+        }
+    }))
+    .map_err(|payload| {
+        let msg = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown".to_string());
+        decode_err(format!("decoder panicked: {msg}"))
+    })??;
+    let (mut image, mut warnings) = decoded;
+    if image.width == 0 || image.height == 0 {
+        return Err(decode_err(format!(
+            "image has zero size ({}x{})",
+            image.width, image.height
+        )));
+    }
+    let bad = sanitize(&mut image.pixels);
+    if bad > 0 {
+        warnings.push(format!(
+            "{}: {bad} texel channel(s) were NaN, infinite or negative and were clamped to 0",
+            path.display()
+        ));
+    }
+    Ok(LoadedImage { image, warnings })
+}
+
+/// Replaces NaN/inf/negative channels with 0 and returns how many were replaced.
+fn sanitize(pixels: &mut [Vec3]) -> usize {
+    let mut bad = 0;
+    for p in pixels.iter_mut() {
+        for c in [&mut p.x, &mut p.y, &mut p.z] {
+            if !(c.is_finite() && *c >= 0.0) {
+                *c = 0.0;
+                bad += 1;
+            }
+        }
+    }
+    bad
+}
+
+type Decoded = (Image, Vec<String>);
+
+fn decode_with_image_crate(bytes: &[u8], raw: bool, path: &Path) -> Result<Decoded, TextureError> {
+    use image::DynamicImage as D;
+    let reader = image::ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| TextureError::Decode {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    if reader.format().is_none() {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        return Err(TextureError::UnknownFormat {
+            path: path.to_path_buf(),
+            reason: format!("content is not PNG, JPEG, BMP, TGA, HDR or EXR (extension \"{ext}\")"),
+        });
+    }
+    let dynimg = reader.decode().map_err(|e| TextureError::Decode {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    let (w, h) = (dynimg.width(), dynimg.height());
+    let pixels: Vec<Vec3> = match dynimg {
+        D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
+            let table = srgb8_table();
+            let conv = |v: u8| {
+                if raw {
+                    v as f32 / 255.0
+                } else {
+                    table[v as usize]
+                }
+            };
+            let rgb = dynimg.into_rgb8();
+            rgb.pixels()
+                .map(|p| Vec3::new(conv(p[0]), conv(p[1]), conv(p[2])))
+                .collect()
+        }
+        D::ImageLuma16(_) | D::ImageLumaA16(_) | D::ImageRgb16(_) | D::ImageRgba16(_) => {
+            let conv = |v: u16| {
+                let x = v as f32 / 65535.0;
+                if raw {
+                    x
+                } else {
+                    srgb_to_linear(x)
+                }
+            };
+            let rgb = dynimg.into_rgb16();
+            rgb.pixels()
+                .map(|p| Vec3::new(conv(p[0]), conv(p[1]), conv(p[2])))
+                .collect()
+        }
+        // Float images (Radiance HDR, and anything else the crate decodes to f32) are linear.
+        other => {
+            let rgb = other.into_rgb32f();
+            rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect()
+        }
+    };
+    Ok((Image::new(w, h, pixels), Vec::new()))
+}
+
+/// Finds a channel by name: an exact match first, else one whose last `.`-separated component
+/// matches (a layered file's `beauty.R`).
+fn find_channel(names: &[String], want: &str) -> Option<usize> {
+    names
+        .iter()
+        .position(|n| n.eq_ignore_ascii_case(want))
+        .or_else(|| {
+            names.iter().position(|n| {
+                n.rsplit('.')
+                    .next()
+                    .is_some_and(|last| last.eq_ignore_ascii_case(want))
+            })
+        })
+}
+
+fn decode_exr(bytes: &[u8], path: &Path) -> Result<Decoded, TextureError> {
+    use exr::prelude::*;
+    let err = |reason: String| TextureError::Decode {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .pedantic()
+        .non_parallel()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| err(format!("OpenEXR: {e}")))?;
+    let layer = &img.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let n = w * h;
+    let channels = &layer.channel_data.list;
+    let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+    let rgb = [
+        find_channel(&names, "R"),
+        find_channel(&names, "G"),
+        find_channel(&names, "B"),
+    ];
+    let chosen: [usize; 3] = match rgb {
+        [Some(r), Some(g), Some(b)] => [r, g, b],
+        _ => {
+            let y = find_channel(&names, "Y").or(if channels.len() == 1 { Some(0) } else { None });
+            match y {
+                Some(y) => [y, y, y],
+                None => {
+                    return Err(err(format!(
+                        "OpenEXR layer has no R,G,B or Y channels (found: {})",
+                        names.join(", ")
+                    )))
+                }
+            }
+        }
+    };
+    let mut planes: Vec<Vec<f32>> = Vec::with_capacity(3);
+    for &c in &chosen {
+        let ch = &channels[c];
+        if ch.sample_data.len() != n {
+            return Err(err(format!(
+                "OpenEXR channel {} is subsampled ({} samples for {}x{} pixels), not supported",
+                names[c],
+                ch.sample_data.len(),
+                w,
+                h
+            )));
+        }
+        planes.push(ch.sample_data.values_as_f32().collect());
+    }
+    let mut pixels: Vec<Vec3> = (0..n)
+        .map(|i| Vec3::new(planes[0][i], planes[1][i], planes[2][i]))
+        .collect();
+    let mut warnings = Vec::new();
+    if let Some(c) = img.attributes.chromaticities {
+        let chroma = Chromaticities {
+            red: [c.red.0 as f64, c.red.1 as f64],
+            green: [c.green.0 as f64, c.green.1 as f64],
+            blue: [c.blue.0 as f64, c.blue.1 as f64],
+            white: [c.white.0 as f64, c.white.1 as f64],
+        };
+        if !chroma.approx_eq(&Chromaticities::REC709, 1e-4) {
+            match to_rec709_matrix(&chroma, WhiteAdaptation::None) {
+                Some(m) => convert(&mut pixels, m),
+                None => warnings.push(format!(
+                    "{}: degenerate chromaticities attribute {chroma:?} ignored",
+                    path.display()
+                )),
+            }
+        }
+    }
+    let (w, h) = (
+        u32::try_from(w).map_err(|_| err("width too large".into()))?,
+        u32::try_from(h).map_err(|_| err("height too large".into()))?,
+    );
+    Ok((crate::image::Image::new(w, h, pixels), warnings))
+}
+
+fn convert(pixels: &mut [Vec3], m: Mat3) {
+    for p in pixels {
+        *p = m * *p;
+    }
+}
+
+/// Writes a linear float32 RGB OpenEXR (ZIP compressed): the lossless output for comparisons.
+pub fn write_exr(path: &Path, image: &Image) -> Result<(), TextureError> {
+    use exr::prelude::{Encoding, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage};
+    let w = image.width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = image.pixels[y * w + x];
+        (p.x, p.y, p.z)
+    });
+    let layer = Layer::new(
+        (w, image.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    exr::prelude::Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| TextureError::Write {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })
+}
+
+/// Writes an 8-bit sRGB PNG: each channel is clamped to [0, 1] (NaN → 0), sRGB-encoded and
+/// rounded. Tonemapping, if any, is the caller's job.
+pub fn write_png_srgb(path: &Path, image: &Image) -> Result<(), TextureError> {
+    let mut buf = Vec::with_capacity(image.pixels.len() * 3);
+    for p in &image.pixels {
+        for c in [p.x, p.y, p.z] {
+            let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+            buf.push((crate::color::linear_to_srgb(c) * 255.0 + 0.5) as u8);
+        }
+    }
+    image::save_buffer_with_format(
+        path,
+        &buf,
+        image.width,
+        image.height,
+        image::ColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| TextureError::Write {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })
+}

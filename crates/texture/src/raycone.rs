@@ -1,0 +1,152 @@
+//! Ray cones (Akenine-Möller et al., "Texture level of detail strategies for real-time ray
+//! tracing", Ray Tracing Gems, 2019): a cheap texture-filter width for any hit along a path.
+
+use glam::Vec3;
+
+/// Smallest |cos| between ray and surface normal used when projecting the cone onto a surface;
+/// caps the grazing-angle stretch at 1/0.01 = 100x so the footprint stays finite.
+pub const MIN_COS: f32 = 0.01;
+
+/// Ray cone (Akenine-Möller et al., "Texture level of detail strategies for real-time ray tracing"):
+/// width and spread angle carried along a path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayCone {
+    /// Cone width (world units) at the current ray origin.
+    pub width: f32,
+    /// Spread angle (radians); width grows by `spread * t` along the ray.
+    pub spread: f32,
+}
+
+impl RayCone {
+    /// A camera ray's cone: zero width at the pinhole, spread = the angle one pixel subtends
+    /// (e.g. 2 tan(fov_y / 2) / height for a perspective camera).
+    pub fn from_pixel(pixel_spread_angle: f32) -> Self {
+        Self {
+            width: 0.0,
+            spread: pixel_spread_angle,
+        }
+    }
+
+    /// The cone after travelling distance `t`: width += spread * t.
+    pub fn at_distance(self, t: f32) -> Self {
+        Self {
+            width: self.width + self.spread * t,
+            spread: self.spread,
+        }
+    }
+
+    /// uv footprint at a hit: the cone width projected onto the surface, then converted to uv.
+    ///
+    /// Projection: world width = |width| / max(|cos|, [`MIN_COS`]) with cos between the ray
+    /// direction and the geometric normal (neither needs to be normalised).
+    /// Conversion: divide by sqrt(|dpdu x dpdv|), the geometric mean of the two uv axis lengths
+    /// (world length per unit uv). This is the isotropic choice that matches the cone's texel
+    /// density ratio in the paper; for anisotropic parametrisations it sits between the blurrier
+    /// "shorter axis" and the sharper "longer axis" choices. Where dpdu x dpdv degenerates
+    /// (sphere poles) it falls back to the longer of |dpdu|, |dpdv|; with no usable derivatives
+    /// the footprint is 0 (finest level). Never NaN.
+    pub fn uv_footprint(&self, ray_dir: Vec3, normal: Vec3, dpdu: Vec3, dpdv: Vec3) -> f32 {
+        let d = ray_dir.normalize_or_zero();
+        let n = normal.normalize_or_zero();
+        let cos = if d == Vec3::ZERO || n == Vec3::ZERO {
+            1.0
+        } else {
+            d.dot(n).abs().max(MIN_COS)
+        };
+        let world = self.width.abs() / cos;
+        let area = dpdu.cross(dpdv).length();
+        let scale = if area > 1e-20 && area.is_finite() {
+            area.sqrt()
+        } else {
+            dpdu.length().max(dpdv.length())
+        };
+        let fp = if scale > 0.0 && scale.is_finite() {
+            world / scale
+        } else {
+            0.0
+        };
+        if fp.is_finite() {
+            fp
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn width_grows_linearly_with_distance() {
+        let c = RayCone::from_pixel(0.002);
+        assert_eq!(c.width, 0.0);
+        let c5 = c.at_distance(5.0);
+        assert!((c5.width - 0.01).abs() < 1e-7);
+        let c8 = c5.at_distance(3.0);
+        assert!((c8.width - 0.016).abs() < 1e-7);
+        assert_eq!(c8.spread, 0.002);
+    }
+
+    #[test]
+    fn footprint_analytic_values() {
+        // Rectangle of side 2 (dpdu = dpdv = 2 x/y): head-on, width 0.01 → 0.005 uv.
+        let c = RayCone::from_pixel(0.001).at_distance(10.0);
+        let (du, dv) = (Vec3::X * 2.0, Vec3::Y * 2.0);
+        let head_on = c.uv_footprint(-Vec3::Z, Vec3::Z, du, dv);
+        assert!((head_on - 0.005).abs() < 1e-7, "{head_on}");
+        // 60 degrees from the normal: stretched by 1 / cos 60 = 2.
+        let dir = Vec3::new(0.0, (60f32).to_radians().sin(), -(60f32).to_radians().cos());
+        let oblique = c.uv_footprint(dir, Vec3::Z, du, dv);
+        assert!((oblique - 0.01).abs() < 1e-6, "{oblique}");
+        // Back-facing normal gives the same value.
+        assert!((c.uv_footprint(dir, -Vec3::Z, du, dv) - oblique).abs() < 1e-7);
+        // Anisotropic: |du| = 1, |dv| = 4 → geometric mean 2.
+        let aniso = c.uv_footprint(-Vec3::Z, Vec3::Z, Vec3::X, Vec3::Y * 4.0);
+        assert!((aniso - 0.005).abs() < 1e-7);
+    }
+
+    #[test]
+    fn footprint_grows_with_distance_and_grazing_angle() {
+        let c = RayCone::from_pixel(0.001);
+        let (du, dv) = (Vec3::X, Vec3::Y);
+        let mut prev = -1.0;
+        for k in 0..50 {
+            let f = c
+                .at_distance(k as f32)
+                .uv_footprint(-Vec3::Z, Vec3::Z, du, dv);
+            assert!(f > prev);
+            prev = f;
+        }
+        let c = c.at_distance(3.0);
+        let mut prev = -1.0;
+        for k in 0..=90 {
+            let a = (k as f32).to_radians();
+            let dir = Vec3::new(a.sin(), 0.0, -a.cos());
+            let f = c.uv_footprint(dir, Vec3::Z, du, dv);
+            assert!(f.is_finite() && f >= prev, "angle {k}");
+            prev = f;
+        }
+        // Exactly grazing is capped at 1/MIN_COS times head-on.
+        assert!((prev - 0.003 / MIN_COS).abs() < 1e-5);
+    }
+
+    #[test]
+    fn degenerate_inputs_stay_finite() {
+        let c = RayCone::from_pixel(0.001).at_distance(2.0);
+        // Sphere pole: dpdu = 0, falls back to |dpdv| = pi.
+        let pole = c.uv_footprint(
+            -Vec3::Z,
+            Vec3::Z,
+            Vec3::ZERO,
+            Vec3::X * std::f32::consts::PI,
+        );
+        assert!((pole - 0.002 / std::f32::consts::PI).abs() < 1e-7);
+        assert_eq!(
+            c.uv_footprint(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO),
+            0.0
+        );
+        let nan = c.uv_footprint(Vec3::splat(f32::NAN), Vec3::Z, Vec3::X, Vec3::Y);
+        assert!(nan.is_finite());
+    }
+}
