@@ -10,12 +10,28 @@ use glam::{Mat4, Vec3};
 
 /// Tags that hold a named value.
 const VALUE_TAGS: &[&str] = &[
-    "float", "integer", "boolean", "string", "rgb", "srgb", "spectrum", "point", "vector",
+    "float",
+    "integer",
+    "boolean",
+    "string",
+    "rgb",
+    "srgb",
+    "spectrum",
+    "point",
+    "vector",
     "transform",
 ];
 /// Tags that are nested plugins or references (a `name` is optional).
 const OBJECT_TAGS: &[&str] = &[
-    "bsdf", "texture", "ref", "emitter", "sampler", "film", "rfilter", "shape", "sensor",
+    "bsdf",
+    "texture",
+    "ref",
+    "emitter",
+    "sampler",
+    "film",
+    "rfilter",
+    "shape",
+    "sensor",
     "integrator",
 ];
 /// Things a scene may carry that we do not render: warned about and skipped.
@@ -66,10 +82,9 @@ impl<'a> Props<'a> {
                         format!("missing required attribute 'name' on <{tag}>"),
                     ));
                 };
-                if let Some(first) = items
-                    .iter()
-                    .find(|i| i.name.as_deref() == Some(&name) && VALUE_TAGS.contains(&i.elem.tag.as_str()))
-                {
+                if let Some(first) = items.iter().find(|i| {
+                    i.name.as_deref() == Some(&name) && VALUE_TAGS.contains(&i.elem.tag.as_str())
+                }) {
                     return Err(ctx.err(
                         child.pos,
                         format!(
@@ -97,10 +112,7 @@ impl<'a> Props<'a> {
             } else if tag == "default" {
                 return Err(ctx.err(child.pos, "<default> must be a direct child of <scene>"));
             } else {
-                return Err(ctx.err(
-                    child.pos,
-                    format!("unknown tag <{tag}> in {owner}"),
-                ));
+                return Err(ctx.err(child.pos, format!("unknown tag <{tag}> in {owner}")));
             }
         }
         Ok(Props { owner, items })
@@ -124,7 +136,11 @@ impl<'a> Props<'a> {
     /// Takes every unused child with tag `tag` (named or not), in document order.
     pub fn take_tag(&mut self, tag: &str) -> Vec<&'a Element> {
         let mut out = Vec::new();
-        for item in self.items.iter_mut().filter(|i| !i.used && i.elem.tag == tag) {
+        for item in self
+            .items
+            .iter_mut()
+            .filter(|i| !i.used && i.elem.tag == tag)
+        {
             item.used = true;
             out.push(item.elem);
         }
@@ -182,7 +198,10 @@ impl<'a> Props<'a> {
             return Err(self.wrong_type(ctx, e, "a <float>"));
         }
         let a = value_attr(ctx, e)?;
-        Ok(Some((self.parse_attr(ctx, e, a, values::float)?, a.value_pos)))
+        Ok(Some((
+            self.parse_attr(ctx, e, a, values::float)?,
+            a.value_pos,
+        )))
     }
 
     /// Like [`Props::opt_int`], also returning where the value is (for range errors).
@@ -194,7 +213,10 @@ impl<'a> Props<'a> {
             return Err(self.wrong_type(ctx, e, "an <integer>"));
         }
         let a = value_attr(ctx, e)?;
-        Ok(Some((self.parse_attr(ctx, e, a, values::integer)?, a.value_pos)))
+        Ok(Some((
+            self.parse_attr(ctx, e, a, values::integer)?,
+            a.value_pos,
+        )))
     }
 
     /// Takes the child `name` only if it is a `<string>` (for parameters that are a number or
@@ -310,7 +332,11 @@ impl<'a> Props<'a> {
                 Some(n) if VALUE_TAGS.contains(&item.elem.tag.as_str()) => {
                     format!("unknown parameter '{n}' of {}; ignored", self.owner)
                 }
-                _ => format!("{} in {} is not used; ignored", describe(item.elem), self.owner),
+                _ => format!(
+                    "{} in {} is not used; ignored",
+                    describe(item.elem),
+                    self.owner
+                ),
             };
             ctx.warn(item.elem.pos, msg);
         }

@@ -235,7 +235,10 @@ pub struct Shape {
 pub enum Geometry {
     Mesh(TriangleMesh),
     /// Mitsuba sphere: `center` and `radius` in object space (then `to_world`); pole axis +z.
-    Sphere { center: Vec3, radius: f32 },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+    },
     /// Mitsuba rectangle: [-1,1]^2 in the z = 0 plane, normal +z, uv = ((x+1)/2, (y+1)/2).
     Rectangle,
 }

@@ -137,5 +137,9 @@ pub(crate) fn parse_transform(ctx: &Ctx, elem: &Element, uv: bool) -> Result<Mat
 /// The 2D affine part of a 4x4 used as a `to_uv` transform: the upper-left 2x2 and the
 /// x/y translation.
 pub(crate) fn to_affine2(m: Mat4) -> Affine2 {
-    Affine2::from_cols(m.x_axis.truncate().truncate(), m.y_axis.truncate().truncate(), Vec2::new(m.w_axis.x, m.w_axis.y))
+    Affine2::from_cols(
+        m.x_axis.truncate().truncate(),
+        m.y_axis.truncate().truncate(),
+        Vec2::new(m.w_axis.x, m.w_axis.y),
+    )
 }

@@ -6,7 +6,10 @@ use std::collections::HashMap;
 
 /// Replaces every `$name` (name = letters, digits, `_`) by its value from `defaults`.
 /// Returns the first undefined name as the error.
-pub(crate) fn substitute(value: &str, defaults: &HashMap<String, String>) -> Result<String, String> {
+pub(crate) fn substitute(
+    value: &str,
+    defaults: &HashMap<String, String>,
+) -> Result<String, String> {
     if !value.contains('$') {
         return Ok(value.to_string());
     }
@@ -50,7 +53,9 @@ pub(crate) fn boolean(s: &str) -> Result<bool, String> {
     match s.trim().to_ascii_lowercase().as_str() {
         "true" => Ok(true),
         "false" => Ok(false),
-        _ => Err(format!("cannot parse '{s}' as a boolean (expected true or false)")),
+        _ => Err(format!(
+            "cannot parse '{s}' as a boolean (expected true or false)"
+        )),
     }
 }
 
@@ -86,7 +91,9 @@ pub(crate) fn srgb(s: &str) -> Result<Vec3, String> {
     let t = s.trim();
     let encoded = if let Some(hex) = t.strip_prefix('#') {
         if hex.len() != 6 {
-            return Err(format!("cannot parse '{s}' as an sRGB hex colour (#rrggbb)"));
+            return Err(format!(
+                "cannot parse '{s}' as an sRGB hex colour (#rrggbb)"
+            ));
         }
         let v = u32::from_str_radix(hex, 16)
             .map_err(|_| format!("cannot parse '{s}' as an sRGB hex colour (#rrggbb)"))?;
@@ -115,7 +122,9 @@ pub(crate) fn spectrum(s: &str) -> Result<Vec3, String> {
     let v = floats(s)?;
     match v.len() {
         1 => Ok(Vec3::splat(v[0])),
-        n => Err(format!("expected a single value in spectrum '{s}', found {n}")),
+        n => Err(format!(
+            "expected a single value in spectrum '{s}', found {n}"
+        )),
     }
 }
 
@@ -126,7 +135,8 @@ pub(crate) fn snake_case(name: &str) -> String {
     let mut out = String::with_capacity(name.len() + 4);
     for (i, &c) in chars.iter().enumerate() {
         if c.is_ascii_uppercase() {
-            let prev_lower = i > 0 && (chars[i - 1].is_ascii_lowercase() || chars[i - 1].is_ascii_digit());
+            let prev_lower =
+                i > 0 && (chars[i - 1].is_ascii_lowercase() || chars[i - 1].is_ascii_digit());
             let next_lower = chars.get(i + 1).is_some_and(|n| n.is_ascii_lowercase());
             let prev_upper = i > 0 && chars[i - 1].is_ascii_uppercase();
             if i > 0 && chars[i - 1] != '_' && (prev_lower || (prev_upper && next_lower)) {

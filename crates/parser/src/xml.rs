@@ -104,7 +104,8 @@ fn element(
     let tag = start.name().as_ref().to_string();
     let mut attrs = Vec::new();
     for attr in start.attributes() {
-        let attr = attr.map_err(|e| error(file, pos, format!("malformed attribute in <{tag}>: {e}")))?;
+        let attr =
+            attr.map_err(|e| error(file, pos, format!("malformed attribute in <{tag}>: {e}")))?;
         let name = attr.key.as_ref().to_string();
         let name_pos = offset_in(text, attr.key.as_ref()).map_or(pos, |o| lines.pos(o));
         let value_pos = offset_in(text, &attr.value).map_or(name_pos, |o| lines.pos(o));
@@ -191,7 +192,13 @@ pub(crate) fn parse_document(text: &str, file: &Path) -> Result<Element> {
             }
         }
     }
-    root.ok_or_else(|| error(file, lines.pos(text.len()), "malformed XML: the document has no root element"))
+    root.ok_or_else(|| {
+        error(
+            file,
+            lines.pos(text.len()),
+            "malformed XML: the document has no root element",
+        )
+    })
 }
 
 #[cfg(test)]
@@ -207,7 +214,13 @@ mod tests {
         assert_eq!(f.tag, "float");
         assert_eq!(f.pos, Pos { line: 2, column: 2 });
         let v = f.attr("value").unwrap();
-        assert_eq!(v.value_pos, Pos { line: 2, column: 27 });
+        assert_eq!(
+            v.value_pos,
+            Pos {
+                line: 2,
+                column: 27
+            }
+        );
         assert_eq!(v.value, "4");
     }
 

@@ -8,14 +8,21 @@ use torrey_parser::parse_scene_str;
 #[test]
 fn display_format_is_file_line_column() {
     let e = parse("<scene version=\"0.6.0\">\n  <bogus/>\n</scene>").unwrap_err();
-    assert_eq!(e.to_string(), "test.xml:2:3: error: unknown tag <bogus> in <scene>");
+    assert_eq!(
+        e.to_string(),
+        "test.xml:2:3: error: unknown tag <bogus> in <scene>"
+    );
 }
 
 #[test]
 fn malformed_xml() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n  </bsdf>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "malformed XML: ill-formed document: expected `</shape>`, but `</bsdf>` was found", (3, 3));
+    assert_err(
+        &e,
+        "malformed XML: ill-formed document: expected `</shape>`, but `</bsdf>` was found",
+        (3, 3),
+    );
 }
 
 #[test]
@@ -29,21 +36,33 @@ fn unclosed_element() {
 fn unknown_tag_inside_plugin() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n    <colour name=\"x\" value=\"1\"/>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "unknown tag <colour> in shape 'sphere'", pos_of(xml, "<colour"));
+    assert_err(
+        &e,
+        "unknown tag <colour> in shape 'sphere'",
+        pos_of(xml, "<colour"),
+    );
 }
 
 #[test]
 fn unknown_plugin_type() {
     let xml = "<scene version=\"0.6.0\">\n  <bsdf type=\"velvet\" id=\"a\"/>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "unknown bsdf type 'velvet' (supported: diffuse, mirror", pos_of(xml, "velvet"));
+    assert_err(
+        &e,
+        "unknown bsdf type 'velvet' (supported: diffuse, mirror",
+        pos_of(xml, "velvet"),
+    );
 }
 
 #[test]
 fn missing_required_attribute() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n    <float value=\"1\"/>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "missing required attribute 'name' on <float>", pos_of(xml, "<float"));
+    assert_err(
+        &e,
+        "missing required attribute 'name' on <float>",
+        pos_of(xml, "<float"),
+    );
 
     let xml = "<scene version=\"0.6.0\">\n  <shape>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
@@ -51,7 +70,11 @@ fn missing_required_attribute() {
 
     let xml = "<scene>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "missing required attribute 'version' on <scene>", (1, 1));
+    assert_err(
+        &e,
+        "missing required attribute 'version' on <scene>",
+        (1, 1),
+    );
 }
 
 #[test]
@@ -70,7 +93,11 @@ fn missing_mesh_file() {
     let dir = temp_dir("missing-mesh");
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"obj\">\n    <string name=\"filename\" value=\"meshes/none.obj\"/>\n  </shape>\n</scene>";
     let e = parse_in(&dir, xml).unwrap_err();
-    assert_err(&e, "mesh file 'meshes/none.obj' not found (looked for '", pos_of(xml, "meshes/none"));
+    assert_err(
+        &e,
+        "mesh file 'meshes/none.obj' not found (looked for '",
+        pos_of(xml, "meshes/none"),
+    );
     assert!(e.location.file.ends_with("scene.xml"));
 }
 
@@ -105,7 +132,11 @@ fn missing_texture_file() {
     let dir = temp_dir("missing-texture");
     let xml = "<scene version=\"0.6.0\">\n  <bsdf type=\"diffuse\">\n    <texture type=\"bitmap\" name=\"reflectance\">\n      <string name=\"filename\" value=\"brick.png\"/>\n    </texture>\n  </bsdf>\n</scene>";
     let e = parse_in(&dir, xml).unwrap_err();
-    assert_err(&e, "texture file 'brick.png' not found", pos_of(xml, "brick.png"));
+    assert_err(
+        &e,
+        "texture file 'brick.png' not found",
+        pos_of(xml, "brick.png"),
+    );
 }
 
 #[test]
@@ -114,21 +145,33 @@ fn empty_mesh() {
     std::fs::write(dir.join("empty.obj"), "# nothing\nv 0 0 0\n").unwrap();
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"obj\">\n    <string name=\"filename\" value=\"empty.obj\"/>\n  </shape>\n</scene>";
     let e = parse_in(&dir, xml).unwrap_err();
-    assert_err(&e, "mesh file 'empty.obj' has no triangles", pos_of(xml, "empty.obj"));
+    assert_err(
+        &e,
+        "mesh file 'empty.obj' has no triangles",
+        pos_of(xml, "empty.obj"),
+    );
 }
 
 #[test]
 fn dangling_ref() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n    <ref id=\"nowhere\"/>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "reference to undefined id 'nowhere'", pos_of(xml, "nowhere"));
+    assert_err(
+        &e,
+        "reference to undefined id 'nowhere'",
+        pos_of(xml, "nowhere"),
+    );
 }
 
 #[test]
 fn ref_to_wrong_kind() {
     let xml = "<scene version=\"0.6.0\">\n  <texture type=\"checkerboard\" id=\"c\"/>\n  <shape type=\"sphere\">\n    <ref id=\"c\"/>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "<ref id=\"c\"> in a shape must name a bsdf", pos_of(xml, "<ref"));
+    assert_err(
+        &e,
+        "<ref id=\"c\"> in a shape must name a bsdf",
+        pos_of(xml, "<ref"),
+    );
 }
 
 #[test]
@@ -146,14 +189,22 @@ fn duplicate_id() {
 fn negative_radius() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n    <float name=\"radius\" value=\"-2\"/>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "sphere radius must not be negative, found -2", pos_of(xml, "-2"));
+    assert_err(
+        &e,
+        "sphere radius must not be negative, found -2",
+        pos_of(xml, "-2"),
+    );
 }
 
 #[test]
 fn wrong_matrix_entry_count() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n    <transform name=\"toWorld\">\n      <matrix value=\"1 0 0 0 0 1 0 0 0 0 1 0\"/>\n    </transform>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "<matrix> needs 16 numbers (row-major 4x4), found 12", pos_of(xml, "1 0 0 0"));
+    assert_err(
+        &e,
+        "<matrix> needs 16 numbers (row-major 4x4), found 12",
+        pos_of(xml, "1 0 0 0"),
+    );
 }
 
 #[test]
@@ -171,14 +222,22 @@ fn undefined_default() {
 fn top_level_area_emitter() {
     let xml = "<scene version=\"0.6.0\">\n  <emitter type=\"area\"/>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "an area emitter must be nested inside a <shape>", (2, 3));
+    assert_err(
+        &e,
+        "an area emitter must be nested inside a <shape>",
+        (2, 3),
+    );
 }
 
 #[test]
 fn wrong_value_type() {
     let xml = "<scene version=\"0.6.0\">\n  <shape type=\"sphere\">\n    <rgb name=\"radius\" value=\"1\"/>\n  </shape>\n</scene>";
     let e = parse(xml).unwrap_err();
-    assert_err(&e, "parameter 'radius' of shape 'sphere' must be a <float>, found <rgb>", (3, 5));
+    assert_err(
+        &e,
+        "parameter 'radius' of shape 'sphere' must be a <float>, found <rgb>",
+        (3, 5),
+    );
 }
 
 #[test]
@@ -190,5 +249,9 @@ fn missing_scene_file() {
 #[test]
 fn root_must_be_scene() {
     let e = parse_scene_str("<sceen version=\"1\"/>", Path::new("x.xml"), &[]).unwrap_err();
-    assert_err(&e, "the root element must be <scene>, found <sceen>", (1, 1));
+    assert_err(
+        &e,
+        "the root element must be <scene>, found <sceen>",
+        (1, 1),
+    );
 }

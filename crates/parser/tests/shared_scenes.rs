@@ -8,7 +8,10 @@ fn shared() -> Option<PathBuf> {
     if p.is_dir() {
         Some(p)
     } else {
-        eprintln!("note: {} is absent; skipping shared-scene tests", p.display());
+        eprintln!(
+            "note: {} is absent; skipping shared-scene tests",
+            p.display()
+        );
         None
     }
 }
@@ -37,7 +40,8 @@ fn every_torrey_scene_loads() {
             let e = result.expect_err("scene_bgonly.xml references missing meshes");
             // Mesh015 is the first absent mesh in document order.
             assert!(
-                e.message.starts_with("mesh file 'models/Mesh015.obj' not found"),
+                e.message
+                    .starts_with("mesh file 'models/Mesh015.obj' not found"),
                 "{e}"
             );
             assert_eq!((e.location.line, e.location.column), (207, 34));
@@ -55,11 +59,19 @@ fn every_torrey_scene_loads() {
 #[test]
 fn torrey_scene_details() {
     let Some(shared) = shared() else { return };
-    let s = load_scene(&shared.join("scenes/torrey/texture_test/texture_scaled.xml"), &[]).unwrap();
+    let s = load_scene(
+        &shared.join("scenes/torrey/texture_test/texture_scaled.xml"),
+        &[],
+    )
+    .unwrap();
     // No <background>: torrey's implicit 0.5 grey environment follows the point light.
     assert_eq!(s.lights.len(), 2);
-    assert!(matches!(s.lights[1], Light::Constant { radiance } if radiance == glam::Vec3::splat(0.5)));
-    let torrey_parser::TextureKind::Bitmap(b) = &s.textures[0].kind else { panic!() };
+    assert!(
+        matches!(s.lights[1], Light::Constant { radiance } if radiance == glam::Vec3::splat(0.5))
+    );
+    let torrey_parser::TextureKind::Bitmap(b) = &s.textures[0].kind else {
+        panic!()
+    };
     let uv = b.to_uv.transform_point2(glam::Vec2::new(0.5, 0.25));
     assert!((uv - glam::Vec2::new(2.2, 1.3)).length() < 1e-6, "{uv}");
     assert!(b.filename.is_absolute() && b.filename.ends_with("grid.exr"));
@@ -71,9 +83,15 @@ fn torrey_scene_details() {
     .unwrap();
     assert_eq!(room.integrator.max_depth, 2);
     assert_eq!(room.integrator.kind, "direct");
-    assert!(room.bsdfs.iter().any(|b| b.two_sided && b.id.as_deref() == Some("Floor")));
+    assert!(room
+        .bsdfs
+        .iter()
+        .any(|b| b.two_sided && b.id.as_deref() == Some("Floor")));
     // The interior media are reported, not rendered.
-    assert!(room.warnings.iter().any(|w| w.message.contains("<medium name=\"interior\">")));
+    assert!(room
+        .warnings
+        .iter()
+        .any(|w| w.message.contains("<medium name=\"interior\">")));
     let tris: usize = room
         .shapes
         .iter()
@@ -94,16 +112,27 @@ fn matpreview_mitsuba3_scene() {
     assert_eq!(s.sampler.sample_count, 16);
     assert_eq!((s.film.width, s.film.height), (683, 512));
     assert_eq!(s.shapes.len(), 3);
-    assert_eq!(s.lights.len(), 1, "no implicit background in Mitsuba 3 scenes");
-    let Light::Envmap { scale, .. } = &s.lights[0] else { panic!() };
+    assert_eq!(
+        s.lights.len(),
+        1,
+        "no implicit background in Mitsuba 3 scenes"
+    );
+    let Light::Envmap { scale, .. } = &s.lights[0] else {
+        panic!()
+    };
     assert_eq!(*scale, 3.0);
     for shape in &s.shapes {
-        let Geometry::Mesh(m) = &shape.geometry else { panic!() };
+        let Geometry::Mesh(m) = &shape.geometry else {
+            panic!()
+        };
         assert!(!m.indices.is_empty() && m.positions.len() == m.normals.len());
     }
     let plastic = &s.bsdfs[s.shapes[2].bsdf.unwrap()];
     match &plastic.kind {
-        BsdfKind::Plastic { reflectance: ColorParam::Constant(c), eta } => {
+        BsdfKind::Plastic {
+            reflectance: ColorParam::Constant(c),
+            eta,
+        } => {
             assert!((c.x - 0.94).abs() < 1e-6);
             assert!((eta - 1.9 / 1.000277).abs() < 1e-6);
         }

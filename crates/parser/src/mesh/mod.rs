@@ -41,7 +41,10 @@ pub(crate) fn validate(mesh: &TriangleMesh) -> Result<(), String> {
         return Err(format!("{} normals for {n} vertices", mesh.normals.len()));
     }
     if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
-        return Err(format!("{} texture coordinates for {n} vertices", mesh.uvs.len()));
+        return Err(format!(
+            "{} texture coordinates for {n} vertices",
+            mesh.uvs.len()
+        ));
     }
     Ok(())
 }

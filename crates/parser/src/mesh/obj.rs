@@ -6,14 +6,14 @@ use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// Loads an OBJ file; `flip_v` maps v to 1 - v (Mitsuba's `flip_tex_coords`, default on).
+#[allow(clippy::field_reassign_with_default)]
 pub(crate) fn load(path: &Path, flip_v: bool) -> Result<TriangleMesh, String> {
-    let options = tobj::LoadOptions {
-        single_index: true,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
+    // Built by assignment so optional tobj fields (feature `merging`) keep their defaults.
+    let mut options = tobj::LoadOptions::default();
+    options.single_index = true;
+    options.triangulate = true;
+    options.ignore_points = true;
+    options.ignore_lines = true;
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| e.to_string())?;
     let mut mesh = TriangleMesh::default();
     let mut all_normals = true;
@@ -26,16 +26,24 @@ pub(crate) fn load(path: &Path, flip_v: bool) -> Result<TriangleMesh, String> {
     for m in models {
         let base = mesh.positions.len() as u32;
         let src = &m.mesh;
-        mesh.positions
-            .extend(src.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        mesh.positions.extend(
+            src.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
         if all_normals {
-            mesh.normals
-                .extend(src.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
+            mesh.normals.extend(
+                src.normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3::new(n[0], n[1], n[2])),
+            );
         }
         if all_uvs {
-            mesh.uvs.extend(src.texcoords.chunks_exact(2).map(|t| {
-                Vec2::new(t[0], if flip_v { 1.0 - t[1] } else { t[1] })
-            }));
+            mesh.uvs.extend(
+                src.texcoords
+                    .chunks_exact(2)
+                    .map(|t| Vec2::new(t[0], if flip_v { 1.0 - t[1] } else { t[1] })),
+            );
         }
         mesh.indices.extend(
             src.indices

@@ -198,7 +198,10 @@ fn header(data: &[u8]) -> Result<(Format, Vec<ElementDef>, usize), String> {
                         _ => return Err(bad("malformed list property")),
                     }
                 } else {
-                    match (words.get(1).and_then(|w| Scalar::from_name(w)), words.get(2)) {
+                    match (
+                        words.get(1).and_then(|w| Scalar::from_name(w)),
+                        words.get(2),
+                    ) {
                         (Some(s), Some(n)) => (Kind::Scalar(s), n),
                         _ => return Err(bad("malformed property")),
                     }
@@ -250,7 +253,11 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
     for el in &elements {
         let is_vertex = el.name == "vertex";
         let is_face = el.name == "face";
-        let find = |names: &[&str]| el.props.iter().position(|p| names.contains(&p.name.as_str()));
+        let find = |names: &[&str]| {
+            el.props
+                .iter()
+                .position(|p| names.contains(&p.name.as_str()))
+        };
         let (xi, yi, zi) = (find(&["x"]), find(&["y"]), find(&["z"]));
         let normal = [find(&["nx"]), find(&["ny"]), find(&["nz"])];
         let has_normals = normal.iter().all(Option::is_some);
@@ -284,7 +291,10 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
                             let v = body.read(item, &what)?;
                             if keep {
                                 if v < 0.0 || v > u32::MAX as f64 {
-                                    return Err(format!("vertex index {v} out of range in {}", what()));
+                                    return Err(format!(
+                                        "vertex index {v} out of range in {}",
+                                        what()
+                                    ));
                                 }
                                 list.push(v as u32);
                             }
@@ -304,7 +314,10 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
                 }
             } else if is_face {
                 if list.len() < 3 {
-                    return Err(format!("face {r} has {} vertices; at least 3 needed", list.len()));
+                    return Err(format!(
+                        "face {r} has {} vertices; at least 3 needed",
+                        list.len()
+                    ));
                 }
                 for k in 1..list.len() - 1 {
                     mesh.indices.push([list[0], list[k], list[k + 1]]);

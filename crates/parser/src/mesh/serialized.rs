@@ -32,10 +32,13 @@ struct Cursor<'a> {
 
 impl Cursor<'_> {
     fn bytes(&mut self, n: usize) -> Result<&[u8], String> {
-        let b = self
-            .d
-            .get(self.p..self.p + n)
-            .ok_or_else(|| format!("shape data ends early (at byte {} of {})", self.p, self.d.len()))?;
+        let b = self.d.get(self.p..self.p + n).ok_or_else(|| {
+            format!(
+                "shape data ends early (at byte {} of {})",
+                self.p,
+                self.d.len()
+            )
+        })?;
         self.p += n;
         Ok(b)
     }
@@ -54,7 +57,13 @@ impl Cursor<'_> {
     }
     fn vec3s(&mut self, n: usize, double: bool) -> Result<Vec<Vec3>, String> {
         (0..n)
-            .map(|_| Ok(Vec3::new(self.real(double)?, self.real(double)?, self.real(double)?)))
+            .map(|_| {
+                Ok(Vec3::new(
+                    self.real(double)?,
+                    self.real(double)?,
+                    self.real(double)?,
+                ))
+            })
             .collect()
     }
 }
@@ -76,7 +85,9 @@ pub(crate) fn parse(d: &[u8], index: usize) -> Result<TriangleMesh, String> {
     }
     let count = u32_at(d, d.len().checked_sub(4).ok_or_else(short)?).ok_or_else(short)? as usize;
     if index >= count {
-        return Err(format!("shape_index {index} is out of range: the file holds {count} shapes"));
+        return Err(format!(
+            "shape_index {index} is out of range: the file holds {count} shapes"
+        ));
     }
     let entry = if version == 4 { 8 } else { 4 };
     let table = d
@@ -109,7 +120,9 @@ pub(crate) fn parse(d: &[u8], index: usize) -> Result<TriangleMesh, String> {
     let nv = c.u64()? as usize;
     let nt = c.u64()? as usize;
     if nv.saturating_mul(12) > raw.len() || nt.saturating_mul(12) > raw.len() {
-        return Err(format!("shape {index}: counts ({nv} vertices, {nt} triangles) exceed the data"));
+        return Err(format!(
+            "shape {index}: counts ({nv} vertices, {nt} triangles) exceed the data"
+        ));
     }
     let double = flags & DOUBLE != 0;
     let mut mesh = TriangleMesh {

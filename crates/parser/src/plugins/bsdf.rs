@@ -91,7 +91,10 @@ fn normal_map_param(ctx: &mut Ctx, props: &mut Props, names: &[&str]) -> Result<
         _ => {
             return Err(ctx.err(
                 e.pos,
-                format!("the normal map of {} must be a bitmap <texture>, found <{}>", props.owner, e.tag),
+                format!(
+                    "the normal map of {} must be a bitmap <texture>, found <{}>",
+                    props.owner, e.tag
+                ),
             ))
         }
     };
@@ -123,15 +126,15 @@ fn nested_bsdf(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Bsdf>
     nested.extend(props.take_tag("ref"));
     nested.sort_by_key(|e| (e.pos.line, e.pos.column));
     let Some(first) = nested.first() else {
-        return Err(ctx.err(
-            elem.pos,
-            format!("{} needs a nested <bsdf>", props.owner),
-        ));
+        return Err(ctx.err(elem.pos, format!("{} needs a nested <bsdf>", props.owner)));
     };
     for extra in &nested[1..] {
         ctx.warn(
             extra.pos,
-            format!("{} uses only its first nested bsdf; this one is ignored", props.owner),
+            format!(
+                "{} uses only its first nested bsdf; this one is ignored",
+                props.owner
+            ),
         );
     }
     if first.tag == "ref" {
@@ -158,7 +161,12 @@ fn ior(ctx: &Ctx, props: &mut Props, name: &str, default: f32) -> Result<f32> {
             .iter()
             .find(|(n, _)| *n == key)
             .map(|(_, v)| *v)
-            .ok_or_else(|| ctx.err(a.value_pos, format!("unknown index of refraction '{}'", a.value)));
+            .ok_or_else(|| {
+                ctx.err(
+                    a.value_pos,
+                    format!("unknown index of refraction '{}'", a.value),
+                )
+            });
     }
     props.float(ctx, &[name], default)
 }
@@ -229,7 +237,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             let eta = match props.opt_float(ctx, &["eta", "ior"])? {
                 Some(eta) => eta,
                 None if mitsuba => {
-                    ior(ctx, &mut props, "int_ior", 1.49)? / ior(ctx, &mut props, "ext_ior", 1.000277)?
+                    ior(ctx, &mut props, "int_ior", 1.49)?
+                        / ior(ctx, &mut props, "ext_ior", 1.000277)?
                 }
                 None => 1.5,
             };

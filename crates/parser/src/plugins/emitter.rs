@@ -28,10 +28,7 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
         return Err(unknown_type(ctx, elem, "emitter", &KNOWN[..3]));
     }
     if ty == "area" {
-        return Err(ctx.err(
-            elem.pos,
-            "an area emitter must be nested inside a <shape>",
-        ));
+        return Err(ctx.err(elem.pos, "an area emitter must be nested inside a <shape>"));
     }
     let mut props = Props::new(ctx, elem, format!("emitter '{ty}'"))?;
     ctx.register_id(elem, IdTarget::Other)?;
@@ -63,8 +60,8 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                 };
                 bitmap_element(ctx, t)?
             };
-            let scale = props.float(ctx, &["scale"], 1.0)?
-                * props.float(ctx, &["intensity_scale"], 1.0)?;
+            let scale =
+                props.float(ctx, &["scale"], 1.0)? * props.float(ctx, &["intensity_scale"], 1.0)?;
             let to_world = props
                 .transform(ctx, &["to_world"], false)?
                 .unwrap_or(Mat4::IDENTITY);

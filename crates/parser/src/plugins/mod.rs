@@ -23,14 +23,22 @@ fn dialect(root: &Element, file: &Path) -> Result<Dialect> {
         message,
     };
     let Some(v) = root.attr("version") else {
-        return Err(err(root.pos, "missing required attribute 'version' on <scene>".into()));
+        return Err(err(
+            root.pos,
+            "missing required attribute 'version' on <scene>".into(),
+        ));
     };
     let major = v
         .value
         .split('.')
         .next()
         .and_then(|m| m.trim().parse::<u32>().ok())
-        .ok_or_else(|| err(v.value_pos, format!("cannot parse scene version '{}'", v.value)))?;
+        .ok_or_else(|| {
+            err(
+                v.value_pos,
+                format!("cannot parse scene version '{}'", v.value),
+            )
+        })?;
     Ok(if major < 2 {
         Dialect::Torrey
     } else {
@@ -101,7 +109,10 @@ pub(crate) fn parse_scene(
             "default" => {}
             "sensor" => {
                 if camera_parts.is_some() {
-                    ctx.warn(child.pos, "only the first <sensor> is used; this one is ignored");
+                    ctx.warn(
+                        child.pos,
+                        "only the first <sensor> is used; this one is ignored",
+                    );
                 } else {
                     camera_parts = Some(sensor::parse_sensor(&mut ctx, child)?);
                 }
@@ -109,7 +120,10 @@ pub(crate) fn parse_scene(
             "integrator" => {
                 let i = sensor::parse_integrator(&mut ctx, child)?;
                 if integrator.is_some() {
-                    ctx.warn(child.pos, "only the first <integrator> is used; this one is ignored");
+                    ctx.warn(
+                        child.pos,
+                        "only the first <integrator> is used; this one is ignored",
+                    );
                 } else {
                     integrator = Some(i);
                 }
@@ -131,7 +145,10 @@ pub(crate) fn parse_scene(
                 has_background = true;
             }
             t if SKIPPED_TAGS.contains(&t) => {
-                ctx.warn(child.pos, format!("{} is not supported; ignored", describe(child)));
+                ctx.warn(
+                    child.pos,
+                    format!("{} is not supported; ignored", describe(child)),
+                );
             }
             t @ ("film" | "sampler" | "rfilter") => {
                 return Err(ctx.err(child.pos, format!("<{t}> must be inside a <sensor>")));

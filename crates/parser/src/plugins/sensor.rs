@@ -58,7 +58,10 @@ fn positive(ctx: &Ctx, props: &mut Props, name: &str, default: i64) -> Result<u3
         None => Ok(default as u32),
         Some((v, pos)) if v <= 0 || v > u32::MAX as i64 => Err(ctx.err(
             pos,
-            format!("parameter '{name}' of {} must be positive, found {v}", props.owner),
+            format!(
+                "parameter '{name}' of {} must be positive, found {v}",
+                props.owner
+            ),
         )),
         Some((v, _)) => Ok(v as u32),
     }
@@ -103,7 +106,14 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
             "tent" => PixelFilter::Tent {
                 radius: fp.float(ctx, &["radius"], 1.0)?,
             },
-            _ => return Err(unknown_type(ctx, f, "rfilter", &["box", "gaussian", "tent"])),
+            _ => {
+                return Err(unknown_type(
+                    ctx,
+                    f,
+                    "rfilter",
+                    &["box", "gaussian", "tent"],
+                ))
+            }
         };
         fp.finish(ctx);
     }
@@ -160,7 +170,10 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
     match (fov, focal) {
         (Some((f, pos)), _) => {
             if !(f > 0.0 && f < 180.0) {
-                return Err(ctx.err(pos, format!("fov must be between 0 and 180 degrees, found {f}")));
+                return Err(ctx.err(
+                    pos,
+                    format!("fov must be between 0 and 180 degrees, found {f}"),
+                ));
             }
             camera.fov_degrees = f;
         }
@@ -172,7 +185,13 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
                 .and_then(|s| s.trim().parse::<f32>().ok())
                 .filter(|&v| v > 0.0)
                 .ok_or_else(|| {
-                    ctx.err(a.value_pos, format!("cannot parse focal_length '{}' (expected e.g. 50mm)", a.value))
+                    ctx.err(
+                        a.value_pos,
+                        format!(
+                            "cannot parse focal_length '{}' (expected e.g. 50mm)",
+                            a.value
+                        ),
+                    )
                 })?;
             camera.fov_degrees = focal_length_fov(mm);
         }
@@ -224,7 +243,10 @@ pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrat
         return Err(unknown_type(ctx, elem, "integrator", &["path", "direct"]));
     }
     if ty == "volpath" {
-        ctx.warn(elem.pos, "integrator 'volpath' is read as 'path' (media are not rendered)");
+        ctx.warn(
+            elem.pos,
+            "integrator 'volpath' is read as 'path' (media are not rendered)",
+        );
     }
     let mut props = Props::new(ctx, elem, format!("integrator '{ty}'"))?;
     let max_depth = if ty == "direct" {

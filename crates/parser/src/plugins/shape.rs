@@ -39,7 +39,10 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             return Err(ctx.err(pos, "shape_index must not be negative"))
         }
         Some((_, pos)) => {
-            ctx.warn(pos, format!("shape_index only applies to serialized shapes; ignored"));
+            ctx.warn(
+                pos,
+                "shape_index only applies to serialized shapes; ignored",
+            );
             0
         }
     };
@@ -48,9 +51,12 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
         "ply" => ply::load(&path),
         _ => serialized::load(&path, shape_index),
     };
-    let mut mesh = loaded
-        .and_then(|m| validate(&m).map(|_| m))
-        .map_err(|m| ctx.err(file.value_pos, format!("in mesh file '{}': {m}", file.value)))?;
+    let mut mesh = loaded.and_then(|m| validate(&m).map(|_| m)).map_err(|m| {
+        ctx.err(
+            file.value_pos,
+            format!("in mesh file '{}': {m}", file.value),
+        )
+    })?;
     if mesh.indices.is_empty() {
         return Err(ctx.err(
             file.value_pos,
@@ -118,12 +124,18 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
     for r in props.take_tag("ref") {
         match r.attr_value("name") {
             None | Some("bsdf") => candidates.push(r),
-            Some(n) => ctx.warn(r.pos, format!("<ref name=\"{n}\"> in {} is not used; ignored", props.owner)),
+            Some(n) => ctx.warn(
+                r.pos,
+                format!("<ref name=\"{n}\"> in {} is not used; ignored", props.owner),
+            ),
         }
     }
     candidates.sort_by_key(|e| (e.pos.line, e.pos.column));
     if let Some(second) = candidates.get(1) {
-        return Err(ctx.err(second.pos, format!("{} has more than one bsdf", props.owner)));
+        return Err(ctx.err(
+            second.pos,
+            format!("{} has more than one bsdf", props.owner),
+        ));
     }
     let bsdf: Option<BsdfId> = match candidates.first() {
         None => None,
@@ -144,7 +156,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
 
     let emitters = props.take_tag("emitter");
     if let Some(second) = emitters.get(1) {
-        return Err(ctx.err(second.pos, format!("{} has more than one emitter", props.owner)));
+        return Err(ctx.err(
+            second.pos,
+            format!("{} has more than one emitter", props.owner),
+        ));
     }
     let emitter = match emitters.first() {
         None => None,

@@ -17,8 +17,11 @@ fn uv_transform(ctx: &Ctx, props: &mut Props) -> Result<Affine2> {
     let vs = props.float(ctx, &["vscale"], uv)?;
     let uo = props.float(ctx, &["uoffset"], 0.0)?;
     let vo = props.float(ctx, &["voffset"], 0.0)?;
-    let scale_offset = Affine2::from_scale_angle_translation(Vec2::new(us, vs), 0.0, Vec2::new(uo, vo));
-    let to_uv = props.transform(ctx, &["to_uv"], true)?.map_or(Affine2::IDENTITY, to_affine2);
+    let scale_offset =
+        Affine2::from_scale_angle_translation(Vec2::new(us, vs), 0.0, Vec2::new(uo, vo));
+    let to_uv = props
+        .transform(ctx, &["to_uv"], true)?
+        .map_or(Affine2::IDENTITY, to_affine2);
     Ok(to_uv * scale_offset)
 }
 
@@ -60,7 +63,10 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
             "bilinear" => FilterType::Bilinear,
             "nearest" => FilterType::Nearest,
             "trilinear" | "ewa" => {
-                ctx.warn(a.value_pos, format!("filter_type '{}' is read as bilinear", a.value));
+                ctx.warn(
+                    a.value_pos,
+                    format!("filter_type '{}' is read as bilinear", a.value),
+                );
                 FilterType::Bilinear
             }
             v => {
@@ -78,7 +84,10 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
             "mirror" => WrapMode::Mirror,
             "clamp" => WrapMode::Clamp,
             "zero" | "one" => {
-                ctx.warn(a.value_pos, format!("wrap_mode '{}' is read as clamp", a.value));
+                ctx.warn(
+                    a.value_pos,
+                    format!("wrap_mode '{}' is read as clamp", a.value),
+                );
                 WrapMode::Clamp
             }
             v => {
@@ -123,7 +132,12 @@ pub(crate) fn bitmap_element(ctx: &mut Ctx, elem: &Element) -> Result<Bitmap> {
 pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> {
     let ty = plugin_type(ctx, elem)?;
     if ty != "bitmap" && ty != "checkerboard" {
-        return Err(unknown_type(ctx, elem, "texture", &["bitmap", "checkerboard"]));
+        return Err(unknown_type(
+            ctx,
+            elem,
+            "texture",
+            &["bitmap", "checkerboard"],
+        ));
     }
     let mut props = Props::new(ctx, elem, format!("texture '{ty}'"))?;
     let kind = if ty == "bitmap" {

@@ -27,7 +27,9 @@ pub fn parse_ok(xml: &str) -> Scene {
 
 /// The 1-based (line, column) where `needle` first occurs in `xml`.
 pub fn pos_of(xml: &str, needle: &str) -> (u32, u32) {
-    let at = xml.find(needle).unwrap_or_else(|| panic!("'{needle}' not in test XML"));
+    let at = xml
+        .find(needle)
+        .unwrap_or_else(|| panic!("'{needle}' not in test XML"));
     let line = xml[..at].matches('\n').count() as u32 + 1;
     let start = xml[..at].rfind('\n').map_or(0, |i| i + 1);
     (line, xml[start..at].chars().count() as u32 + 1)
@@ -40,5 +42,9 @@ pub fn assert_err(e: &ParseError, message: &str, pos: (u32, u32)) {
         "message\n  {}\ndoes not start with\n  {message}",
         e.message
     );
-    assert_eq!((e.location.line, e.location.column), pos, "position of: {e}");
+    assert_eq!(
+        (e.location.line, e.location.column),
+        pos,
+        "position of: {e}"
+    );
 }
