@@ -131,6 +131,12 @@ fn decode_with_image_crate(bytes: &[u8], raw: bool, path: &Path) -> Result<Decod
             reason: format!("content is not PNG, JPEG, BMP, TGA, HDR or EXR (extension \"{ext}\")"),
         });
     }
+    if reader.format() == Some(image::ImageFormat::Jpeg) {
+        jpeg_complete(bytes).map_err(|reason| TextureError::Decode {
+            path: path.to_path_buf(),
+            reason,
+        })?;
+    }
     let dynimg = reader.decode().map_err(|e| TextureError::Decode {
         path: path.to_path_buf(),
         reason: e.to_string(),
@@ -172,6 +178,22 @@ fn decode_with_image_crate(bytes: &[u8], raw: bool, path: &Path) -> Result<Decod
         }
     };
     Ok((Image::new(w, h, pixels), Vec::new()))
+}
+
+/// The JPEG decoder fills a truncated scan with filler and reports success, so check the
+/// structure ourselves: after the last start-of-scan marker (FF DA) there must be an
+/// end-of-image marker (FF D9). Inside entropy-coded data an FF byte is always followed by 00 or
+/// a restart marker, so FF D9 there can only be the real end; trailing bytes after it are fine.
+fn jpeg_complete(bytes: &[u8]) -> Result<(), String> {
+    let last_sos = bytes
+        .windows(2)
+        .rposition(|w| w == [0xFF, 0xDA])
+        .ok_or_else(|| "JPEG has no image data (no start-of-scan marker)".to_string())?;
+    if bytes[last_sos..].windows(2).any(|w| w == [0xFF, 0xD9]) {
+        Ok(())
+    } else {
+        Err("JPEG data ends without an end-of-image marker (file truncated?)".to_string())
+    }
 }
 
 /// Finds a channel by name: an exact match first, else one whose last `.`-separated component

@@ -35,6 +35,9 @@ impl WrapMode {
     /// Maps an integer texel index into `0..n` (`n >= 1`).
     #[inline]
     fn apply(self, i: i64, n: i64) -> i64 {
+        if (0..n).contains(&i) {
+            return i; // the common case: no division
+        }
         match self {
             WrapMode::Repeat => i.rem_euclid(n),
             WrapMode::Clamp => i.clamp(0, n - 1),
@@ -165,9 +168,11 @@ impl MipMap {
         let x = uv.x * img.width as f32;
         let y = uv.y * img.height as f32;
         let wrap = self.wrap;
-        let fetch = |i: i64, j: i64| img.get(wrap.apply(i, w) as u32, wrap.apply(j, h) as u32);
+        let row = |j: i64| wrap.apply(j, h) as usize * img.width as usize;
+        let col = |i: i64| wrap.apply(i, w) as usize;
+        let px = &img.pixels;
         match self.filter {
-            FilterType::Nearest => fetch(fix(x.floor()), fix(y.floor())),
+            FilterType::Nearest => px[row(fix(y.floor())) + col(fix(x.floor()))],
             FilterType::Bilinear => {
                 let (x, y) = (x - 0.5, y - 0.5);
                 let (x0, y0) = (x.floor(), y.floor());
@@ -178,8 +183,11 @@ impl MipMap {
                     (0.0, 0.0)
                 };
                 let (i, j) = (fix(x0), fix(y0));
-                let top = fetch(i, j) * (1.0 - fx) + fetch(i + 1, j) * fx;
-                let bottom = fetch(i, j + 1) * (1.0 - fx) + fetch(i + 1, j + 1) * fx;
+                // Wrap each of the two columns and rows once, then fetch the 4 texels.
+                let (c0, c1) = (col(i), col(i + 1));
+                let (r0, r1) = (row(j), row(j + 1));
+                let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
+                let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
                 top * (1.0 - fy) + bottom * fy
             }
         }

@@ -269,6 +269,28 @@ fn truncated_and_garbage_files_give_errors() {
         std::fs::write(&cut, &bytes[..len]).unwrap();
         assert_decode_error(&cut);
     }
+    // Truncated JPEG and Radiance HDR.
+    let jpg = scratch("full.jpg");
+    image::RgbImage::from_fn(64, 64, |x, y| image::Rgb([x as u8 * 3, y as u8 * 2, 7]))
+        .save(&jpg)
+        .unwrap();
+    let bytes = std::fs::read(&jpg).unwrap();
+    assert!(load_image(&jpg, false).is_ok());
+    let cut = scratch("truncated.jpg");
+    std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    assert_decode_error(&cut);
+    let hdr = scratch("full.hdr");
+    image::Rgb32FImage::from_pixel(32, 32, image::Rgb([1.0, 2.0, 0.5]))
+        .save(&hdr)
+        .unwrap();
+    let bytes = std::fs::read(&hdr).unwrap();
+    assert_eq!(
+        load_image(&hdr, false).unwrap().image.get(5, 5),
+        Vec3::new(1.0, 2.0, 0.5)
+    );
+    let cut = scratch("truncated.hdr");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    assert_decode_error(&cut);
     // Garbage with an image extension, and an empty file.
     let junk = scratch("junk.jpg");
     std::fs::write(&junk, b"this is not an image at all").unwrap();
