@@ -9,7 +9,11 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
-#[command(name = "torrey", version, about = "A small physically based renderer for Mitsuba-style XML scenes")]
+#[command(
+    name = "torrey",
+    version,
+    about = "A small physically based renderer for Mitsuba-style XML scenes"
+)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 struct Cli {
     #[command(subcommand)]
@@ -50,15 +54,26 @@ struct RenderArgs {
     /// Set a scene <default> parameter, as Mitsuba's -D: -D spp=16.
     #[arg(short = 'D', value_parser = parse_define)]
     define: Vec<(String, String)>,
+    /// Look textures up at full resolution (bilinear, as Mitsuba) instead of ray-cone mip-mapping.
+    #[arg(long)]
+    no_mipmap: bool,
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got '{s}'"))?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got '{s}'"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in '{s}'"))?;
     if w == 0 || h == 0 {
         return Err(format!("film size must be positive, got '{s}'"));
     }
@@ -66,7 +81,9 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {
-    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected name=value, got '{s}'"))?;
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected name=value, got '{s}'"))?;
     Ok((k.trim().to_string(), v.trim().to_string()))
 }
 
@@ -108,16 +125,23 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         seed: args.seed.unwrap_or(scene.sampler.seed),
         filter: scene.film.filter,
         tile_size: 16,
+        mipmapping: !args.no_mipmap,
     };
-    let output = output_path(args.output.as_deref(), scene_path, scene.film.filename.as_deref());
+    let output = output_path(
+        args.output.as_deref(),
+        scene_path,
+        scene.film.filename.as_deref(),
+    );
 
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {
         let bar = ProgressBar::new(1);
         bar.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% eta {eta}")
-                .expect("valid progress template"),
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent}% eta {eta}",
+            )
+            .expect("valid progress template"),
         );
         bar
     };
@@ -137,7 +161,11 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let tonemapped = torrey_texture::Image::new(
         out.image.width,
         out.image.height,
-        out.image.pixels.iter().map(|p| p.max(glam::Vec3::ZERO)).collect(),
+        out.image
+            .pixels
+            .iter()
+            .map(|p| p.max(glam::Vec3::ZERO))
+            .collect(),
     );
     torrey_texture::write_png_srgb(&png, &tonemapped).map_err(|e| e.to_string())?;
 
@@ -157,7 +185,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         samples as f64 / secs.max(1e-9) / 1e6,
     );
     if out.nonfinite_samples > 0 {
-        eprintln!("warning: {} samples were NaN or infinite and were dropped", out.nonfinite_samples);
+        eprintln!(
+            "warning: {} samples were NaN or infinite and were dropped",
+            out.nonfinite_samples
+        );
     }
     eprintln!("wrote {} and {}", output.display(), png.display());
     Ok(())
@@ -172,6 +203,8 @@ fn output_path(explicit: Option<&Path>, scene: &Path, film_name: Option<&str>) -
     if let Some(name) = film_name {
         return PathBuf::from(name).with_extension("exr");
     }
-    let stem = scene.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
+    let stem = scene
+        .file_stem()
+        .map_or("render".into(), |s| s.to_string_lossy().into_owned());
     PathBuf::from(format!("{stem}.exr"))
 }

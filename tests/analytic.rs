@@ -7,7 +7,13 @@ use glam::Vec3;
 use std::path::PathBuf;
 
 /// Writes `xml` to a fresh temp file and renders it.
-fn render_xml(name: &str, xml: &str, size: u32, spp: u32, max_depth: Option<i32>) -> common::Rendered {
+fn render_xml(
+    name: &str,
+    xml: &str,
+    size: u32,
+    spp: u32,
+    max_depth: Option<i32>,
+) -> common::Rendered {
     let dir = std::env::temp_dir().join(format!("torrey-analytic-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path: PathBuf = dir.join(format!("{name}.xml"));
@@ -55,7 +61,12 @@ fn diffuse_furnace_with_default_background() {
     let var = mean_rect(&r.variance, 12, 12, 20, 20) / 64.0;
     for c in 0..3 {
         let tol = 4.0 * var[c].sqrt() + 1e-3;
-        assert!((centre[c] - expected[c]).abs() < tol, "channel {c}: {} vs {} (tol {tol})", centre[c], expected[c]);
+        assert!(
+            (centre[c] - expected[c]).abs() < tol,
+            "channel {c}: {} vs {} (tol {tol})",
+            centre[c],
+            expected[c]
+        );
     }
     // Corners see the background directly, noise-free.
     assert!((r.image.get(0, 0) - Vec3::splat(0.5)).abs().max_element() < 1e-5);
@@ -125,7 +136,10 @@ fn point_light_over_plane() {
         let cos = h / r2.sqrt();
         let expected = rho / std::f32::consts::PI * intensity * cos / r2;
         let got = r.image.get(px, py).x;
-        assert!((got - expected).abs() / expected < 0.01, "pixel ({px},{py}): {got} vs {expected}");
+        assert!(
+            (got - expected).abs() / expected < 0.01,
+            "pixel ({px},{py}): {got} vs {expected}"
+        );
     }
 }
 
@@ -147,8 +161,15 @@ fn sidedness_follows_the_dialect() {
     let diffuse = r#"<bsdf type="diffuse" id="d"><rgb name="reflectance" value="0.5"/></bsdf>"#;
     let two = r#"<bsdf type="twosided" id="d"><bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></bsdf>"#;
     let one_sided = render_xml("m3-one", &body("3.0.0", diffuse), 32, 16, None);
-    assert_eq!(one_sided.image.get(16, 16), Vec3::ZERO, "back of a one-sided bsdf must be black");
-    for (name, xml) in [("m3-two", body("3.0.0", two)), ("torrey", body("0.6.0", diffuse))] {
+    assert_eq!(
+        one_sided.image.get(16, 16),
+        Vec3::ZERO,
+        "back of a one-sided bsdf must be black"
+    );
+    for (name, xml) in [
+        ("m3-two", body("3.0.0", two)),
+        ("torrey", body("0.6.0", diffuse)),
+    ] {
         let r = render_xml(name, &xml, 32, 64, None);
         let c = mean_rect(&r.image, 12, 12, 20, 20);
         // The back side sees half the constant environment: rho * L = 0.5 (furnace, a plane).

@@ -15,16 +15,33 @@ const TEST_SPP: u32 = 128;
 
 fn check_reference(name: &str, entry: &Value) -> Result<String, String> {
     let root = common::root();
-    let source = entry["source"].as_str().ok_or("manifest entry without source")?;
+    let source = entry["source"]
+        .as_str()
+        .ok_or("manifest entry without source")?;
     let width = entry["width"].as_u64().ok_or("no width")? as u32;
     let height = entry["height"].as_u64().ok_or("no height")? as u32;
     let max_depth = entry["max_depth"].as_i64().map(|d| d as i32);
-    let reference = common::load(&root.join("tests/references/mitsuba").join(format!("{name}.exr")));
+    let reference = common::load(
+        &root
+            .join("tests/references/mitsuba")
+            .join(format!("{name}.exr")),
+    );
     let r = common::render_scene(&root.join(source), width, height, TEST_SPP, max_depth, 7);
     if r.nonfinite > 0 {
         return Err(format!("{name}: {} NaN/inf samples", r.nonfinite));
     }
-    let cmp = common::compare_with_noise(&r.image, &r.variance, &reference, 8, 0.01, 1e-4, 5.0);
+    let ref_mean = common::mean(&reference).element_sum() as f64 / 3.0;
+    let ref_sigma = common::reference_sigma(entry["noise_rel"].as_f64().unwrap_or(0.0), ref_mean);
+    let cmp = common::compare_with_noise(
+        &r.image,
+        &r.variance,
+        &reference,
+        8,
+        0.01,
+        1e-4,
+        ref_sigma,
+        5.0,
+    );
     let summary = format!(
         "{name}: outlier blocks {:.1}% of {}, max z {:.2}, mean ratio [{:.4} {:.4} {:.4}] ± [{:.4} {:.4} {:.4}]",
         cmp.outlier_blocks * 100.0,
@@ -37,7 +54,8 @@ fn check_reference(name: &str, entry: &Value) -> Result<String, String> {
         cmp.mean_ratio_sigma[1],
         cmp.mean_ratio_sigma[2],
     );
-    let mean_ok = (0..3).all(|c| (cmp.mean_ratio[c] - 1.0).abs() <= 4.0 * cmp.mean_ratio_sigma[c] + 0.01);
+    let mean_ok =
+        (0..3).all(|c| (cmp.mean_ratio[c] - 1.0).abs() <= 4.0 * cmp.mean_ratio_sigma[c] + 0.01);
     if cmp.outlier_blocks > 0.02 || !mean_ok {
         return Err(summary);
     }
@@ -49,7 +67,9 @@ fn project_scenes_match_mitsuba() {
     let manifest_path = common::root().join("tests/references/mitsuba/manifest.json");
     let text = std::fs::read_to_string(&manifest_path).expect("manifest present in the repository");
     let manifest: Value = serde_json::from_str(&text).expect("valid manifest JSON");
-    let refs = manifest["references"].as_object().expect("references object");
+    let refs = manifest["references"]
+        .as_object()
+        .expect("references object");
     assert!(!refs.is_empty());
     let mut failures = Vec::new();
     for (name, entry) in refs {
@@ -61,7 +81,11 @@ fn project_scenes_match_mitsuba() {
             }
         }
     }
-    assert!(failures.is_empty(), "scenes differing from Mitsuba 3:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "scenes differing from Mitsuba 3:\n{}",
+        failures.join("\n")
+    );
 }
 
 /// A negative control: the same comparison must reject a render against the wrong reference
@@ -69,9 +93,13 @@ fn project_scenes_match_mitsuba() {
 #[test]
 fn comparison_rejects_a_wrong_reference() {
     let manifest_path = common::root().join("tests/references/mitsuba/manifest.json");
-    let manifest: Value = serde_json::from_str(&std::fs::read_to_string(manifest_path).unwrap()).unwrap();
+    let manifest: Value =
+        serde_json::from_str(&std::fs::read_to_string(manifest_path).unwrap()).unwrap();
     let mut wrong = manifest["references"]["cbox_depth2"].clone();
     wrong["max_depth"] = Value::from(8);
     let result = check_reference("cbox_depth2", &wrong);
-    assert!(result.is_err(), "depth 8 must not pass against the depth 2 reference: {result:?}");
+    assert!(
+        result.is_err(),
+        "depth 8 must not pass against the depth 2 reference: {result:?}"
+    );
 }

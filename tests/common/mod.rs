@@ -25,9 +25,30 @@ pub struct Rendered {
 }
 
 /// Renders `scene` at `width` x `height`, `spp` samples, optionally overriding the max depth.
-pub fn render_scene(scene: &Path, width: u32, height: u32, spp: u32, max_depth: Option<i32>, seed: u64) -> Rendered {
+pub fn render_scene(
+    scene: &Path,
+    width: u32,
+    height: u32,
+    spp: u32,
+    max_depth: Option<i32>,
+    seed: u64,
+) -> Rendered {
+    render_scene_opts(scene, width, height, spp, max_depth, seed, true)
+}
+
+/// As [`render_scene`], choosing whether textures are mip-mapped.
+pub fn render_scene_opts(
+    scene: &Path,
+    width: u32,
+    height: u32,
+    spp: u32,
+    max_depth: Option<i32>,
+    seed: u64,
+    mipmapping: bool,
+) -> Rendered {
     let desc = torrey_parser::load_scene(scene, &[]).unwrap_or_else(|e| panic!("{e}"));
-    let rs = torrey_renderer::RenderScene::build(&desc, width, height).unwrap_or_else(|e| panic!("{e}"));
+    let rs =
+        torrey_renderer::RenderScene::build(&desc, width, height).unwrap_or_else(|e| panic!("{e}"));
     let settings = torrey_renderer::RenderSettings {
         spp,
         max_depth: max_depth.unwrap_or(desc.integrator.max_depth),
@@ -35,9 +56,14 @@ pub fn render_scene(scene: &Path, width: u32, height: u32, spp: u32, max_depth: 
         seed,
         filter: desc.film.filter,
         tile_size: 16,
+        mipmapping,
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
-    Rendered { image: out.image, variance: out.variance, nonfinite: out.nonfinite_samples }
+    Rendered {
+        image: out.image,
+        variance: out.variance,
+        nonfinite: out.nonfinite_samples,
+    }
 }
 
 /// The outcome of a noise-aware comparison.
@@ -58,9 +84,23 @@ pub struct NoiseComparison {
 /// `block` x `block` pixel blocks so the heavy-tailed path-tracing noise becomes near-Gaussian.
 /// Each block's allowed deviation is `sqrt(sigma^2 + (rel_bias * ref)^2 + abs_bias^2)`: our noise
 /// plus a small systematic allowance for documented convention differences (mip-mapping,
-/// cell-centred envmap texels). Reference noise is assumed negligible (references use far more spp).
-pub fn compare_with_noise(ours: &Image, var: &Image, reference: &Image, block: u32, rel_bias: f64, abs_bias: f64, z_limit: f64) -> NoiseComparison {
-    assert_eq!((ours.width, ours.height), (reference.width, reference.height), "image sizes differ");
+/// cell-centred envmap texels), and the reference's own noise, `ref_pixel_sigma` per pixel.
+#[allow(clippy::too_many_arguments)]
+pub fn compare_with_noise(
+    ours: &Image,
+    var: &Image,
+    reference: &Image,
+    block: u32,
+    rel_bias: f64,
+    abs_bias: f64,
+    ref_pixel_sigma: f64,
+    z_limit: f64,
+) -> NoiseComparison {
+    assert_eq!(
+        (ours.width, ours.height),
+        (reference.width, reference.height),
+        "image sizes differ"
+    );
     let (w, h) = (ours.width, ours.height);
     let mut outliers = 0usize;
     let mut blocks = 0usize;
@@ -87,7 +127,7 @@ pub fn compare_with_noise(ours: &Image, var: &Image, reference: &Image, block: u
             for c in 0..3 {
                 let mo = sum_o[c] / n;
                 let mr = sum_r[c] / n;
-                let sigma2 = sum_v[c] / (n * n);
+                let sigma2 = sum_v[c] / (n * n) + ref_pixel_sigma * ref_pixel_sigma / n;
                 let allowed = (sigma2 + (rel_bias * mr).powi(2) + abs_bias * abs_bias).sqrt();
                 let z = (mo - mr).abs() / allowed.max(1e-12);
                 max_z = max_z.max(z);
@@ -106,16 +146,32 @@ pub fn compare_with_noise(ours: &Image, var: &Image, reference: &Image, block: u
         let sr: f64 = reference.pixels.iter().map(|p| p[c] as f64).sum();
         let sv: f64 = var.pixels.iter().map(|p| p[c] as f64).sum();
         mean_ratio[c] = so / sr.max(1e-12);
-        mean_ratio_sigma[c] = (sv / (npx * npx)).sqrt() / (sr / npx).max(1e-12);
+        let var_total = sv / (npx * npx) + ref_pixel_sigma * ref_pixel_sigma / npx;
+        mean_ratio_sigma[c] = var_total.sqrt() / (sr / npx).max(1e-12);
     }
-    NoiseComparison { outlier_blocks: outliers as f64 / blocks as f64, max_z, mean_ratio, mean_ratio_sigma, blocks }
+    NoiseComparison {
+        outlier_blocks: outliers as f64 / blocks as f64,
+        max_z,
+        mean_ratio,
+        mean_ratio_sigma,
+        blocks,
+    }
 }
 
 pub fn load(path: &Path) -> Image {
-    torrey_texture::load_image(path, false).unwrap_or_else(|e| panic!("{e}")).image
+    torrey_texture::load_image(path, false)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image
 }
 
 /// Mean of an image per channel.
 pub fn mean(img: &Image) -> Vec3 {
     img.pixels.iter().copied().sum::<Vec3>() / img.pixels.len() as f32
+}
+
+/// Per-pixel standard deviation of a reference from its manifest's `noise_rel` (mean |a - b| / 2
+/// over the mean, for two independent half renders a and b) and mean value: for Gaussian noise
+/// the full render's sigma is sqrt(pi / 2) * noise_rel * mean.
+pub fn reference_sigma(noise_rel: f64, mean: f64) -> f64 {
+    (std::f64::consts::PI / 2.0).sqrt() * noise_rel * mean
 }

@@ -62,7 +62,11 @@ impl Accel {
     /// Builds the BVH. An empty scene gives an accelerator that every ray misses.
     pub fn build(geoms: &[PrimGeom]) -> Self {
         if geoms.is_empty() {
-            return Self { bvh: None, geoms: Vec::new(), original_index: Vec::new() };
+            return Self {
+                bvh: None,
+                geoms: Vec::new(),
+                original_index: Vec::new(),
+            };
         }
         let aabbs: Vec<Aabb> = geoms.iter().map(PrimGeom::aabb).collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
@@ -72,7 +76,11 @@ impl Accel {
         );
         let original_index = bvh.primitive_indices.clone();
         let ordered = original_index.iter().map(|&i| geoms[i as usize]).collect();
-        Self { bvh: Some(bvh), geoms: ordered, original_index }
+        Self {
+            bvh: Some(bvh),
+            geoms: ordered,
+            original_index,
+        }
     }
 
     pub fn primitive_count(&self) -> usize {
@@ -116,7 +124,9 @@ impl Accel {
         };
         let bray = obvhs::ray::Ray::new(ray.origin.into(), ray.dir.into(), 0.0, ray.tmax);
         !bvh.ray_traverse_miss(bray, |_, slot| {
-            self.geoms[slot].intersect(ray, ray.tmax).map_or(f32::INFINITY, |h| h.0)
+            self.geoms[slot]
+                .intersect(ray, ray.tmax)
+                .map_or(f32::INFINITY, |h| h.0)
         })
     }
 }
@@ -151,7 +161,10 @@ mod tests {
         for i in 0..400 {
             let c = Vec3::new(rnd(), rnd(), rnd()) * 5.0;
             if i % 5 == 0 {
-                geoms.push(PrimGeom::Sphere { center: c, radius: 0.2 + 0.1 * rnd() });
+                geoms.push(PrimGeom::Sphere {
+                    center: c,
+                    radius: 0.2 + 0.1 * rnd(),
+                });
             } else {
                 let p1 = c + Vec3::new(rnd(), rnd(), rnd()) * 0.5;
                 let p2 = c + Vec3::new(rnd(), rnd(), rnd()) * 0.5;
@@ -163,7 +176,11 @@ mod tests {
         for _ in 0..2000 {
             let o = Vec3::new(rnd(), rnd(), rnd()) * 8.0;
             let d = Vec3::new(rnd(), rnd(), rnd()).normalize();
-            let ray = Ray { origin: o, dir: d, tmax: f32::INFINITY };
+            let ray = Ray {
+                origin: o,
+                dir: d,
+                tmax: f32::INFINITY,
+            };
             let a = accel.intersect(&ray).map(|h| (h.t, h.prim));
             let b = brute(&geoms, &ray);
             match (a, b) {
@@ -172,8 +189,14 @@ mod tests {
                     hits += 1;
                     assert!((a.0 - b.0).abs() < 1e-4, "{a:?} vs {b:?}");
                     assert_eq!(a.1, b.1);
-                    let shadow = Ray { tmax: b.0 * 0.999, ..ray };
-                    let clear = Ray { tmax: b.0 * 0.5, ..ray };
+                    let shadow = Ray {
+                        tmax: b.0 * 0.999,
+                        ..ray
+                    };
+                    let clear = Ray {
+                        tmax: b.0 * 0.5,
+                        ..ray
+                    };
                     assert!(accel.occluded(&shadow));
                     assert_eq!(accel.occluded(&clear), brute(&geoms, &clear).is_some());
                 }
@@ -186,7 +209,11 @@ mod tests {
     #[test]
     fn empty_scene_misses() {
         let accel = Accel::build(&[]);
-        let ray = Ray { origin: Vec3::ZERO, dir: Vec3::Z, tmax: f32::INFINITY };
+        let ray = Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::Z,
+            tmax: f32::INFINITY,
+        };
         assert!(accel.intersect(&ray).is_none());
         assert!(!accel.occluded(&ray));
     }

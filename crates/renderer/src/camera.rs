@@ -98,7 +98,12 @@ pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
     let d = (target - origin).normalize();
     let left = up.cross(d).normalize();
     let new_up = d.cross(left);
-    Mat4::from_cols(left.extend(0.0), new_up.extend(0.0), d.extend(0.0), origin.extend(1.0))
+    Mat4::from_cols(
+        left.extend(0.0),
+        new_up.extend(0.0),
+        d.extend(0.0),
+        origin.extend(1.0),
+    )
 }
 
 #[cfg(test)]
@@ -107,7 +112,13 @@ mod tests {
 
     #[test]
     fn world_x_is_on_the_right() {
-        let cam = Camera::new(look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y), 90.0, FovAxis::X, 100, 50);
+        let cam = Camera::new(
+            look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y),
+            90.0,
+            FovAxis::X,
+            100,
+            50,
+        );
         let p = cam.project(Vec3::new(0.5, 0.0, -1.0)).unwrap();
         assert!(p.x > 50.0, "world +x should land right of centre, got {p}");
         let p = cam.project(Vec3::new(0.0, 0.2, -1.0)).unwrap();
@@ -126,11 +137,19 @@ mod tests {
         let (_, d) = cam.generate_ray(Vec2::new(100.0, 0.0));
         assert!((d.y - d.z).abs() < 1e-6);
         // smaller = y for a landscape film, larger = x.
-        let a = Camera::new(m, 60.0, FovAxis::Smaller, 200, 100).generate_ray(Vec2::new(100.0, 0.0)).1;
-        let b = Camera::new(m, 60.0, FovAxis::Y, 200, 100).generate_ray(Vec2::new(100.0, 0.0)).1;
+        let a = Camera::new(m, 60.0, FovAxis::Smaller, 200, 100)
+            .generate_ray(Vec2::new(100.0, 0.0))
+            .1;
+        let b = Camera::new(m, 60.0, FovAxis::Y, 200, 100)
+            .generate_ray(Vec2::new(100.0, 0.0))
+            .1;
         assert!((a - b).length() < 1e-6);
-        let a = Camera::new(m, 60.0, FovAxis::Larger, 200, 100).generate_ray(Vec2::new(0.0, 50.0)).1;
-        let b = Camera::new(m, 60.0, FovAxis::X, 200, 100).generate_ray(Vec2::new(0.0, 50.0)).1;
+        let a = Camera::new(m, 60.0, FovAxis::Larger, 200, 100)
+            .generate_ray(Vec2::new(0.0, 50.0))
+            .1;
+        let b = Camera::new(m, 60.0, FovAxis::X, 200, 100)
+            .generate_ray(Vec2::new(0.0, 50.0))
+            .1;
         assert!((a - b).length() < 1e-6);
         // diagonal: the corner ray is fov/2 off-axis.
         let cam = Camera::new(m, 90.0, FovAxis::Diagonal, 300, 400);
@@ -140,7 +159,11 @@ mod tests {
 
     #[test]
     fn generate_and_project_round_trip() {
-        let m = look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 0.5, 0.0), Vec3::new(0.1, 1.0, 0.0));
+        let m = look_at(
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(-1.0, 0.5, 0.0),
+            Vec3::new(0.1, 1.0, 0.0),
+        );
         let cam = Camera::new(m, 39.3, FovAxis::Y, 64, 48);
         for &(x, y) in &[(0.5, 0.5), (10.25, 40.0), (63.0, 1.0)] {
             let (_, d) = cam.generate_ray(Vec2::new(x, y));

@@ -22,7 +22,13 @@ pub struct TriangleHit {
 /// Watertight ray/triangle intersection (Woop, Benthin and Wald 2013): edges shared by two
 /// triangles are never missed by both, so closed meshes do not leak rays.
 #[inline]
-pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3, tmax: f32) -> Option<TriangleHit> {
+pub fn intersect_triangle(
+    ray: &Ray,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    tmax: f32,
+) -> Option<TriangleHit> {
     // Permute axes so that the ray direction's largest component is z.
     let d = ray.dir;
     let ad = d.abs();
@@ -88,7 +94,11 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3, tmax: f32) ->
         return None;
     }
     // u weights p0, v weights p1, w weights p2.
-    Some(TriangleHit { t, b1: v * inv_det, b2: w * inv_det })
+    Some(TriangleHit {
+        t,
+        b1: v * inv_det,
+        b2: w * inv_det,
+    })
 }
 
 /// Ray/sphere intersection with the numerically stable quadratic (the discriminant computed from
@@ -136,7 +146,10 @@ pub fn sphere_uv(local: Vec3) -> (Vec2, Vec3, Vec3) {
         phi += 2.0 * std::f32::consts::PI;
     }
     let theta = z.acos();
-    let uv = Vec2::new(phi / (2.0 * std::f32::consts::PI), theta / std::f32::consts::PI);
+    let uv = Vec2::new(
+        phi / (2.0 * std::f32::consts::PI),
+        theta / std::f32::consts::PI,
+    );
     let dpdu = 2.0 * std::f32::consts::PI * Vec3::new(-y, x, 0.0);
     let (sin_phi, cos_phi) = phi.sin_cos();
     let rxy = (x * x + y * y).sqrt();
@@ -159,22 +172,42 @@ mod tests {
     use super::*;
 
     fn ray(o: Vec3, d: Vec3) -> Ray {
-        Ray { origin: o, dir: d, tmax: f32::INFINITY }
+        Ray {
+            origin: o,
+            dir: d,
+            tmax: f32::INFINITY,
+        }
     }
 
     #[test]
     fn triangle_hit_and_barycentrics() {
         let (p0, p1, p2) = (Vec3::ZERO, Vec3::X, Vec3::Y);
-        let h = intersect_triangle(&ray(Vec3::new(0.25, 0.5, 1.0), -Vec3::Z), p0, p1, p2, f32::INFINITY)
-            .unwrap();
+        let h = intersect_triangle(
+            &ray(Vec3::new(0.25, 0.5, 1.0), -Vec3::Z),
+            p0,
+            p1,
+            p2,
+            f32::INFINITY,
+        )
+        .unwrap();
         assert!((h.t - 1.0).abs() < 1e-6);
         assert!((h.b1 - 0.25).abs() < 1e-6 && (h.b2 - 0.5).abs() < 1e-6);
         // Either orientation of the ray hits (no culling).
-        assert!(intersect_triangle(&ray(Vec3::new(0.25, 0.25, -1.0), Vec3::Z), p0, p1, p2, 10.0).is_some());
+        assert!(
+            intersect_triangle(&ray(Vec3::new(0.25, 0.25, -1.0), Vec3::Z), p0, p1, p2, 10.0)
+                .is_some()
+        );
         // Outside and behind are misses; tmax is respected.
-        assert!(intersect_triangle(&ray(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z), p0, p1, p2, 10.0).is_none());
-        assert!(intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), Vec3::Z), p0, p1, p2, 10.0).is_none());
-        assert!(intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z), p0, p1, p2, 0.5).is_none());
+        assert!(
+            intersect_triangle(&ray(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z), p0, p1, p2, 10.0)
+                .is_none()
+        );
+        assert!(
+            intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), Vec3::Z), p0, p1, p2, 10.0).is_none()
+        );
+        assert!(
+            intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z), p0, p1, p2, 0.5).is_none()
+        );
     }
 
     #[test]
@@ -185,9 +218,15 @@ mod tests {
         let mut misses = 0;
         for i in 0..1000 {
             let s = (i as f32 + 0.5) / 1000.0;
-            let r = ray(Vec3::new(s, s, 3.7), Vec3::new(0.0001 * s, -0.0003, -1.0).normalize());
+            let r = ray(
+                Vec3::new(s, s, 3.7),
+                Vec3::new(0.0001 * s, -0.0003, -1.0).normalize(),
+            );
             let target = Vec3::new(s, s, 0.0);
-            let r = Ray { dir: (target - r.origin).normalize(), ..r };
+            let r = Ray {
+                dir: (target - r.origin).normalize(),
+                ..r
+            };
             let h1 = intersect_triangle(&r, a, b, c, f32::INFINITY);
             let h2 = intersect_triangle(&r, a, c, d, f32::INFINITY);
             if h1.is_none() && h2.is_none() {
@@ -207,7 +246,8 @@ mod tests {
         assert!(intersect_sphere(&ray(Vec3::ZERO, Vec3::Z), c, 1.0, 0.0, f32::INFINITY).is_none());
         // A far, small sphere is still hit accurately (stable discriminant).
         let far = Vec3::new(0.0, 0.0, -1e4);
-        let t = intersect_sphere(&ray(Vec3::ZERO, -Vec3::Z), far, 0.01, 0.0, f32::INFINITY).unwrap();
+        let t =
+            intersect_sphere(&ray(Vec3::ZERO, -Vec3::Z), far, 0.01, 0.0, f32::INFINITY).unwrap();
         assert!((t - (1e4 - 0.01)).abs() < 0.01);
     }
 

@@ -29,6 +29,9 @@ pub trait Sampler {
 pub struct PathSettings {
     pub max_depth: i32,
     pub rr_depth: i32,
+    /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
+    /// as Mitsuba does; used to measure what mip-mapping changes.
+    pub mipmapping: bool,
 }
 
 /// Radiance arriving at the camera along the primary ray.
@@ -40,16 +43,28 @@ pub fn radiance(
     settings: PathSettings,
     sampler: &mut impl Sampler,
 ) -> Vec3 {
-    let max_depth = if settings.max_depth < 0 { u32::MAX } else { settings.max_depth as u32 };
+    let max_depth = if settings.max_depth < 0 {
+        u32::MAX
+    } else {
+        settings.max_depth as u32
+    };
     if max_depth == 0 {
         return Vec3::ZERO;
     }
     let light_count = scene.lights.len();
-    let light_select_pdf = if light_count > 0 { 1.0 / light_count as f32 } else { 0.0 };
+    let light_select_pdf = if light_count > 0 {
+        1.0 / light_count as f32
+    } else {
+        0.0
+    };
 
     let mut result = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
-    let mut ray = Ray { origin, dir, tmax: f32::INFINITY };
+    let mut ray = Ray {
+        origin,
+        dir,
+        tmax: f32::INFINITY,
+    };
     let mut cone = cone;
     // Pdf of the BSDF sample that produced `ray` (for MIS at emitters it hits).
     let mut prev_bsdf_pdf = 0.0f32;
@@ -63,7 +78,11 @@ pub fn radiance(
             // Escaped: lights at infinity.
             for &li in &scene.infinite_lights {
                 let light = &scene.lights[li as usize];
-                let spread = if specular_chain { cone.spread } else { 0.0 };
+                let spread = if specular_chain && settings.mipmapping {
+                    cone.spread
+                } else {
+                    0.0
+                };
                 let (le, pdf) = light.eval_infinite(ray.dir, spread);
                 let w = if prev_delta {
                     1.0
@@ -85,7 +104,8 @@ pub fn radiance(
                     let w = if prev_delta {
                         1.0
                     } else {
-                        let pdf = light.pdf_area_hit(prev_p, ray.dir, hit.t, hit.ng) * light_select_pdf;
+                        let pdf =
+                            light.pdf_area_hit(prev_p, ray.dir, hit.t, hit.ng) * light_select_pdf;
                         power_heuristic(prev_bsdf_pdf, pdf)
                     };
                     result += throughput * radiance * w;
@@ -99,7 +119,11 @@ pub fn radiance(
 
         // Shading frame, with the normal map applied and turned towards wo when two-sided.
         cone = cone.at_distance(hit.t);
-        let footprint = cone.uv_footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv);
+        let footprint = if settings.mipmapping {
+            cone.uv_footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
+        } else {
+            0.0
+        };
         let material = &scene.materials[shape.material as usize];
         let Some(frame) = shading_frame(scene, &hit, wo, material, footprint) else {
             break; // the back of a one-sided bsdf is black
@@ -108,8 +132,9 @@ pub fn radiance(
         if wo_local.z <= 0.0 {
             break;
         }
-        let reflectance =
-            material.reflectance.eval(&scene.textures, hit.uv, footprint);
+        let reflectance = material
+            .reflectance
+            .eval(&scene.textures, hit.uv, footprint);
         let model = material.model;
 
         // Next-event estimation.
@@ -123,7 +148,11 @@ pub fn radiance(
                 let f = model.eval(reflectance, wo_local, wi_local);
                 if f.max_element() > 0.0 && ls.pdf > 0.0 {
                     let origin = offset_origin(hit.p, hit.ng, ls.wi);
-                    let tmax = if ls.dist.is_finite() { ls.dist * (1.0 - 2e-4) } else { f32::INFINITY };
+                    let tmax = if ls.dist.is_finite() {
+                        ls.dist * (1.0 - 2e-4)
+                    } else {
+                        f32::INFINITY
+                    };
                     if scene.visible(origin, ls.wi, tmax) {
                         let light_pdf = ls.pdf * light_select_pdf;
                         let w = if ls.is_delta {
@@ -155,7 +184,11 @@ pub fn radiance(
         prev_bsdf_pdf = bs.pdf;
         prev_delta = bs.is_delta;
         prev_p = hit.p;
-        ray = Ray { origin: offset_origin(hit.p, hit.ng, wi), dir: wi, tmax: f32::INFINITY };
+        ray = Ray {
+            origin: offset_origin(hit.p, hit.ng, wi),
+            dir: wi,
+            tmax: f32::INFINITY,
+        };
         depth += 1;
 
         // Russian roulette, as Mitsuba: survive with probability min(max throughput, 0.95).

@@ -13,15 +13,32 @@ use torrey_light::{
 /// Geometry an area light samples from.
 pub enum AreaShape {
     /// Triangles `first_prim ..` of the primitive list, chosen by area.
-    Mesh { first_prim: u32, total_area: f32, triangles: Distribution1D },
-    Sphere { center: Vec3, radius: f32 },
+    Mesh {
+        first_prim: u32,
+        total_area: f32,
+        triangles: Distribution1D,
+    },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+    },
 }
 
 pub enum LightKind {
-    Point { position: Vec3, intensity: Vec3 },
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
     /// One-sided diffuse emitter on a shape: radiance along the (possibly flipped) normal only.
-    Area { shape: u32, radiance: Vec3, area: AreaShape, flip_normals: bool },
-    Constant { radiance: Vec3 },
+    Area {
+        shape: u32,
+        radiance: Vec3,
+        area: AreaShape,
+        flip_normals: bool,
+    },
+    Constant {
+        radiance: Vec3,
+    },
     Env(Box<EnvMap>),
 }
 
@@ -59,7 +76,10 @@ impl Light {
         prims: &[PrimInfo],
     ) -> Option<LightSample> {
         match &self.kind {
-            LightKind::Point { position, intensity } => {
+            LightKind::Point {
+                position,
+                intensity,
+            } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 if dist2 == 0.0 {
@@ -74,8 +94,17 @@ impl Light {
                     is_delta: true,
                 })
             }
-            LightKind::Area { radiance, area, flip_normals, .. } => match area {
-                AreaShape::Mesh { first_prim, total_area, triangles } => {
+            LightKind::Area {
+                radiance,
+                area,
+                flip_normals,
+                ..
+            } => match area {
+                AreaShape::Mesh {
+                    first_prim,
+                    total_area,
+                    triangles,
+                } => {
                     let (index, _, u_rest) = triangles.sample_discrete(u.x);
                     let prim = prims[(*first_prim as usize) + index];
                     let [a, b, c] = mesh.indices[prim.triangle as usize];
@@ -124,7 +153,13 @@ impl Light {
                     if n.dot(wi) >= 0.0 {
                         return None;
                     }
-                    Some(LightSample { wi, dist, radiance: *radiance, pdf: s.pdf, is_delta: false })
+                    Some(LightSample {
+                        wi,
+                        dist,
+                        radiance: *radiance,
+                        pdf: s.pdf,
+                        is_delta: false,
+                    })
                 }
             },
             LightKind::Constant { radiance } => {
@@ -155,7 +190,10 @@ impl Light {
     #[inline]
     pub fn pdf_area_hit(&self, p: Vec3, wi: Vec3, dist: f32, n_light: Vec3) -> f32 {
         match &self.kind {
-            LightKind::Area { area: AreaShape::Mesh { total_area, .. }, .. } => {
+            LightKind::Area {
+                area: AreaShape::Mesh { total_area, .. },
+                ..
+            } => {
                 let cos = n_light.dot(wi).abs();
                 if cos == 0.0 {
                     0.0
@@ -163,9 +201,10 @@ impl Light {
                     dist * dist / (cos * total_area)
                 }
             }
-            LightKind::Area { area: AreaShape::Sphere { center, radius }, .. } => {
-                sphere_solid_angle_pdf(*center, *radius, p, wi)
-            }
+            LightKind::Area {
+                area: AreaShape::Sphere { center, radius },
+                ..
+            } => sphere_solid_angle_pdf(*center, *radius, p, wi),
             _ => 0.0,
         }
     }

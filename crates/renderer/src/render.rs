@@ -21,6 +21,8 @@ pub struct RenderSettings {
     pub seed: u64,
     pub filter: PixelFilter,
     pub tile_size: u32,
+    /// Ray-cone mip-mapping of textures and environment maps (on by default).
+    pub mipmapping: bool,
 }
 
 pub struct RenderOutput {
@@ -66,7 +68,11 @@ pub fn render(
     let total = tiles.len() as u64;
     let done = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);
-    let path = PathSettings { max_depth: settings.max_depth, rr_depth: settings.rr_depth };
+    let path = PathSettings {
+        max_depth: settings.max_depth,
+        rr_depth: settings.rr_depth,
+        mipmapping: settings.mipmapping,
+    };
     let spp = settings.spp.max(1);
 
     let rendered: Vec<((u32, u32), Vec<(Vec3, Vec3)>)> = tiles
@@ -98,8 +104,11 @@ pub fn render(
                         mean += delta / n;
                         m2 += delta * (l - mean);
                     }
-                    let var_of_mean =
-                        if spp > 1 { m2 / ((spp - 1) as f32 * spp as f32) } else { Vec3::ZERO };
+                    let var_of_mean = if spp > 1 {
+                        m2 / ((spp - 1) as f32 * spp as f32)
+                    } else {
+                        Vec3::ZERO
+                    };
                     out.push((mean, var_of_mean));
                 }
             }
@@ -178,7 +187,10 @@ mod tests {
         }
         assert!(differs, "different streams must differ");
         // Chi-square with 9 degrees of freedom; 27.9 is the 0.999 quantile.
-        let chi2: f64 = bins.iter().map(|&o| (o as f64 - 10_000.0).powi(2) / 10_000.0).sum();
+        let chi2: f64 = bins
+            .iter()
+            .map(|&o| (o as f64 - 10_000.0).powi(2) / 10_000.0)
+            .sum();
         assert!(chi2 < 27.9, "chi2 = {chi2}");
     }
 
@@ -193,7 +205,13 @@ mod tests {
             bins[((x + 1.0) * 4.0).min(7.999) as usize] += 1;
         }
         // Expected mass of bin [a, b] under the tent: integral of 1 - |x|.
-        let cdf = |x: f64| if x < 0.0 { 0.5 * (1.0 + x).powi(2) } else { 1.0 - 0.5 * (1.0 - x).powi(2) };
+        let cdf = |x: f64| {
+            if x < 0.0 {
+                0.5 * (1.0 + x).powi(2)
+            } else {
+                1.0 - 0.5 * (1.0 - x).powi(2)
+            }
+        };
         let chi2: f64 = (0..8)
             .map(|i| {
                 let (a, b) = (-1.0 + i as f64 * 0.25, -1.0 + (i + 1) as f64 * 0.25);

@@ -33,9 +33,16 @@ pub struct Material {
 
 #[derive(Clone, Copy, Debug)]
 pub enum ShapeKind {
-    Mesh { has_normals: bool, has_uvs: bool },
+    Mesh {
+        has_normals: bool,
+        has_uvs: bool,
+    },
     /// World-space centre and radius, and the world-to-object rotation that fixes the uv poles.
-    Sphere { center: Vec3, radius: f32, to_object: Mat3 },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        to_object: Mat3,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -109,8 +116,11 @@ impl RenderScene {
             .map(|t| build_texture(t, &mut warnings))
             .collect::<Result<Vec<_>, _>>()?;
         let torrey_dialect = scene.dialect == desc::Dialect::Torrey;
-        let mut materials: Vec<Material> =
-            scene.bsdfs.iter().map(|b| build_material(b, torrey_dialect)).collect();
+        let mut materials: Vec<Material> = scene
+            .bsdfs
+            .iter()
+            .map(|b| build_material(b, torrey_dialect))
+            .collect();
         // Shapes without a bsdf get Mitsuba's default: diffuse, reflectance 0.5.
         let default_material = materials.len() as u32;
         materials.push(Material {
@@ -129,9 +139,14 @@ impl RenderScene {
             let shape_id = shape_index as u32;
             let first_prim = prims.len() as u32;
             let kind = match &shape.geometry {
-                desc::Geometry::Mesh(m) => {
-                    add_mesh(&mut mesh, &mut geoms, &mut prims, shape_id, m, shape.to_world)
-                }
+                desc::Geometry::Mesh(m) => add_mesh(
+                    &mut mesh,
+                    &mut geoms,
+                    &mut prims,
+                    shape_id,
+                    m,
+                    shape.to_world,
+                ),
                 desc::Geometry::Rectangle => add_mesh(
                     &mut mesh,
                     &mut geoms,
@@ -147,21 +162,38 @@ impl RenderScene {
                     let linear = Mat3::from_mat4(m);
                     let scale = linear.x_axis.length();
                     let r = radius * scale;
-                    let rot = if scale > 0.0 { linear * (1.0 / scale) } else { Mat3::IDENTITY };
-                    geoms.push(PrimGeom::Sphere { center: c, radius: r });
-                    prims.push(PrimInfo { shape: shape_id, triangle: 0 });
-                    ShapeKind::Sphere { center: c, radius: r, to_object: rot.transpose() }
+                    let rot = if scale > 0.0 {
+                        linear * (1.0 / scale)
+                    } else {
+                        Mat3::IDENTITY
+                    };
+                    geoms.push(PrimGeom::Sphere {
+                        center: c,
+                        radius: r,
+                    });
+                    prims.push(PrimInfo {
+                        shape: shape_id,
+                        triangle: 0,
+                    });
+                    ShapeKind::Sphere {
+                        center: c,
+                        radius: r,
+                        to_object: rot.transpose(),
+                    }
                 }
             };
             let prim_count = prims.len() as u32 - first_prim;
             let area_light = match shape.emitter {
                 Some(radiance) if radiance.max_element() > 0.0 && prim_count > 0 => {
                     let area_shape = match kind {
-                        ShapeKind::Sphere { center, radius, .. } => AreaShape::Sphere { center, radius },
+                        ShapeKind::Sphere { center, radius, .. } => {
+                            AreaShape::Sphere { center, radius }
+                        }
                         ShapeKind::Mesh { .. } => {
                             let areas: Vec<f32> = (first_prim..first_prim + prim_count)
                                 .map(|p| {
-                                    let [a, b, c] = mesh.indices[prims[p as usize].triangle as usize];
+                                    let [a, b, c] =
+                                        mesh.indices[prims[p as usize].triangle as usize];
                                     let (a, b, c) = (
                                         mesh.positions[a as usize],
                                         mesh.positions[b as usize],
@@ -201,11 +233,21 @@ impl RenderScene {
         let mut infinite_lights = Vec::new();
         for light in &scene.lights {
             let kind = match light {
-                desc::Light::Point { position, intensity } => {
-                    LightKind::Point { position: *position, intensity: *intensity }
-                }
-                desc::Light::Constant { radiance } => LightKind::Constant { radiance: *radiance },
-                desc::Light::Envmap { bitmap, scale, to_world } => {
+                desc::Light::Point {
+                    position,
+                    intensity,
+                } => LightKind::Point {
+                    position: *position,
+                    intensity: *intensity,
+                },
+                desc::Light::Constant { radiance } => LightKind::Constant {
+                    radiance: *radiance,
+                },
+                desc::Light::Envmap {
+                    bitmap,
+                    scale,
+                    to_world,
+                } => {
                     let image = load_bitmap_image(bitmap, &mut warnings)?;
                     let rotation = Mat3::from_mat4(*to_world);
                     LightKind::Env(Box::new(EnvMap::new(image, *scale, rotation)))
@@ -247,11 +289,17 @@ impl RenderScene {
         let prim = self.prims[hit.prim as usize];
         let shape = &self.shapes[prim.shape as usize];
         let mut sh = match shape.kind {
-            ShapeKind::Mesh { has_normals, has_uvs } => {
+            ShapeKind::Mesh {
+                has_normals,
+                has_uvs,
+            } => {
                 let [i0, i1, i2] = self.mesh.indices[prim.triangle as usize];
                 let (i0, i1, i2) = (i0 as usize, i1 as usize, i2 as usize);
-                let (p0, p1, p2) =
-                    (self.mesh.positions[i0], self.mesh.positions[i1], self.mesh.positions[i2]);
+                let (p0, p1, p2) = (
+                    self.mesh.positions[i0],
+                    self.mesh.positions[i1],
+                    self.mesh.positions[i2],
+                );
                 let b0 = 1.0 - hit.b1 - hit.b2;
                 let p = b0 * p0 + hit.b1 * p1 + hit.b2 * p2;
                 let e1 = p1 - p0;
@@ -295,7 +343,11 @@ impl RenderScene {
                     prim: hit.prim,
                 }
             }
-            ShapeKind::Sphere { center, radius, to_object } => {
+            ShapeKind::Sphere {
+                center,
+                radius,
+                to_object,
+            } => {
                 let p_ray = ray.origin + hit.t * ray.dir;
                 let n = (p_ray - center).normalize_or(Vec3::Z);
                 // Re-project onto the surface: the ray's point carries the cancellation error.
@@ -349,7 +401,10 @@ fn rectangle_mesh() -> desc::TriangleMesh {
         Vec3::new(1.0, 1.0, 0.0),
         Vec3::new(-1.0, 1.0, 0.0),
     ];
-    let uvs = positions.iter().map(|p| Vec2::new((p.x + 1.0) * 0.5, (p.y + 1.0) * 0.5)).collect();
+    let uvs = positions
+        .iter()
+        .map(|p| Vec2::new((p.x + 1.0) * 0.5, (p.y + 1.0) * 0.5))
+        .collect();
     desc::TriangleMesh {
         positions,
         normals: vec![Vec3::Z; 4],
@@ -371,18 +426,25 @@ fn add_mesh(
     let base = mesh.positions.len() as u32;
     let has_normals = m.normals.len() == m.positions.len() && !m.normals.is_empty();
     let has_uvs = m.uvs.len() == m.positions.len() && !m.uvs.is_empty();
-    mesh.positions.extend(m.positions.iter().map(|&p| to_world.transform_point3(p)));
+    mesh.positions
+        .extend(m.positions.iter().map(|&p| to_world.transform_point3(p)));
     // Normals transform with the inverse transpose.
     let normal_matrix = Mat3::from_mat4(to_world).inverse().transpose();
     if has_normals {
-        mesh.normals.extend(m.normals.iter().map(|&n| (normal_matrix * n).normalize_or(Vec3::Z)));
+        mesh.normals.extend(
+            m.normals
+                .iter()
+                .map(|&n| (normal_matrix * n).normalize_or(Vec3::Z)),
+        );
     } else {
-        mesh.normals.extend(std::iter::repeat_n(Vec3::Z, m.positions.len()));
+        mesh.normals
+            .extend(std::iter::repeat_n(Vec3::Z, m.positions.len()));
     }
     if has_uvs {
         mesh.uvs.extend(m.uvs.iter().copied());
     } else {
-        mesh.uvs.extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len()));
+        mesh.uvs
+            .extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len()));
     }
     for tri in &m.indices {
         let idx = [tri[0] + base, tri[1] + base, tri[2] + base];
@@ -392,11 +454,17 @@ fn add_mesh(
         if (p1 - p0).cross(p2 - p0).length_squared() == 0.0 {
             continue;
         }
-        prims.push(PrimInfo { shape, triangle: mesh.indices.len() as u32 });
+        prims.push(PrimInfo {
+            shape,
+            triangle: mesh.indices.len() as u32,
+        });
         mesh.indices.push(idx);
         geoms.push(PrimGeom::Triangle { p0, p1, p2 });
     }
-    ShapeKind::Mesh { has_normals, has_uvs }
+    ShapeKind::Mesh {
+        has_normals,
+        has_uvs,
+    }
 }
 
 fn build_material(b: &desc::Bsdf, torrey_dialect: bool) -> Material {
@@ -410,15 +478,33 @@ fn build_material(b: &desc::Bsdf, torrey_dialect: bool) -> Material {
         desc::BsdfKind::Plastic { reflectance, eta } => {
             (BsdfModel::Plastic { eta: *eta }, color(reflectance))
         }
-        desc::BsdfKind::Phong { reflectance, exponent } => {
-            (BsdfModel::Phong { exponent: *exponent }, color(reflectance))
-        }
-        desc::BsdfKind::Blinn { reflectance, exponent } => {
-            (BsdfModel::Blinn { exponent: *exponent }, color(reflectance))
-        }
-        desc::BsdfKind::BlinnMicrofacet { reflectance, exponent } => {
-            (BsdfModel::BlinnMicrofacet { exponent: *exponent }, color(reflectance))
-        }
+        desc::BsdfKind::Phong {
+            reflectance,
+            exponent,
+        } => (
+            BsdfModel::Phong {
+                exponent: *exponent,
+            },
+            color(reflectance),
+        ),
+        desc::BsdfKind::Blinn {
+            reflectance,
+            exponent,
+        } => (
+            BsdfModel::Blinn {
+                exponent: *exponent,
+            },
+            color(reflectance),
+        ),
+        desc::BsdfKind::BlinnMicrofacet {
+            reflectance,
+            exponent,
+        } => (
+            BsdfModel::BlinnMicrofacet {
+                exponent: *exponent,
+            },
+            color(reflectance),
+        ),
     };
     Material {
         model,
@@ -433,7 +519,10 @@ fn load_bitmap_image(
     warnings: &mut Vec<String>,
 ) -> Result<torrey_texture::Image, BuildError> {
     let loaded = torrey_texture::load_image(&bitmap.filename, bitmap.raw).map_err(|e| {
-        BuildError::Texture { location: bitmap.filename.display().to_string(), message: e.to_string() }
+        BuildError::Texture {
+            location: bitmap.filename.display().to_string(),
+            message: e.to_string(),
+        }
     })?;
     warnings.extend(loaded.warnings);
     Ok(loaded.image)
@@ -452,10 +541,19 @@ fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Textur
                 desc::FilterType::Bilinear => torrey_texture::FilterType::Bilinear,
                 desc::FilterType::Nearest => torrey_texture::FilterType::Nearest,
             };
-            Texture::Bitmap(BitmapTexture::new(MipMap::new(image, wrap, filter), bitmap.to_uv))
+            Texture::Bitmap(BitmapTexture::new(
+                MipMap::new(image, wrap, filter),
+                bitmap.to_uv,
+            ))
         }
-        desc::TextureKind::Checkerboard { color0, color1, to_uv } => {
-            Texture::Checkerboard { color0: *color0, color1: *color1, to_uv: *to_uv }
-        }
+        desc::TextureKind::Checkerboard {
+            color0,
+            color1,
+            to_uv,
+        } => Texture::Checkerboard {
+            color0: *color0,
+            color1: *color1,
+            to_uv: *to_uv,
+        },
     })
 }

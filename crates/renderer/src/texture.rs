@@ -6,7 +6,11 @@ use torrey_texture::BitmapTexture;
 
 pub enum Texture {
     Bitmap(BitmapTexture),
-    Checkerboard { color0: Vec3, color1: Vec3, to_uv: Affine2 },
+    Checkerboard {
+        color0: Vec3,
+        color1: Vec3,
+        to_uv: Affine2,
+    },
 }
 
 impl Texture {
@@ -15,7 +19,11 @@ impl Texture {
     pub fn eval(&self, uv: Vec2, footprint: f32) -> Vec3 {
         match self {
             Texture::Bitmap(b) => b.eval(uv, footprint),
-            Texture::Checkerboard { color0, color1, to_uv } => {
+            Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } => {
                 let p = to_uv.transform_point2(uv);
                 // Mitsuba's checkerboard: each unit uv square holds 2x2 checks; colour 0 where
                 // both fractional parts lie on the same side of one half.
