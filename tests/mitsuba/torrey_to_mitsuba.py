@@ -12,7 +12,12 @@ What it changes (each applied change is reported in the returned `conversions` l
   * names camelCase -> snake_case (toWorld -> to_world, ...), <lookAt> -> <lookat>;
   * every bsdf is wrapped in `twosided` (torrey shades both sides); shapes without a bsdf get
     a two-sided diffuse 0.5 (Mitsuba's default bsdf, made two-sided);
-  * <background> -> `constant` emitter; 0.5 grey when the tag is absent;
+  * <background> -> `constant` emitter; 0.5 grey when the tag is absent and the scene has no
+    `envmap` or `constant` emitter (torrey's parser drops the implicit background then too);
+  * `envmap` emitters, both syntaxes: Mitsuba style (`filename`, `scale`) and seed style (a nested
+    bitmap `<texture>`, e.g. name="reflectance", and `intensity_scale`) -> Mitsuba 3 `envmap` with
+    an absolute `filename`, `scale` = scale * intensity_scale and `to_world` kept as is (Mitsuba 3's
+    envmap orientation is the one torrey uses, so no extra rotation);
   * film: box rfilter, rgb float32; sampler: `independent`; width/height/spp/max_depth overrides;
   * torrey `mirror` with reflectance 1 -> `conductor` with material "none" (identical);
     other mirrors and plastic/phong/blinn/blinn_microfacet -> the Python plugins
@@ -53,6 +58,7 @@ class Converter:
         self.width, self.height, self.spp, self.max_depth = width, height, spp, max_depth
         self.conversions = []
         self.uses_plugins = set()
+        self.has_environment = False  # an envmap or constant emitter replaces the implicit background
 
     def note(self, what):
         if what not in self.conversions:
@@ -84,6 +90,8 @@ class Converter:
         return p if os.path.isabs(p) else os.path.normpath(os.path.join(self.base, p))
 
     def convert_child(self, c):
+        if c.tag == "emitter" and c.get("type") == "envmap":
+            return self.envmap(c)
         if c.tag == "bsdf":
             return self.bsdf(c)
         if c.tag == "texture":
@@ -141,6 +149,44 @@ class Converter:
         for k in kids:
             core.append(k)
         return core
+
+    # ---- environment map ----------------------------------------------------------------
+    def envmap(self, e):
+        out = ET.Element("emitter", {k: v for k, v in e.attrib.items()})
+        filename = None
+        scale = 1.0
+        transform = None
+        for c in e:
+            if not isinstance(c.tag, str):
+                continue
+            n = c.get("name")
+            if c.tag == "string" and n == "filename":
+                filename = c.get("value")
+            elif c.tag == "float" and n in ("scale", "intensity_scale", "intensityScale"):
+                scale *= float(c.get("value"))
+            elif c.tag == "transform" and n in ("toWorld", "to_world"):
+                transform = self.copy(c)
+                transform.set("name", "to_world")
+            elif c.tag == "texture" and filename is None:
+                if c.get("type") not in ("bitmap", None):
+                    raise ValueError("envmap: nested texture of type %s" % c.get("type"))
+                for t in c:
+                    if isinstance(t.tag, str) and t.get("name") == "filename":
+                        filename = t.get("value")
+                    elif isinstance(t.tag, str):
+                        self.note("envmap texture parameter %s dropped" % t.get("name"))
+                self.note("envmap nested bitmap texture -> filename")
+            else:
+                self.note("envmap parameter %s dropped" % n)
+        if filename is None:
+            raise ValueError("envmap without a filename or a nested bitmap texture")
+        ET.SubElement(out, "string", {"name": "filename", "value": self.abspath(filename)})
+        ET.SubElement(out, "float", {"name": "scale", "value": repr(scale)})
+        if transform is not None:
+            out.append(transform)
+        self.note("envmap (absolute filename, scale, to_world kept)")
+        self.has_environment = True
+        return out
 
     # ---- textures -----------------------------------------------------------------------
     def texture(self, e):
@@ -244,16 +290,21 @@ class Converter:
                     self.note("shape without bsdf -> twosided diffuse 0.5")
                 scene.append(sh)
             else:
+                if c.tag == "emitter" and c.get("type") == "constant":
+                    self.has_environment = True
                 scene.append(self.convert_child(c))
-        em = ET.SubElement(scene, "emitter", {"type": "constant"})
         if background is not None:
+            em = ET.SubElement(scene, "emitter", {"type": "constant"})
             rad = self.param(background, "radiance")
             value = rad.get("value") if rad is not None else "0.5"
             self.note("<background> -> constant emitter")
+            ET.SubElement(em, "rgb", {"name": "radiance", "value": value})
+        elif self.has_environment:
+            self.note("envmap/constant emitter present: no implicit background")
         else:
-            value = "0.5, 0.5, 0.5"
+            em = ET.SubElement(scene, "emitter", {"type": "constant"})
             self.note("no <background> -> constant emitter 0.5")
-        ET.SubElement(em, "rgb", {"name": "radiance", "value": value})
+            ET.SubElement(em, "rgb", {"name": "radiance", "value": "0.5, 0.5, 0.5"})
         ET.indent(scene, "    ")
         xml = ET.tostring(scene, encoding="unicode")
         return '<?xml version="1.0" encoding="utf-8"?>\n<!-- converted from %s by tests/mitsuba/torrey_to_mitsuba.py -->\n%s\n' % (self.src, xml)
