@@ -39,9 +39,13 @@ pub(crate) fn srgb8_table() -> [f32; 256] {
 /// form OpenEXR's `chromaticities` header attribute stores them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Chromaticities {
+    /// xy of the red primary.
     pub red: [f64; 2],
+    /// xy of the green primary.
     pub green: [f64; 2],
+    /// xy of the blue primary.
     pub blue: [f64; 2],
+    /// xy of the white point (RGB = 1,1,1).
     pub white: [f64; 2],
 }
 

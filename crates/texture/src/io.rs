@@ -20,26 +20,45 @@ pub enum TextureError {
     /// The file could not be opened or read at all (missing, permissions, ...).
     #[error("{path}: cannot read image file: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the operating system said.
         #[source]
         source: std::io::Error,
     },
     /// The bytes are not a recognised image format.
     #[error("{path}: unrecognised image format ({reason})")]
-    UnknownFormat { path: PathBuf, reason: String },
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+        /// Why it was not recognised.
+        reason: String,
+    },
     /// The format was recognised but decoding failed (truncated, corrupt, unsupported variant).
     #[error("{path}: cannot decode image: {reason}")]
-    Decode { path: PathBuf, reason: String },
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// The decoder's complaint.
+        reason: String,
+    },
     /// Writing an output image failed.
     #[error("{path}: cannot write image: {reason}")]
-    Write { path: PathBuf, reason: String },
+    Write {
+        /// The output file.
+        path: PathBuf,
+        /// The encoder's or file system's complaint.
+        reason: String,
+    },
 }
 
 /// A decoded image plus non-fatal problems found while loading it (e.g. clamped NaN texels), so
 /// the caller can decide how loudly to report them.
 #[derive(Clone, Debug)]
 pub struct LoadedImage {
+    /// The pixels, linear RGB with Rec.709 primaries.
     pub image: Image,
+    /// Non-fatal problems, each naming the file; empty for a clean file.
     pub warnings: Vec<String>,
 }
 

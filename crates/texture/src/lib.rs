@@ -3,6 +3,8 @@
 //! Everything is stored as linear RGB with Rec.709 primaries ([`Image`]); loaders convert on the
 //! way in ([`load_image`]), writers convert on the way out ([`write_exr`], [`write_png_srgb`]).
 
+#![warn(missing_docs)]
+
 pub mod bitmap;
 pub mod color;
 pub mod image;
