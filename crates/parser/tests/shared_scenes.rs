@@ -140,3 +140,28 @@ fn matpreview_mitsuba3_scene() {
     }
     assert!(s.warnings.iter().any(|w| w.message.contains("plastic")));
 }
+
+#[test]
+fn shared_ply_meshes() {
+    let Some(shared) = shared() else { return };
+    let dir = shared.join("meshes");
+    for (name, verts, faces) in [
+        ("teapot.ply", 1177, 2256),
+        ("bunny_lowres.ply", 453, 948),
+        ("sphere.ply", 422, 840),
+    ] {
+        let xml = format!(
+            r#"<scene version="3.0.0"><shape type="ply"><string name="filename" value="{name}"/></shape></scene>"#
+        );
+        let s = torrey_parser::parse_scene_str(&xml, &dir.join("scene.xml"), &[]).unwrap();
+        let Geometry::Mesh(m) = &s.shapes[0].geometry else {
+            panic!()
+        };
+        assert_eq!(
+            (m.positions.len(), m.indices.len()),
+            (verts, faces),
+            "{name}"
+        );
+        assert_eq!(m.normals.len(), verts);
+    }
+}
