@@ -125,6 +125,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         seed: args.seed.unwrap_or(scene.sampler.seed),
         filter: scene.film.filter,
         tile_size: 16,
+        env_strategy: Default::default(),
         mipmapping: !args.no_mipmap,
     };
     let output = output_path(

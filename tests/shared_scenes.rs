@@ -66,6 +66,7 @@ fn every_shared_torrey_scene_renders() {
             seed: 0,
             filter: scene.film.filter,
             tile_size: 16,
+            env_strategy: Default::default(),
             mipmapping: true,
         };
         let out = torrey_renderer::render(&rs, &settings, &|_, _| {});

@@ -56,6 +56,7 @@ pub fn render_scene_opts(
         seed,
         filter: desc.film.filter,
         tile_size: 16,
+        env_strategy: Default::default(),
         mipmapping,
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});

@@ -32,6 +32,20 @@ pub struct PathSettings {
     /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
     /// as Mitsuba does; used to measure what mip-mapping changes.
     pub mipmapping: bool,
+    /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
+    pub env_strategy: EnvStrategy,
+}
+
+/// Strategies for lights at infinity, kept selectable so their noise can be compared (issue: env
+/// sampling (a) uniform, (b) luminance-importance, (c) importance + MIS). (a) and (b) count the
+/// environment only through light samples: BSDF-sampled rays that escape add nothing after the
+/// first rough bounce, which keeps each estimator unbiased on its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum EnvStrategy {
+    Uniform,
+    Importance,
+    #[default]
+    ImportanceMis,
 }
 
 /// Radiance arriving at the camera along the primary ray.
@@ -86,6 +100,8 @@ pub fn radiance(
                 let (le, pdf) = light.eval_infinite(ray.dir, spread);
                 let w = if prev_delta {
                     1.0
+                } else if settings.env_strategy != EnvStrategy::ImportanceMis {
+                    0.0
                 } else {
                     power_heuristic(prev_bsdf_pdf, pdf * light_select_pdf)
                 };
@@ -143,7 +159,8 @@ pub fn radiance(
             let u_pos = sampler.next_2d();
             let index = ((u_light * light_count as f32) as usize).min(light_count - 1);
             let light = &scene.lights[index];
-            if let Some(ls) = light.sample(hit.p, u_pos, &scene.mesh, &scene.prims) {
+            let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
+            if let Some(ls) = light.sample(hit.p, u_pos, &scene.mesh, &scene.prims, uniform_env) {
                 let wi_local = frame.to_local(ls.wi);
                 let f = model.eval(reflectance, wo_local, wi_local);
                 if f.max_element() > 0.0 && ls.pdf > 0.0 {
@@ -155,7 +172,10 @@ pub fn radiance(
                     };
                     if scene.visible(origin, ls.wi, tmax) {
                         let light_pdf = ls.pdf * light_select_pdf;
-                        let w = if ls.is_delta {
+                        let w = if ls.is_delta
+                            || (light.is_infinite()
+                                && settings.env_strategy != EnvStrategy::ImportanceMis)
+                        {
                             1.0
                         } else {
                             power_heuristic(light_pdf, model.pdf(reflectance, wo_local, wi_local))

@@ -12,5 +12,6 @@ pub mod sampling;
 pub mod scene;
 pub mod texture;
 
+pub use integrator::EnvStrategy;
 pub use render::{render, RenderOutput, RenderSettings};
 pub use scene::{BuildError, RenderScene};

@@ -67,6 +67,8 @@ impl Light {
     }
 
     /// Samples a connection from `p`. Returns None when the sample carries no energy.
+    /// `uniform_env` samples environment maps uniformly over the sphere instead of by luminance
+    /// (only for measuring what importance sampling gains).
     #[inline]
     pub fn sample(
         &self,
@@ -74,6 +76,7 @@ impl Light {
         u: Vec2,
         mesh: &MeshData,
         prims: &[PrimInfo],
+        uniform_env: bool,
     ) -> Option<LightSample> {
         match &self.kind {
             LightKind::Point {
@@ -168,6 +171,16 @@ impl Light {
                     wi,
                     dist: f32::INFINITY,
                     radiance: *radiance,
+                    pdf: crate::sampling::uniform_sphere_pdf(),
+                    is_delta: false,
+                })
+            }
+            LightKind::Env(env) if uniform_env => {
+                let wi = crate::sampling::square_to_uniform_sphere(u);
+                Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    radiance: env.eval(wi, 0.0),
                     pdf: crate::sampling::uniform_sphere_pdf(),
                     is_delta: false,
                 })

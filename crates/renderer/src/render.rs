@@ -2,7 +2,7 @@
 //! its samples from its own PCG stream (seeded by the render seed and the pixel index), so a
 //! render is deterministic for a given seed whatever the thread count or tile order.
 
-use crate::integrator::{radiance, PathSettings, Sampler};
+use crate::integrator::{radiance, EnvStrategy, PathSettings, Sampler};
 use crate::scene::RenderScene;
 use glam::{Vec2, Vec3};
 use pcg_rand::{seeds::PcgSeeder, Pcg32};
@@ -23,6 +23,7 @@ pub struct RenderSettings {
     pub tile_size: u32,
     /// Ray-cone mip-mapping of textures and environment maps (on by default).
     pub mipmapping: bool,
+    pub env_strategy: EnvStrategy,
 }
 
 pub struct RenderOutput {
@@ -72,6 +73,7 @@ pub fn render(
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
         mipmapping: settings.mipmapping,
+        env_strategy: settings.env_strategy,
     };
     let spp = settings.spp.max(1);
 
