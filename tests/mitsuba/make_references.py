@@ -5,9 +5,13 @@ One command (after `source tests/mitsuba/setup.sh`):
     tests/mitsuba/.venv/bin/python tests/mitsuba/make_references.py            # committed refs
     tests/mitsuba/.venv/bin/python tests/mitsuba/make_references.py --shared   # lead's checks
     ... make_references.py --only cbox,materials                              # a subset
+    ... make_references.py --shared-env          # tests/scenes/shared_env_*.xml (shared HDRIs)
 Default mode writes tests/references/mitsuba/<name>.exr (float32 RGB, ZIP) and manifest.json.
 --shared renders the shared torrey scenes (../shared/scenes/torrey or $TORREY_SHARED) into
 out/mitsuba_shared/<dir>__<name>.exr with a <..>.json beside each (never committed).
+--shared-env renders the test-only scenes tests/scenes/shared_env_*.xml (the shared HDRIs in
+../shared/envmaps) into out/mitsuba_shared_env/<name>.exr + <name>.json (never committed);
+default 128 px wide, 4096 spp.
 
 Each image is rendered as two halves with different seeds; their difference gives a noise
 estimate (`noise_rel`: mean |a - b| / 2 / mean(image), i.e. roughly the relative standard error
@@ -34,6 +38,8 @@ REFERENCES = {
     "cbox_spheres": ("scenes/cbox_spheres.xml", 64, 64, 16384, None),
     "materials": ("scenes/materials.xml", 96, 66, 8192, None),
     "textured_mesh": ("scenes/textured_mesh.xml", 96, 72, 4096, None),
+    "envmap_sky": ("scenes/envmap_sky.xml", 96, 60, 16384, None),
+    "envmap_rotated": ("scenes/envmap_rotated.xml", 96, 60, 16384, None),
 }
 
 SHARED_SCENES = [
@@ -90,7 +96,9 @@ def main():
     ap.add_argument("--shared", action="store_true", help="render the shared torrey scenes instead")
     ap.add_argument("--only", help="comma-separated names (or shared paths) to render")
     ap.add_argument("--spp", type=int, help="override spp")
-    ap.add_argument("--width", type=int, default=256, help="--shared: image width")
+    ap.add_argument("--shared-env", action="store_true",
+                    help="render tests/scenes/shared_env_*.xml into out/mitsuba_shared_env/")
+    ap.add_argument("--width", type=int, help="--shared/--shared-env: image width (256/128)")
     a = ap.parse_args()
     variant = pick_variant()
     from exr_zip import write_exr_zip
@@ -112,7 +120,7 @@ def main():
             film = root.find("sensor/film")
             w0 = int(next(c.get("value") for c in film if c.get("name") == "width"))
             h0 = int(next(c.get("value") for c in film if c.get("name") == "height"))
-            width = a.width
+            width = a.width or 256
             height = max(1, round(h0 * width / w0))
             name = rel.replace("/", "__").replace(".xml", "")
             try:
@@ -127,6 +135,35 @@ def main():
                 json.dump(info, f, indent=2)
             print("%-55s %4dx%-4d %5d spp depth %3d  %6.1fs noise %.4f" % (
                 rel, info["width"], info["height"], info["spp"], info["max_depth"],
+                info["render_seconds"], info["noise_rel"]), flush=True)
+        return
+
+    if a.shared_env:
+        import glob
+        import xml.etree.ElementTree as ET
+        out_dir = os.path.join(REPO, "out", "mitsuba_shared_env")
+        os.makedirs(out_dir, exist_ok=True)
+        for path in sorted(glob.glob(os.path.join(REPO, "tests", "scenes", "shared_env_*.xml"))):
+            name = os.path.basename(path)[:-4]
+            if only and name not in only:
+                continue
+            film = ET.parse(path).getroot().find("sensor/film")
+            w0 = int(next(c.get("value") for c in film if c.get("name") == "width"))
+            h0 = int(next(c.get("value") for c in film if c.get("name") == "height"))
+            width = a.width or 128
+            height = max(1, round(h0 * width / w0))
+            try:
+                img, info = render(path, width, height, a.spp or 4096, None,
+                                   os.path.join(out_dir, name + "_mitsuba.xml"))
+            except Exception as e:  # noqa: BLE001
+                print("FAILED %s: %s" % (name, e), file=sys.stderr)
+                continue
+            write_exr_zip(os.path.join(out_dir, name + ".exr"), img)
+            info.update(source=os.path.relpath(path, REPO), mitsuba_version=mi.__version__, variant=variant)
+            with open(os.path.join(out_dir, name + ".json"), "w") as f:
+                json.dump(info, f, indent=2)
+            print("%-28s %4dx%-4d %5d spp depth %3d  %6.1fs noise %.4f" % (
+                name, info["width"], info["height"], info["spp"], info["max_depth"],
                 info["render_seconds"], info["noise_rel"]), flush=True)
         return
 
