@@ -245,7 +245,7 @@ pub enum Geometry {
 
 /// A triangle mesh in object space. Texture coordinates are already in Mitsuba's convention
 /// (OBJ v flipped on load). `normals` is empty when the shape asked for face normals;
-/// otherwise it holds the file's normals or, when the file has none, area-weighted smooth ones.
+/// otherwise it holds the file's normals or, when the file has none, angle-weighted smooth ones (as Mitsuba).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct TriangleMesh {
     pub positions: Vec<Vec3>,

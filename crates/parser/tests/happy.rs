@@ -364,8 +364,11 @@ fn obj_flips_v_and_computes_smooth_normals() {
     assert_eq!(m.uvs[i1], Vec2::new(1.0, 0.75));
     let i0 = m.positions.iter().position(|&p| p == Vec3::ZERO).unwrap();
     assert!(close(m.normals[i0], Vec3::Z));
-    // Vertex 2 is shared by both faces: sum of the two (area-weighted) face normals.
-    let n2 = (Vec3::X).cross(Vec3::Y) + (Vec3::new(0.0, 1.0, 0.5)).cross(Vec3::new(-1.0, 1.0, 0.0));
+    // Vertex 2 is shared by both faces: the unit face normals weighted by the faces' angles
+    // there (45 degrees in the first face; about 50.8 degrees in the second), as Mitsuba does.
+    let f2 = (Vec3::new(0.0, 1.0, 0.5)).cross(Vec3::new(-1.0, 1.0, 0.0)).normalize();
+    let a2 = Vec3::new(1.0, -1.0, 0.0).angle_between(Vec3::new(1.0, 0.0, 0.5));
+    let n2 = Vec3::Z * std::f32::consts::FRAC_PI_4 + f2 * a2;
     let i2 = m.positions.iter().position(|&p| p == Vec3::Y).unwrap();
     assert!(close(m.normals[i2], n2.normalize()), "{:?}", m.normals[i2]);
     let m = mesh_of(&s, 1);

@@ -11,15 +11,25 @@ pub(crate) mod serialized;
 use crate::scene::TriangleMesh;
 use glam::Vec3;
 
-/// Area-weighted vertex normals: each triangle adds its unnormalised normal (whose length is
-/// twice its area) to its three vertices. Vertices touched only by degenerate triangles get +z.
+/// Angle-weighted vertex normals (Thürmer and Wüthrich 1998), as Mitsuba 3 computes them for
+/// meshes without normals: each triangle adds its unit normal, weighted by its interior angle at
+/// the vertex. Unlike area weighting this does not depend on how a surface is triangulated, and
+/// it makes torrey's shading match Mitsuba's on coarse meshes with strongly bent normals.
+/// Vertices touched only by degenerate triangles get +z.
 pub fn smooth_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; positions.len()];
     for t in indices {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let face = (b - a).cross(c - a);
-        for &i in t {
-            n[i as usize] += face;
+        let p = t.map(|i| positions[i as usize]);
+        let Some(face) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+            continue;
+        };
+        for k in 0..3 {
+            let e1 = p[(k + 1) % 3] - p[k];
+            let e2 = p[(k + 2) % 3] - p[k];
+            let angle = e1.angle_between(e2);
+            if angle.is_finite() {
+                n[t[k] as usize] += face * angle;
+            }
         }
     }
     n.into_iter()
@@ -54,9 +64,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn smooth_normals_are_area_weighted() {
-        // Two triangles sharing vertex 0: a big one in the z=0 plane (normal +z, area 2) and a
-        // small one in the x=0 plane (normal +x, area 0.5).
+    fn smooth_normals_are_angle_weighted() {
+        // Two triangles sharing vertex 0, both with a right angle there: a big one in the z=0
+        // plane (normal +z) and a small one in the x=0 plane (normal +x). Equal angles give
+        // equal weights, whatever the areas.
         let p = vec![
             Vec3::ZERO,
             Vec3::new(2.0, 0.0, 0.0),
@@ -66,7 +77,7 @@ mod tests {
         ];
         let idx = vec![[0, 1, 2], [0, 3, 4]];
         let n = smooth_normals(&p, &idx);
-        let expect = Vec3::new(1.0, 0.0, 4.0).normalize();
+        let expect = Vec3::new(1.0, 0.0, 1.0).normalize();
         assert!((n[0] - expect).length() < 1e-6, "{:?}", n[0]);
         assert!((n[1] - Vec3::Z).length() < 1e-6);
         assert!((n[4] - Vec3::X).length() < 1e-6);
