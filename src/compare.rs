@@ -14,7 +14,7 @@ use clap::Args;
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use torrey_texture::Image;
+use torrey_texture::{srgb_to_linear, Image};
 
 /// Added to B^2 in the relative error so black reference pixels do not divide by zero.
 const REL_EPSILON: f64 = 0.01;
@@ -183,22 +183,13 @@ pub fn heatmap(a: &Image, b: &Image) -> Image {
             };
             let c = ramp(t);
             Vec3::new(
-                srgb_to_linear(c[0]),
-                srgb_to_linear(c[1]),
-                srgb_to_linear(c[2]),
+                srgb_to_linear(c[0] as f32),
+                srgb_to_linear(c[1] as f32),
+                srgb_to_linear(c[2] as f32),
             )
         })
         .collect();
     Image::new(a.width, a.height, pixels)
-}
-
-fn srgb_to_linear(v: f64) -> f32 {
-    let l = if v <= 0.04045 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
-    };
-    l as f32
 }
 
 /// Places images of equal height left to right with a 2-pixel black gap.
@@ -291,70 +282,18 @@ pub fn metrics_text(m: &Metrics, a: &Path, b: &Path) -> String {
     s
 }
 
-// TODO(compare): switch to torrey_texture::load_image / write_png_srgb once the texture crate
-// provides them; until then these read EXR with `exr` and 8-bit images with `image` (sRGB-decoded).
+/// Loads with torrey's own loader (the same decoding the renderer uses). Its warnings (e.g. NaN or
+/// negative texels, which it replaces by 0) go to stderr so a broken render does not pass silently.
 fn load(path: &Path) -> Result<Image, String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let is_exr = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if is_exr {
-        let img = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
-            |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
-            },
-        )
-        .map_err(|e| err(&e))?;
-        let size = img.layer_data.size;
-        let (_, px) = img.layer_data.channel_data.pixels;
-        return Ok(Image::new(size.width() as u32, size.height() as u32, px));
+    let loaded = torrey_texture::load_image(path, false).map_err(|e| e.to_string())?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {}: {w}", path.display());
     }
-    let dynimg = image::open(path).map_err(|e| err(&e))?;
-    let float_source = matches!(
-        dynimg,
-        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
-    );
-    let rgb = dynimg.to_rgb32f();
-    let px = rgb
-        .pixels()
-        .map(|p| {
-            let v = Vec3::new(p[0], p[1], p[2]);
-            if float_source {
-                v
-            } else {
-                Vec3::new(
-                    srgb_to_linear(p[0] as f64),
-                    srgb_to_linear(p[1] as f64),
-                    srgb_to_linear(p[2] as f64),
-                )
-            }
-        })
-        .collect();
-    Ok(Image::new(rgb.width(), rgb.height(), px))
+    Ok(loaded.image)
 }
 
 fn save_png(img: &Image, path: &Path) -> Result<(), String> {
-    let encode = |v: f32| -> u8 {
-        let v = if v.is_finite() {
-            v.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let s = if v <= 0.003_130_8 {
-            12.92 * v
-        } else {
-            1.055 * v.powf(1.0 / 2.4) - 0.055
-        };
-        (s * 255.0 + 0.5) as u8
-    };
-    let mut buf = image::RgbImage::new(img.width, img.height);
-    for (dst, src) in buf.pixels_mut().zip(&img.pixels) {
-        *dst = image::Rgb([encode(src.x), encode(src.y), encode(src.z)]);
-    }
-    buf.save(path)
-        .map_err(|e| format!("{}: {e}", path.display()))
+    torrey_texture::write_png_srgb(path, img).map_err(|e| e.to_string())
 }
 
 /// Runs `torrey compare`: loads both images (and the variance image), prints the report to stdout
