@@ -188,7 +188,7 @@ fn chi2_lobe(
             let p0 = 2.0 * PI64 * ip as f64 / KP as f64;
             let p1 = 2.0 * PI64 * (ip + 1) as f64 / KP as f64;
             let (t, p) = ((edge(it), edge(it + 1)), (p0, p1));
-            let m = if straddles(t, p) { 32 } else { 4 };
+            let m = if straddles(t, p) { 16 } else { 4 };
             let mass = gauss_2d(&mut integrand, t, p, m);
             total += mass;
             expected[it * KP + ip] = n * mass;
