@@ -1,0 +1,185 @@
+//! EnvMap on real maps: the committed sky (textures/sky_sun.exr) and, when present, the shared
+//! HDR envmaps in ../shared (skipped with a note otherwise).
+
+use glam::{DVec3, Mat3, Vec2, Vec3};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use torrey_light::EnvMap;
+use torrey_texture::load_image;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// SplitMix64 for reproducible samples.
+struct Rng(u64);
+impl Rng {
+    fn f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn vec2(&mut self) -> Vec2 {
+        Vec2::new(self.f32(), self.f32())
+    }
+}
+
+/// Midpoint quadrature over the sphere of world directions (pole +z, unlike the map's +y).
+fn integrate(f: impl Fn(Vec3) -> DVec3, nt: usize, np: usize) -> DVec3 {
+    let mut acc = DVec3::ZERO;
+    for it in 0..nt {
+        let theta = (it as f64 + 0.5) / nt as f64 * std::f64::consts::PI;
+        let mut row = DVec3::ZERO;
+        for ip in 0..np {
+            let phi = (ip as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
+            let d = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            );
+            row += f(d.as_vec3());
+        }
+        acc += row * theta.sin();
+    }
+    acc * (std::f64::consts::PI / nt as f64) * (std::f64::consts::TAU / np as f64)
+}
+
+/// Checks pdf normalisation, sample/pdf consistency, and that the env-sampled irradiance at a
+/// normal matches quadrature of the map; prints timings.
+fn check_map(path: &Path, to_world: Mat3) {
+    let t0 = Instant::now();
+    let image = load_image(path, false).expect("load").image;
+    let (w, h) = (image.width, image.height);
+    let t1 = Instant::now();
+    let env = EnvMap::new(image, 1.0, to_world);
+    let build = t1.elapsed();
+
+    let total = integrate(|d| DVec3::splat(env.pdf(d) as f64), 600, 1200).x;
+    assert!(
+        (total - 1.0).abs() < 5e-3,
+        "{}: pdf integrates to {total}",
+        path.display()
+    );
+
+    // Irradiance at normal n: quadrature of eval vs env-sampled Monte Carlo (luminance channel).
+    let n = to_world * Vec3::new(0.2, 0.9, 0.1).normalize();
+    let reference = integrate(
+        |d| (env.eval(d, 0.0) * d.dot(n).max(0.0)).as_dvec3(),
+        1200,
+        2400,
+    );
+    let count = 200_000;
+    let mut rng = Rng(7);
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    let mut mismatches = 0;
+    let t2 = Instant::now();
+    for _ in 0..count {
+        let s = env.sample(rng.vec2()).expect("non-black map samples");
+        let pdf = env.pdf(s.direction);
+        if (pdf - s.pdf).abs() > 2e-3 * s.pdf {
+            mismatches += 1;
+            if mismatches < 5 {
+                let uv = env.dir_to_uv(s.direction);
+                println!(
+                    "mismatch {pdf} vs {} at uv {} texel {}",
+                    s.pdf,
+                    uv,
+                    uv * Vec2::new(w as f32, h as f32)
+                );
+            }
+        }
+        let f = (s.radiance.y * s.direction.dot(n).max(0.0) / s.pdf) as f64;
+        sum += f;
+        sum2 += f * f;
+    }
+    let per_sample = t2.elapsed() / count;
+    assert_eq!(
+        mismatches,
+        0,
+        "{}: pdf(sample.direction) != sample.pdf",
+        path.display()
+    );
+    let mean = sum / count as f64;
+    let sigma = ((sum2 / count as f64 - mean * mean) / count as f64).sqrt();
+    // Tolerance: 4 sigma plus the quadrature error of a sharp sun on the 1200x2400 grid.
+    let tol = 4.0 * sigma + 5e-3 * reference.y;
+    println!(
+        "{}: {w}x{h}, load {:?}, build {:?}, sample+pdf {:?}/sample, E = {mean:.4} ± {sigma:.4} (quadrature {:.4})",
+        path.display(),
+        t1 - t0,
+        build,
+        per_sample,
+        reference.y
+    );
+    assert!(
+        (mean - reference.y).abs() < tol,
+        "{}: env-sampled irradiance {mean} ± {sigma} vs quadrature {}",
+        path.display(),
+        reference.y
+    );
+}
+
+#[test]
+fn committed_sky_has_sun_where_expected() {
+    let path = root().join("textures/sky_sun.exr");
+    if !path.exists() {
+        println!("skipping: {} not generated", path.display());
+        return;
+    }
+    let image = load_image(&path, false).unwrap().image;
+    assert_eq!((image.width, image.height), (512, 256));
+    // Brightest texel: the sun at u = 0.3, elevation 35 degrees (v = 0.5 - 35/180).
+    let (k, max) = image
+        .pixels
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.y.total_cmp(&b.1.y))
+        .unwrap();
+    let (i, j) = (k % 512, k / 512);
+    let uv = Vec2::new((i as f32 + 0.5) / 512.0, (j as f32 + 0.5) / 256.0);
+    assert!((uv.x - 0.3).abs() < 3.0 / 512.0, "sun at u {}", uv.x);
+    assert!(
+        (uv.y - (0.5 - 35.0 / 180.0)).abs() < 3.0 / 256.0,
+        "sun at v {}",
+        uv.y
+    );
+    assert!(max.y > 1500.0 && max.y < 2100.0, "sun radiance {}", max.y);
+    // Sky above is bluish, ground below is darker.
+    let zenith = image.get(100, 5);
+    let ground = image.get(100, 200);
+    assert!(zenith.z > zenith.x && ground.length() < zenith.length());
+
+    let env = EnvMap::new(image, 1.0, Mat3::IDENTITY);
+    let sun = env.uv_to_dir(Vec2::new(0.3, 0.5 - 35.0 / 180.0));
+    let elevation = sun.y.asin().to_degrees();
+    assert!((elevation - 35.0).abs() < 1e-3);
+    assert!(env.eval(sun, 0.0).y > 1500.0);
+    // Importance sampling sends a large share of samples towards the sun (about its share of
+    // luminance x solid angle, 40-45%).
+    let mut rng = Rng(3);
+    let near = (0..20_000)
+        .filter(|_| {
+            env.sample(rng.vec2()).unwrap().direction.dot(sun) > (3.0f32).to_radians().cos()
+        })
+        .count();
+    let share = near as f32 / 20_000.0;
+    assert!(share > 0.35 && share < 0.55, "sun share of samples {share}");
+    check_map(
+        &root().join("textures/sky_sun.exr"),
+        Mat3::from_rotation_y(0.7),
+    );
+}
+
+#[test]
+fn shared_envmaps() {
+    let shared = root().join("../shared/envmaps");
+    if !shared.exists() {
+        println!("skipping: {} is absent", shared.display());
+        return;
+    }
+    let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 1.1);
+    check_map(&shared.join("museum.exr"), Mat3::IDENTITY);
+    check_map(&shared.join("sunset.exr"), rot);
+}
