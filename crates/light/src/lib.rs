@@ -4,6 +4,8 @@
 //! the densities. Every sampler has a matching pdf so that multiple importance sampling can weigh
 //! strategies consistently, and every routine works in f32 without allocating on the hot path.
 
+#![deny(missing_docs)]
+
 pub mod distribution;
 pub mod envmap;
 pub mod geometry;
