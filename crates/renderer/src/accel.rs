@@ -2,7 +2,7 @@
 //! primitive of the scene, triangles and analytic spheres alike. Primitive data is stored in BVH
 //! leaf order so the leaf test reads memory sequentially.
 
-use crate::geometry::{intersect_sphere, intersect_triangle, Ray};
+use crate::geometry::{intersect_sphere, intersect_triangle_pre, Ray, WatertightRay};
 use glam::{Vec3, Vec3A};
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, BvhBuildParams};
 use std::time::Duration;
@@ -29,10 +29,10 @@ impl PrimGeom {
     }
 
     #[inline]
-    fn intersect(&self, ray: &Ray, tmax: f32) -> Option<(f32, f32, f32)> {
+    fn intersect(&self, ray: &Ray, wr: &WatertightRay, tmax: f32) -> Option<(f32, f32, f32)> {
         match *self {
             PrimGeom::Triangle { p0, p1, p2 } => {
-                intersect_triangle(ray, p0, p1, p2, tmax).map(|h| (h.t, h.b1, h.b2))
+                intersect_triangle_pre(wr, p0, p1, p2, tmax).map(|h| (h.t, h.b1, h.b2))
             }
             PrimGeom::Sphere { center, radius } => {
                 intersect_sphere(ray, center, radius, 0.0, tmax).map(|t| (t, 0.0, 0.0))
@@ -94,8 +94,9 @@ impl Accel {
         let bray = obvhs::ray::Ray::new(ray.origin.into(), ray.dir.into(), 0.0, ray.tmax);
         let mut hit = obvhs::ray::RayHit::none();
         let mut bary = (0.0, 0.0);
+        let wr = WatertightRay::new(ray);
         let found = bvh.ray_traverse(bray, &mut hit, |r, slot| {
-            match self.geoms[slot].intersect(ray, r.tmax) {
+            match self.geoms[slot].intersect(ray, &wr, r.tmax) {
                 Some((t, b1, b2)) => {
                     bary = (b1, b2);
                     t
@@ -123,9 +124,10 @@ impl Accel {
             return false;
         };
         let bray = obvhs::ray::Ray::new(ray.origin.into(), ray.dir.into(), 0.0, ray.tmax);
+        let wr = WatertightRay::new(ray);
         !bvh.ray_traverse_miss(bray, |_, slot| {
             self.geoms[slot]
-                .intersect(ray, ray.tmax)
+                .intersect(ray, &wr, ray.tmax)
                 .map_or(f32::INFINITY, |h| h.0)
         })
     }
@@ -140,7 +142,7 @@ mod tests {
         let mut best: Option<(f32, u32)> = None;
         for (i, g) in geoms.iter().enumerate() {
             let tmax = best.map_or(ray.tmax, |b| b.0);
-            if let Some((t, _, _)) = g.intersect(ray, tmax) {
+            if let Some((t, _, _)) = g.intersect(ray, &WatertightRay::new(ray), tmax) {
                 best = Some((t, i as u32));
             }
         }

@@ -19,41 +19,64 @@ pub struct TriangleHit {
     pub b2: f32,
 }
 
+/// Per-ray constants of the watertight triangle test: the axis permutation that makes the ray
+/// direction's largest component z, and the shear that maps the direction to +z. Computed once
+/// per ray, then shared by every triangle the traversal visits.
+#[derive(Clone, Copy, Debug)]
+pub struct WatertightRay {
+    origin: Vec3,
+    k: [usize; 3],
+    shear: Vec3,
+}
+
+impl WatertightRay {
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let ad = d.abs();
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let kx = if kz == 2 { 0 } else { kz + 1 };
+        let ky = if kx == 2 { 0 } else { kx + 1 };
+        let sz = 1.0 / d[kz];
+        Self { origin: ray.origin, k: [kx, ky, kz], shear: Vec3::new(-d[kx] * sz, -d[ky] * sz, sz) }
+    }
+
+    #[inline]
+    fn permute(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v[self.k[0]], v[self.k[1]], v[self.k[2]])
+    }
+}
+
 /// Watertight ray/triangle intersection (Woop, Benthin and Wald 2013): edges shared by two
 /// triangles are never missed by both, so closed meshes do not leak rays.
 #[inline]
-pub fn intersect_triangle(
-    ray: &Ray,
+pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3, tmax: f32) -> Option<TriangleHit> {
+    intersect_triangle_pre(&WatertightRay::new(ray), p0, p1, p2, tmax)
+}
+
+/// [`intersect_triangle`] with the per-ray constants precomputed.
+#[inline]
+pub fn intersect_triangle_pre(
+    wr: &WatertightRay,
     p0: Vec3,
     p1: Vec3,
     p2: Vec3,
     tmax: f32,
 ) -> Option<TriangleHit> {
-    // Permute axes so that the ray direction's largest component is z.
-    let d = ray.dir;
-    let ad = d.abs();
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z {
-            0
-        } else {
-            2
-        }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let kx = if kz == 2 { 0 } else { kz + 1 };
-    let ky = if kx == 2 { 0 } else { kx + 1 };
-    let permute = |v: Vec3| Vec3::new(v[kx], v[ky], v[kz]);
-    let dp = permute(d);
-    let sz = 1.0 / dp.z;
-    let sx = -dp.x * sz;
-    let sy = -dp.y * sz;
-
-    let a = permute(p0 - ray.origin);
-    let b = permute(p1 - ray.origin);
-    let c = permute(p2 - ray.origin);
+    let (sx, sy, sz) = (wr.shear.x, wr.shear.y, wr.shear.z);
+    let a = wr.permute(p0 - wr.origin);
+    let b = wr.permute(p1 - wr.origin);
+    let c = wr.permute(p2 - wr.origin);
     let ax = a.x + sx * a.z;
     let ay = a.y + sy * a.z;
     let bx = b.x + sx * b.z;
@@ -94,11 +117,7 @@ pub fn intersect_triangle(
         return None;
     }
     // u weights p0, v weights p1, w weights p2.
-    Some(TriangleHit {
-        t,
-        b1: v * inv_det,
-        b2: w * inv_det,
-    })
+    Some(TriangleHit { t, b1: v * inv_det, b2: w * inv_det })
 }
 
 /// Ray/sphere intersection with the numerically stable quadratic (the discriminant computed from

@@ -135,12 +135,12 @@ pub fn radiance(
 
         // Shading frame, with the normal map applied and turned towards wo when two-sided.
         cone = cone.at_distance(hit.t);
-        let footprint = if settings.mipmapping {
+        let material = &scene.materials[shape.material as usize];
+        let footprint = if settings.mipmapping && material.is_textured() {
             cone.uv_footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
         } else {
             0.0
         };
-        let material = &scene.materials[shape.material as usize];
         let Some(frame) = shading_frame(scene, &hit, wo, material, footprint) else {
             break; // the back of a one-sided bsdf is black
         };

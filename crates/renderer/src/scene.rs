@@ -31,6 +31,14 @@ pub struct Material {
     pub normal_map: Option<u32>,
 }
 
+impl Material {
+    /// Whether shading reads any texture, i.e. needs a ray-cone footprint.
+    #[inline]
+    pub fn is_textured(&self) -> bool {
+        self.normal_map.is_some() || matches!(self.reflectance, ColorSource::Texture(_))
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 pub enum ShapeKind {
     Mesh {
