@@ -1,6 +1,8 @@
-//! Renders each project scene listed in tests/references/mitsuba/manifest.json at the reference's
-//! size and depth, and compares it with the Mitsuba 3 reference (an independent renderer, with
-//! torrey's own materials implemented as Mitsuba Python plugins in tests/mitsuba/torrey_bsdfs.py).
+//! Renders each project scene listed in tests/references/{mitsuba,blender}/manifest.json at the
+//! reference's size and depth, and compares it with the reference: Mitsuba 3 (with torrey's own
+//! materials implemented as Mitsuba Python plugins in tests/mitsuba/torrey_bsdfs.py) and Blender
+//! Cycles (tests/blender/torrey_to_blender.py; scenes Cycles cannot express are not in its
+//! manifest). Both are independent renderers.
 //!
 //! The tolerance comes from the noise: 8x8 blocks are compared with their standard error from the
 //! render's own per-pixel variance, plus a 1% systematic allowance (mip-mapped textures, Mitsuba's
@@ -13,17 +15,19 @@ use serde_json::Value;
 
 const TEST_SPP: u32 = 128;
 
-fn check_reference(name: &str, entry: &Value) -> Result<String, String> {
+fn check_reference(renderer: &str, name: &str, entry: &Value) -> Result<String, String> {
     let root = common::root();
     let source = entry["source"]
         .as_str()
+        .or(entry["scene"].as_str())
         .ok_or("manifest entry without source")?;
     let width = entry["width"].as_u64().ok_or("no width")? as u32;
     let height = entry["height"].as_u64().ok_or("no height")? as u32;
     let max_depth = entry["max_depth"].as_i64().map(|d| d as i32);
     let reference = common::load(
         &root
-            .join("tests/references/mitsuba")
+            .join("tests/references")
+            .join(renderer)
             .join(format!("{name}.exr")),
     );
     let r = common::render_scene(&root.join(source), width, height, TEST_SPP, max_depth, 7);
@@ -43,7 +47,7 @@ fn check_reference(name: &str, entry: &Value) -> Result<String, String> {
         5.0,
     );
     let summary = format!(
-        "{name}: outlier blocks {:.1}% of {}, max z {:.2}, mean ratio [{:.4} {:.4} {:.4}] ± [{:.4} {:.4} {:.4}]",
+        "{renderer}/{name}: outlier blocks {:.1}% of {}, max z {:.2}, mean ratio [{:.4} {:.4} {:.4}] ± [{:.4} {:.4} {:.4}]",
         cmp.outlier_blocks * 100.0,
         cmp.blocks,
         cmp.max_z,
@@ -62,9 +66,11 @@ fn check_reference(name: &str, entry: &Value) -> Result<String, String> {
     Ok(summary)
 }
 
-#[test]
-fn project_scenes_match_mitsuba() {
-    let manifest_path = common::root().join("tests/references/mitsuba/manifest.json");
+fn check_all(renderer: &str) {
+    let manifest_path = common::root()
+        .join("tests/references")
+        .join(renderer)
+        .join("manifest.json");
     let text = std::fs::read_to_string(&manifest_path).expect("manifest present in the repository");
     let manifest: Value = serde_json::from_str(&text).expect("valid manifest JSON");
     let refs = manifest["references"]
@@ -73,7 +79,7 @@ fn project_scenes_match_mitsuba() {
     assert!(!refs.is_empty());
     let mut failures = Vec::new();
     for (name, entry) in refs {
-        match check_reference(name, entry) {
+        match check_reference(renderer, name, entry) {
             Ok(s) => println!("ok   {s}"),
             Err(s) => {
                 println!("FAIL {s}");
@@ -83,9 +89,19 @@ fn project_scenes_match_mitsuba() {
     }
     assert!(
         failures.is_empty(),
-        "scenes differing from Mitsuba 3:\n{}",
+        "scenes differing from {renderer}:\n{}",
         failures.join("\n")
     );
+}
+
+#[test]
+fn project_scenes_match_mitsuba() {
+    check_all("mitsuba");
+}
+
+#[test]
+fn project_scenes_match_blender() {
+    check_all("blender");
 }
 
 /// A negative control: the same comparison must reject a render against the wrong reference
@@ -97,7 +113,7 @@ fn comparison_rejects_a_wrong_reference() {
         serde_json::from_str(&std::fs::read_to_string(manifest_path).unwrap()).unwrap();
     let mut wrong = manifest["references"]["cbox_depth2"].clone();
     wrong["max_depth"] = Value::from(8);
-    let result = check_reference("cbox_depth2", &wrong);
+    let result = check_reference("mitsuba", "cbox_depth2", &wrong);
     assert!(
         result.is_err(),
         "depth 8 must not pass against the depth 2 reference: {result:?}"
