@@ -48,7 +48,11 @@ impl WatertightRay {
         let kx = if kz == 2 { 0 } else { kz + 1 };
         let ky = if kx == 2 { 0 } else { kx + 1 };
         let sz = 1.0 / d[kz];
-        Self { origin: ray.origin, k: [kx, ky, kz], shear: Vec3::new(-d[kx] * sz, -d[ky] * sz, sz) }
+        Self {
+            origin: ray.origin,
+            k: [kx, ky, kz],
+            shear: Vec3::new(-d[kx] * sz, -d[ky] * sz, sz),
+        }
     }
 
     #[inline]
@@ -60,7 +64,13 @@ impl WatertightRay {
 /// Watertight ray/triangle intersection (Woop, Benthin and Wald 2013): edges shared by two
 /// triangles are never missed by both, so closed meshes do not leak rays.
 #[inline]
-pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3, tmax: f32) -> Option<TriangleHit> {
+pub fn intersect_triangle(
+    ray: &Ray,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    tmax: f32,
+) -> Option<TriangleHit> {
     intersect_triangle_pre(&WatertightRay::new(ray), p0, p1, p2, tmax)
 }
 
@@ -117,7 +127,11 @@ pub fn intersect_triangle_pre(
         return None;
     }
     // u weights p0, v weights p1, w weights p2.
-    Some(TriangleHit { t, b1: v * inv_det, b2: w * inv_det })
+    Some(TriangleHit {
+        t,
+        b1: v * inv_det,
+        b2: w * inv_det,
+    })
 }
 
 /// Ray/sphere intersection with the numerically stable quadratic (the discriminant computed from

@@ -192,7 +192,7 @@ pub fn radiance(
         let Some(bs) = model.sample(reflectance, wo_local, u_dir, u_lobe) else {
             break;
         };
-        if !(bs.weight.max_element() > 0.0) {
+        if bs.weight.max_element().is_nan() || bs.weight.max_element() <= 0.0 {
             break;
         }
         throughput *= bs.weight;

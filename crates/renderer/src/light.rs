@@ -149,7 +149,7 @@ impl Light {
                     }
                     let d = s.point - p;
                     let dist = d.length();
-                    if dist == 0.0 || !(s.pdf > 0.0) {
+                    if dist == 0.0 || s.pdf.is_nan() || s.pdf <= 0.0 {
                         return None;
                     }
                     let wi = d / dist;

@@ -37,6 +37,9 @@ pub struct RenderOutput {
     pub elapsed: Duration,
 }
 
+/// A tile's origin and its pixels' (mean, variance of the mean), row by row.
+type RenderedTile = ((u32, u32), Vec<(Vec3, Vec3)>);
+
 /// Uniform numbers from a PCG32 stream.
 pub struct PcgSampler(Pcg32);
 
@@ -77,7 +80,7 @@ pub fn render(
     };
     let spp = settings.spp.max(1);
 
-    let rendered: Vec<((u32, u32), Vec<(Vec3, Vec3)>)> = tiles
+    let rendered: Vec<RenderedTile> = tiles
         .par_iter()
         .map(|&(x0, y0)| {
             let x1 = (x0 + ts).min(width);
