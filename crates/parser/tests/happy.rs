@@ -366,7 +366,9 @@ fn obj_flips_v_and_computes_smooth_normals() {
     assert!(close(m.normals[i0], Vec3::Z));
     // Vertex 2 is shared by both faces: the unit face normals weighted by the faces' angles
     // there (45 degrees in the first face; about 50.8 degrees in the second), as Mitsuba does.
-    let f2 = (Vec3::new(0.0, 1.0, 0.5)).cross(Vec3::new(-1.0, 1.0, 0.0)).normalize();
+    let f2 = (Vec3::new(0.0, 1.0, 0.5))
+        .cross(Vec3::new(-1.0, 1.0, 0.0))
+        .normalize();
     let a2 = Vec3::new(1.0, -1.0, 0.0).angle_between(Vec3::new(1.0, 0.0, 0.5));
     let n2 = Vec3::Z * std::f32::consts::FRAC_PI_4 + f2 * a2;
     let i2 = m.positions.iter().position(|&p| p == Vec3::Y).unwrap();
