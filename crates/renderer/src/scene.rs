@@ -248,6 +248,8 @@ impl RenderScene {
                     position: *position,
                     intensity: *intensity,
                 },
+                // A black background emits nothing: keeping it would only waste light samples.
+                desc::Light::Constant { radiance } if radiance.max_element() <= 0.0 => continue,
                 desc::Light::Constant { radiance } => LightKind::Constant {
                     radiance: *radiance,
                 },
