@@ -110,7 +110,15 @@ def run_torrey(scene, width, height, spp, depth, threads, seed, out_exr, extra=(
             "nonfinite_warning": "NaN or infinite" in p.stderr}
 
 
-def run_mitsuba(variant, xml, spp, threads, seed, plugins, warm=True, out_exr=None, cold_cache=True):
+def run_mitsuba_budget(variant, xml, budget_s, threads, seed, plugins, out_exr, calib_spp=4):
+    """Equal-time mode of bench/mitsuba_child.py: calibrate (cold + warm render), then render for
+    budget_s seconds of warm render time and write out_exr."""
+    return run_mitsuba(variant, xml, calib_spp, threads, seed, plugins, warm=False, out_exr=out_exr,
+                       extra=["--budget-s", str(budget_s), "--calib-spp", str(calib_spp)])
+
+
+def run_mitsuba(variant, xml, spp, threads, seed, plugins, warm=True, out_exr=None, cold_cache=True,
+                extra=()):
     """One fresh Mitsuba process (bench/mitsuba_child.py) under /usr/bin/time -v.
 
     cold_cache: HOME points to an empty temporary directory, so drjit's on-disk kernel cache
@@ -123,6 +131,7 @@ def run_mitsuba(variant, xml, spp, threads, seed, plugins, warm=True, out_exr=No
         cmd += ["--warm"]
     if out_exr:
         cmd += ["--out", out_exr]
+    cmd += list(extra)
     env = dict(os.environ)
     home = None
     if cold_cache:
