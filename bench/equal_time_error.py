@@ -23,7 +23,7 @@ How:
     scene load and BVH build: it is render time only, for both.
   * relRMSE = sqrt(mean((img - ref)^2 / (ref^2 + 0.01))) over pixels and RGB channels.
     rel_rmse_ref_corrected (JSON) = sqrt(relRMSE^2 - ref_noise^2). Also printed: the ratio
-    mitsuba/torrey of relMSE x seconds actually used (relMSE x time is the inverse efficiency;
+    mitsuba/torrey of (corrected relRMSE)^2 x seconds actually used (relMSE x time is the inverse efficiency;
     a ratio above 1 means torrey is more efficient; it does not depend on the exact time used as
     long as the error is noise-dominated).
 Writes out/bench/equal_time_<date>.json and equal_time_latest.json.
@@ -126,7 +126,7 @@ def main():
         for k in ("torrey", "mitsuba_llvm"):
             # the reference's own noise removed in quadrature (it is independent of both renders)
             e[k]["rel_rmse_ref_corrected"] = max(0.0, e[k]["rel_rmse"] ** 2 - ref_noise ** 2) ** 0.5
-            e[k]["rel_mse_x_s"] = e[k]["rel_rmse"] ** 2 * e[k]["render_s"]
+            e[k]["rel_mse_x_s"] = e[k]["rel_rmse_ref_corrected"] ** 2 * e[k]["render_s"]
         e["rel_mse_x_s_ratio_mitsuba_over_torrey"] = e["mitsuba_llvm"]["rel_mse_x_s"] / e["torrey"]["rel_mse_x_s"]
         result["scenes"][name] = e
         log("  torrey  %5d spp %6.2f s relRMSE %.4f | mitsuba-llvm %5d spp %6.2f s relRMSE %.4f | ref noise %.4f" % (
