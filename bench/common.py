@@ -56,7 +56,9 @@ def ensure_gnu_time():
         return
     log("installing GNU time (for peak RSS)")
     sudo = [] if os.geteuid() == 0 else ["sudo"]
-    subprocess.run(sudo + ["apt-get", "install", "-y", "-qq", "time"], check=True)
+    if subprocess.run(sudo + ["apt-get", "install", "-y", "-qq", "time"]).returncode != 0:
+        subprocess.run(sudo + ["apt-get", "update", "-qq"], check=True)
+        subprocess.run(sudo + ["apt-get", "install", "-y", "-qq", "time"], check=True)
 
 
 def build_torrey():
