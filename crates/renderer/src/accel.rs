@@ -69,9 +69,16 @@ impl Accel {
             };
         }
         let aabbs: Vec<Aabb> = geoms.iter().map(PrimGeom::aabb).collect();
+        // The highest-quality build pays off while it is cheap (about 6% faster rendering on a 4k-
+        // triangle mesh); past ~100k primitives it costs seconds, so large scenes take the medium one.
+        let params = if geoms.len() < 100_000 {
+            BvhBuildParams::very_slow_build()
+        } else {
+            BvhBuildParams::medium_build()
+        };
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
             &aabbs,
-            BvhBuildParams::medium_build(),
+            params,
             &mut Duration::default(),
         );
         let original_index = bvh.primitive_indices.clone();
