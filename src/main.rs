@@ -54,12 +54,22 @@ struct RenderArgs {
     /// Set a scene <default> parameter, as Mitsuba's -D: -D spp=16.
     #[arg(short = 'D', value_parser = parse_define)]
     define: Vec<(String, String)>,
+    /// Sample generator: `sobol` (shuffled Owen-scrambled Sobol, the default) or `independent`
+    /// (uniform random numbers, like Mitsuba's independent sampler).
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
     /// Look textures up at full resolution (bilinear, as Mitsuba) instead of ray-cone mip-mapping.
     #[arg(long)]
     no_mipmap: bool,
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum SamplerArg {
+    Sobol,
+    Independent,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -126,6 +136,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         filter: scene.film.filter,
         tile_size: 16,
         env_strategy: Default::default(),
+        sampler: match args.sampler {
+            SamplerArg::Sobol => torrey_renderer::SamplerKind::Sobol,
+            SamplerArg::Independent => torrey_renderer::SamplerKind::Independent,
+        },
         mipmapping: !args.no_mipmap,
     };
     let output = output_path(

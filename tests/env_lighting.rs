@@ -33,6 +33,7 @@ fn render(
         tile_size: 16,
         mipmapping: true,
         env_strategy: strategy,
+        sampler: torrey_renderer::SamplerKind::Independent,
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
     assert_eq!(out.nonfinite_samples, 0);

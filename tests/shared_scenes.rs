@@ -67,6 +67,8 @@ fn every_shared_torrey_scene_renders() {
             filter: scene.film.filter,
             tile_size: 16,
             env_strategy: Default::default(),
+            // Independent samples: the per-pixel variance then estimates the error exactly.
+            sampler: torrey_renderer::SamplerKind::Independent,
             mipmapping: true,
         };
         let out = torrey_renderer::render(&rs, &settings, &|_, _| {});

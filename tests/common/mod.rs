@@ -57,6 +57,8 @@ pub fn render_scene_opts(
         filter: desc.film.filter,
         tile_size: 16,
         env_strategy: Default::default(),
+        // Independent samples: the per-pixel variance then estimates the error exactly.
+        sampler: torrey_renderer::SamplerKind::Independent,
         mipmapping,
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});

@@ -8,10 +8,12 @@ pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod render;
+pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
 
 pub use integrator::EnvStrategy;
 pub use render::{render, RenderOutput, RenderSettings};
+pub use sampler::SamplerKind;
 pub use scene::{BuildError, RenderScene};

@@ -3,10 +3,9 @@
 //! render is deterministic for a given seed whatever the thread count or tile order.
 
 use crate::integrator::{radiance, EnvStrategy, PathSettings, Sampler};
+use crate::sampler::{PcgSampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
 use glam::{Vec2, Vec3};
-use pcg_rand::{seeds::PcgSeeder, Pcg32};
-use rand_core::{RngCore, SeedableRng};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -24,6 +23,7 @@ pub struct RenderSettings {
     /// Ray-cone mip-mapping of textures and environment maps (on by default).
     pub mipmapping: bool,
     pub env_strategy: EnvStrategy,
+    pub sampler: SamplerKind,
 }
 
 pub struct RenderOutput {
@@ -39,23 +39,6 @@ pub struct RenderOutput {
 
 /// A tile's origin and its pixels' (mean, variance of the mean), row by row.
 type RenderedTile = ((u32, u32), Vec<(Vec3, Vec3)>);
-
-/// Uniform numbers from a PCG32 stream.
-pub struct PcgSampler(Pcg32);
-
-impl PcgSampler {
-    pub fn new(seed: u64, stream: u64) -> Self {
-        Self(Pcg32::from_seed(PcgSeeder::seed_with_stream(seed, stream)))
-    }
-}
-
-impl Sampler for PcgSampler {
-    #[inline]
-    fn next_1d(&mut self) -> f32 {
-        // 24 random mantissa bits: uniform in [0, 1) and never rounds up to 1.
-        (self.0.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-    }
-}
 
 /// Renders the scene. `progress(done, total)` is called after each tile from worker threads.
 pub fn render(
@@ -90,30 +73,35 @@ pub fn render(
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
-                    let mut sampler = PcgSampler::new(settings.seed, pixel_index);
-                    // Welford's running mean and variance per channel.
-                    let mut mean = Vec3::ZERO;
-                    let mut m2 = Vec3::ZERO;
-                    for s in 0..spp {
-                        let offset = sample_filter(settings.filter, sampler.next_2d());
-                        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                        let (o, d) = scene.camera.generate_ray(film);
-                        let cone = RayCone::from_pixel(scene.camera.pixel_spread);
-                        let mut l = radiance(scene, o, d, cone, path, &mut sampler);
-                        if !l.is_finite() {
-                            bad += 1;
-                            l = Vec3::ZERO;
+                    let (mean, var_of_mean, dropped) = match settings.sampler {
+                        SamplerKind::Independent => {
+                            let mut sampler = PcgSampler::new(settings.seed, pixel_index);
+                            render_pixel(
+                                scene,
+                                x,
+                                y,
+                                spp,
+                                settings.filter,
+                                path,
+                                &mut sampler,
+                                |_, _| {},
+                            )
                         }
-                        let n = (s + 1) as f32;
-                        let delta = l - mean;
-                        mean += delta / n;
-                        m2 += delta * (l - mean);
-                    }
-                    let var_of_mean = if spp > 1 {
-                        m2 / ((spp - 1) as f32 * spp as f32)
-                    } else {
-                        Vec3::ZERO
+                        SamplerKind::Sobol => {
+                            let mut sampler = SobolSampler::new(settings.seed, pixel_index);
+                            render_pixel(
+                                scene,
+                                x,
+                                y,
+                                spp,
+                                settings.filter,
+                                path,
+                                &mut sampler,
+                                |s, i| s.start(i),
+                            )
+                        }
                     };
+                    bad += dropped;
                     out.push((mean, var_of_mean));
                 }
             }
@@ -143,6 +131,49 @@ pub fn render(
         nonfinite_samples: nonfinite.into_inner(),
         elapsed: start.elapsed(),
     }
+}
+
+/// Renders one pixel's `spp` samples; returns the mean, the variance of the mean (from the sample
+/// variance; an overestimate for correlated low-discrepancy samples) and the count of dropped
+/// non-finite samples. `start(sampler, i)` begins sample `i`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn render_pixel<S: Sampler>(
+    scene: &RenderScene,
+    x: u32,
+    y: u32,
+    spp: u32,
+    filter: PixelFilter,
+    path: PathSettings,
+    sampler: &mut S,
+    start: impl Fn(&mut S, u32),
+) -> (Vec3, Vec3, u64) {
+    // Welford's running mean and variance per channel.
+    let mut mean = Vec3::ZERO;
+    let mut m2 = Vec3::ZERO;
+    let mut bad = 0;
+    for s in 0..spp {
+        start(sampler, s);
+        let offset = sample_filter(filter, sampler.next_2d());
+        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+        let (o, d) = scene.camera.generate_ray(film);
+        let cone = RayCone::from_pixel(scene.camera.pixel_spread);
+        let mut l = radiance(scene, o, d, cone, path, sampler);
+        if !l.is_finite() {
+            bad += 1;
+            l = Vec3::ZERO;
+        }
+        let n = (s + 1) as f32;
+        let delta = l - mean;
+        mean += delta / n;
+        m2 += delta * (l - mean);
+    }
+    let var_of_mean = if spp > 1 {
+        m2 / ((spp - 1) as f32 * spp as f32)
+    } else {
+        Vec3::ZERO
+    };
+    (mean, var_of_mean, bad)
 }
 
 /// Offset from the pixel centre, drawn from the pixel filter (filter importance sampling: every
@@ -175,29 +206,7 @@ fn sample_tent(u: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sampler_is_uniform_and_deterministic() {
-        let mut a = PcgSampler::new(7, 3);
-        let mut b = PcgSampler::new(7, 3);
-        let mut c = PcgSampler::new(7, 4);
-        let mut bins = [0u32; 10];
-        let mut differs = false;
-        for _ in 0..100_000 {
-            let x = a.next_1d();
-            assert_eq!(x, b.next_1d());
-            differs |= x != c.next_1d();
-            assert!((0.0..1.0).contains(&x));
-            bins[(x * 10.0) as usize] += 1;
-        }
-        assert!(differs, "different streams must differ");
-        // Chi-square with 9 degrees of freedom; 27.9 is the 0.999 quantile.
-        let chi2: f64 = bins
-            .iter()
-            .map(|&o| (o as f64 - 10_000.0).powi(2) / 10_000.0)
-            .sum();
-        assert!(chi2 < 27.9, "chi2 = {chi2}");
-    }
+    use crate::sampler::PcgSampler;
 
     #[test]
     fn tent_samples_match_the_tent() {

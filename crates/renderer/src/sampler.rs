@@ -1,0 +1,267 @@
+//! Sample generators for the integrator.
+//!
+//! - [`PcgSampler`]: independent uniform numbers from a PCG32 stream (Mitsuba's `independent`).
+//! - [`SobolSampler`]: shuffled, Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based
+//!   Owen Scrambling"). Every 2D request draws from the first two Sobol dimensions, with the sample
+//!   index shuffled and the point scrambled by hashes of (pixel seed, dimension), so each dimension
+//!   pair is a well-stratified (0,2)-sequence in its own right and dimension pairs stay decorrelated.
+//!   At equal sample counts this lowers the error of pixel anti-aliasing, light and BSDF sampling
+//!   without changing the expected value.
+
+use crate::integrator::Sampler;
+use pcg_rand::{seeds::PcgSeeder, Pcg32};
+use rand_core::{RngCore, SeedableRng};
+
+/// Which sample generator a render uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Independent uniform random numbers (PCG32).
+    Independent,
+    /// Shuffled, Owen-scrambled Sobol points.
+    #[default]
+    Sobol,
+}
+
+/// Uniform numbers from a PCG32 stream.
+pub struct PcgSampler(Pcg32);
+
+impl PcgSampler {
+    pub fn new(seed: u64, stream: u64) -> Self {
+        Self(Pcg32::from_seed(PcgSeeder::seed_with_stream(seed, stream)))
+    }
+}
+
+impl Sampler for PcgSampler {
+    #[inline]
+    fn next_1d(&mut self) -> f32 {
+        to_unit(self.0.next_u32())
+    }
+}
+
+/// 24 random mantissa bits: uniform in [0, 1) and never rounds up to 1.
+#[inline]
+fn to_unit(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// One pixel's sample `index` of a shuffled, scrambled Sobol sequence; call [`SobolSampler::start`]
+/// before each sample. Dimensions are consumed in order by `next_1d` / `next_2d`.
+pub struct SobolSampler {
+    pixel_seed: u32,
+    index: u32,
+    dimension: u32,
+}
+
+impl SobolSampler {
+    pub fn new(seed: u64, pixel: u64) -> Self {
+        let pixel_seed = hash(hash(seed as u32 ^ hash((seed >> 32) as u32)) ^ pixel as u32)
+            ^ hash((pixel >> 32) as u32 ^ 0x9e37_79b9);
+        Self {
+            pixel_seed,
+            index: 0,
+            dimension: 0,
+        }
+    }
+
+    /// Begins sample number `index` of this pixel.
+    #[inline]
+    pub fn start(&mut self, index: u32) {
+        self.index = index;
+        self.dimension = 0;
+    }
+
+    #[inline]
+    fn dimension_seed(&mut self) -> u32 {
+        let s = hash(self.pixel_seed ^ hash(self.dimension.wrapping_add(0x68bc_21eb)));
+        self.dimension += 1;
+        s
+    }
+}
+
+impl Sampler for SobolSampler {
+    #[inline]
+    fn next_1d(&mut self) -> f32 {
+        let seed = self.dimension_seed();
+        let i = nested_uniform_scramble(self.index, hash(seed ^ 0xa511_e9b3));
+        to_unit(nested_uniform_scramble(sobol_dim0(i), seed))
+    }
+
+    #[inline]
+    fn next_2d(&mut self) -> glam::Vec2 {
+        let seed = self.dimension_seed();
+        let i = nested_uniform_scramble(self.index, hash(seed ^ 0xa511_e9b3));
+        let x = nested_uniform_scramble(sobol_dim0(i), hash(seed ^ 0x63d8_3595));
+        let y = nested_uniform_scramble(sobol_dim1(i), hash(seed ^ 0x2c1b_3c6d));
+        glam::Vec2::new(to_unit(x), to_unit(y))
+    }
+}
+
+/// Sobol dimension 0 (van der Corput in base 2), as a 32-bit fixed-point fraction.
+#[inline]
+fn sobol_dim0(i: u32) -> u32 {
+    i.reverse_bits()
+}
+
+/// Sobol dimension 1: generator matrix with direction numbers v_k = x^k-th row of Pascal's
+/// triangle mod 2, i.e. v_{k+1} = v_k ^ (v_k >> 1) starting from the top bit.
+#[inline]
+fn sobol_dim1(mut i: u32) -> u32 {
+    let mut v = 1u32 << 31;
+    let mut r = 0u32;
+    while i != 0 {
+        if i & 1 != 0 {
+            r ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    r
+}
+
+/// Laine-Karras style hash-based nested uniform (Owen) scrambling of a bit-reversed fraction,
+/// with Burley's improved constants: each bit is flipped depending only on the bits above it.
+#[inline]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    let mut v = x.reverse_bits();
+    v = v.wrapping_add(seed);
+    v ^= v.wrapping_mul(0x6c50_b47c);
+    v ^= v.wrapping_mul(0xb82f_1e52);
+    v ^= v.wrapping_mul(0xc7af_e638);
+    v ^= v.wrapping_mul(0x8d22_f6e6);
+    v.reverse_bits()
+}
+
+/// A 32-bit integer hash (Wellons' lowbias32).
+#[inline]
+fn hash(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pcg_is_uniform_and_deterministic() {
+        let mut a = PcgSampler::new(7, 3);
+        let mut b = PcgSampler::new(7, 3);
+        let mut c = PcgSampler::new(7, 4);
+        let mut bins = [0u32; 10];
+        let mut differs = false;
+        for _ in 0..100_000 {
+            let x = a.next_1d();
+            assert_eq!(x, b.next_1d());
+            differs |= x != c.next_1d();
+            assert!((0.0..1.0).contains(&x));
+            bins[(x * 10.0) as usize] += 1;
+        }
+        assert!(differs, "different streams must differ");
+        // Chi-square with 9 degrees of freedom; 27.9 is the 0.999 quantile.
+        let chi2: f64 = bins
+            .iter()
+            .map(|&o| (o as f64 - 10_000.0).powi(2) / 10_000.0)
+            .sum();
+        assert!(chi2 < 27.9, "chi2 = {chi2}");
+    }
+
+    #[test]
+    fn sobol_dimension_one_matches_known_values() {
+        // The first points of Sobol dimension 1 (direction numbers 1/2, 3/4, 5/8, ..., no Gray code).
+        let expect = [0.0, 0.5, 0.75, 0.25, 0.625, 0.125, 0.375, 0.875];
+        for (i, e) in expect.iter().enumerate() {
+            assert_eq!(sobol_dim1(i as u32) as f64 / 4294967296.0, *e, "index {i}");
+        }
+    }
+
+    /// The first 2^m points of every dimension pair are a (0, m, 2)-net: each of the 2^m
+    /// elementary intervals of any shape holds exactly one point. Scrambling keeps that.
+    #[test]
+    fn sobol_pairs_are_stratified() {
+        let m = 6;
+        let n = 1u32 << m;
+        for pixel in [0u64, 17, 123_456] {
+            let mut s = SobolSampler::new(42, pixel);
+            let mut points: Vec<Vec<glam::Vec2>> = vec![Vec::new(); 3];
+            for i in 0..n {
+                s.start(i);
+                for p in points.iter_mut() {
+                    p.push(s.next_2d());
+                }
+            }
+            for pts in &points {
+                for kx in 0..=m {
+                    let (nx, ny) = (1u32 << kx, 1u32 << (m - kx));
+                    let mut seen = vec![0u32; n as usize];
+                    for p in pts {
+                        let cx = (p.x * nx as f32) as u32;
+                        let cy = (p.y * ny as f32) as u32;
+                        seen[(cy * nx + cx) as usize] += 1;
+                    }
+                    assert!(
+                        seen.iter().all(|&c| c == 1),
+                        "pixel {pixel}: not a net for {nx}x{ny}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sobol_is_uniform_across_pixels_and_dimensions() {
+        // One sample per pixel over many pixels must still be uniform (no shared pattern).
+        let mut bins = [0u32; 16];
+        let n = 64_000;
+        for pixel in 0..n {
+            let mut s = SobolSampler::new(1, pixel);
+            s.start(0);
+            s.next_1d();
+            let v = s.next_2d();
+            bins[(v.x * 4.0) as usize * 4 + (v.y * 4.0) as usize] += 1;
+        }
+        let e = n as f64 / 16.0;
+        let chi2: f64 = bins.iter().map(|&o| (o as f64 - e).powi(2) / e).sum();
+        assert!(chi2 < 37.7, "chi2 = {chi2}"); // 15 dof, 0.999 quantile
+    }
+
+    /// Integrating a smooth 2D function, scrambled Sobol converges much faster than random.
+    #[test]
+    fn sobol_beats_independent_on_a_smooth_integrand() {
+        let f = |x: f32, y: f32| (x * y * 3.0).sin() + x * x;
+        let exact = {
+            let k = 2000;
+            let mut s = 0.0f64;
+            for i in 0..k {
+                for j in 0..k {
+                    s += f((i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32) as f64;
+                }
+            }
+            s / (k * k) as f64
+        };
+        let trials = 200;
+        let n = 64;
+        let (mut err_sobol, mut err_pcg) = (0.0f64, 0.0f64);
+        for t in 0..trials {
+            let mut s = SobolSampler::new(9, t);
+            let mut p = PcgSampler::new(9, t);
+            let (mut a, mut b) = (0.0f64, 0.0f64);
+            for i in 0..n {
+                s.start(i as u32);
+                let v = s.next_2d();
+                a += f(v.x, v.y) as f64;
+                let w = p.next_2d();
+                b += f(w.x, w.y) as f64;
+            }
+            err_sobol += (a / n as f64 - exact).powi(2);
+            err_pcg += (b / n as f64 - exact).powi(2);
+        }
+        assert!(
+            err_sobol * 10.0 < err_pcg,
+            "sobol mse {err_sobol}, independent mse {err_pcg}"
+        );
+    }
+}
