@@ -75,6 +75,9 @@ def main():
                     help="keep drjit's on-disk kernel cache (~/.drjit) instead of an empty one per process")
     ap.add_argument("--torrey-no-mipmap", action="store_true",
                     help="run torrey with --no-mipmap (bilinear full-resolution textures, as Mitsuba)")
+    ap.add_argument("--torrey-sampler", default="independent", choices=["independent", "sobol"],
+                    help="torrey's sample generator; independent (default) matches Mitsuba's for a "
+                         "like-for-like throughput table, sobol is torrey's own default")
     ap.add_argument("--save-images", action="store_true", help="keep both renderers' EXRs in out/bench/img/")
     ap.add_argument("--json", help="output JSON path (default out/bench/compare_<date>.json)")
     a = ap.parse_args()
@@ -92,7 +95,7 @@ def main():
     os.makedirs(OUT, exist_ok=True)
     img_dir = os.path.join(OUT, "img")
     os.makedirs(img_dir, exist_ok=True)
-    torrey_extra = ["--no-mipmap"] if a.torrey_no_mipmap else []
+    torrey_extra = (["--no-mipmap"] if a.torrey_no_mipmap else []) + ["--sampler", a.torrey_sampler]
 
     result = {
         "generator": "bench/compare_mitsuba.py",
