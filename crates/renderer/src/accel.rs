@@ -76,11 +76,7 @@ impl Accel {
         } else {
             BvhBuildParams::medium_build()
         };
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(
-            &aabbs,
-            params,
-            &mut Duration::default(),
-        );
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, params, &mut Duration::default());
         let original_index = bvh.primitive_indices.clone();
         let ordered = original_index.iter().map(|&i| geoms[i as usize]).collect();
         Self {
