@@ -70,9 +70,10 @@ impl SobolSampler {
         self.dimension = 0;
     }
 
+    /// The seed of the next dimension (pair); one hash per request.
     #[inline]
     fn dimension_seed(&mut self) -> u32 {
-        let s = hash(self.pixel_seed ^ hash(self.dimension.wrapping_add(0x68bc_21eb)));
+        let s = hash(self.pixel_seed ^ self.dimension.wrapping_mul(0x9e37_79b9));
         self.dimension += 1;
         s
     }
@@ -82,53 +83,79 @@ impl Sampler for SobolSampler {
     #[inline]
     fn next_1d(&mut self) -> f32 {
         let seed = self.dimension_seed();
-        let i = nested_uniform_scramble(self.index, hash(seed ^ 0xa511_e9b3));
-        to_unit(nested_uniform_scramble(sobol_dim0(i), seed))
+        let i = owen_scramble(self.index, seed);
+        // Owen-scrambled Sobol dimension 0: owen(reverse(i)) = reverse(lk(i)).
+        to_unit(laine_karras(i, hash(seed ^ 0x63d8_3595)).reverse_bits())
     }
 
     #[inline]
     fn next_2d(&mut self) -> glam::Vec2 {
         let seed = self.dimension_seed();
-        let i = nested_uniform_scramble(self.index, hash(seed ^ 0xa511_e9b3));
-        let x = nested_uniform_scramble(sobol_dim0(i), hash(seed ^ 0x63d8_3595));
-        let y = nested_uniform_scramble(sobol_dim1(i), hash(seed ^ 0x2c1b_3c6d));
+        let i = owen_scramble(self.index, seed);
+        let x = laine_karras(i, hash(seed ^ 0x63d8_3595)).reverse_bits();
+        let y = owen_scramble(sobol_dim1(i), hash(seed ^ 0x2c1b_3c6d));
         glam::Vec2::new(to_unit(x), to_unit(y))
     }
 }
 
-/// Sobol dimension 0 (van der Corput in base 2), as a 32-bit fixed-point fraction.
-#[inline]
-fn sobol_dim0(i: u32) -> u32 {
-    i.reverse_bits()
-}
-
-/// Sobol dimension 1: generator matrix with direction numbers v_k = x^k-th row of Pascal's
-/// triangle mod 2, i.e. v_{k+1} = v_k ^ (v_k >> 1) starting from the top bit.
-#[inline]
-fn sobol_dim1(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
-    let mut r = 0u32;
-    while i != 0 {
-        if i & 1 != 0 {
-            r ^= v;
-        }
-        i >>= 1;
-        v ^= v >> 1;
+/// Direction numbers of Sobol dimension 1: v_0 = 1/2, v_{k+1} = v_k xor (v_k >> 1) (Pascal's
+/// triangle mod 2), folded into one XOR table per index byte so a point costs four lookups.
+const SOBOL1_TABLES: [[u32; 256]; 4] = {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut k = 1;
+    while k < 32 {
+        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        k += 1;
     }
-    r
+    let mut t = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut byte = 0;
+        while byte < 256 {
+            let mut acc = 0u32;
+            let mut j = 0;
+            while j < 8 {
+                if byte & (1 << j) != 0 {
+                    acc ^= v[8 * b + j];
+                }
+                j += 1;
+            }
+            t[b][byte] = acc;
+            byte += 1;
+        }
+        b += 1;
+    }
+    t
+};
+
+/// Sobol dimension 1 for index `i`, as a 32-bit fixed-point fraction.
+#[inline]
+fn sobol_dim1(i: u32) -> u32 {
+    let t = &SOBOL1_TABLES;
+    t[0][(i & 255) as usize]
+        ^ t[1][((i >> 8) & 255) as usize]
+        ^ t[2][((i >> 16) & 255) as usize]
+        ^ t[3][(i >> 24) as usize]
 }
 
-/// Laine-Karras style hash-based nested uniform (Owen) scrambling of a bit-reversed fraction,
-/// with Burley's improved constants: each bit is flipped depending only on the bits above it.
+/// Burley's improved Laine-Karras permutation: each output bit depends only on the input bits
+/// below it.
 #[inline]
-fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
-    let mut v = x.reverse_bits();
+fn laine_karras(mut v: u32, seed: u32) -> u32 {
     v = v.wrapping_add(seed);
     v ^= v.wrapping_mul(0x6c50_b47c);
     v ^= v.wrapping_mul(0xb82f_1e52);
     v ^= v.wrapping_mul(0xc7af_e638);
     v ^= v.wrapping_mul(0x8d22_f6e6);
-    v.reverse_bits()
+    v
+}
+
+/// Hash-based nested uniform (Owen) scrambling of a fixed-point fraction: each bit is flipped
+/// depending only on the more significant bits.
+#[inline]
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
 /// A 32-bit integer hash (Wellons' lowbias32).
