@@ -1,0 +1,116 @@
+//! The `torrey` command line as a user meets it: bad input fails with file:line:column and writes
+//! no image; a good scene writes an EXR and a PNG; renders are identical whatever the thread count.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn torrey() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_torrey"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("torrey-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+const GOOD: &str = r#"<scene version="0.6.0">
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="toWorld"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="4"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/></film>
+  </sensor>
+  <bsdf type="diffuse" id="d"><rgb name="reflectance" value="0.5"/></bsdf>
+  <shape type="sphere"><float name="radius" value="1"/><ref id="d"/></shape>
+</scene>"#;
+
+#[test]
+fn bad_scene_fails_with_position_and_writes_nothing() {
+    let dir = temp_dir("bad");
+    let scene = dir.join("bad.xml");
+    // Line 3: a shape with an unknown type; the position is that of the type attribute value.
+    std::fs::write(&scene, "<scene version=\"0.6.0\">\n  <bsdf type=\"diffuse\" id=\"d\"/>\n  <shape type=\"teapot\"/>\n</scene>\n").unwrap();
+    let out = dir.join("bad.exr");
+    let result = torrey()
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("bad.xml:3:16:"),
+        "error must name file:line:column: {stderr}"
+    );
+    assert!(
+        stderr.contains("teapot"),
+        "error must name the problem: {stderr}"
+    );
+    assert!(
+        !out.exists() && !out.with_extension("png").exists(),
+        "no image on error"
+    );
+}
+
+#[test]
+fn good_scene_writes_exr_and_png_and_reports_speed() {
+    let dir = temp_dir("good");
+    let scene = dir.join("good.xml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let out = dir.join("img.exr");
+    let result = torrey()
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("24x16 px, 4 spp") && stderr.contains("samples/s"),
+        "{stderr}"
+    );
+    let img = torrey_texture::load_image(&out, false).unwrap().image;
+    assert_eq!((img.width, img.height), (24, 16));
+    assert!(out.with_extension("png").exists());
+}
+
+#[test]
+fn renders_do_not_depend_on_thread_count() {
+    let dir = temp_dir("threads");
+    let scene = dir.join("s.xml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let mut images = Vec::new();
+    for threads in ["1", "2", "3"] {
+        let out = dir.join(format!("t{threads}.exr"));
+        let status = torrey()
+            .arg(&scene)
+            .args(["--threads", threads, "--seed", "5", "--quiet", "-o"])
+            .arg(&out)
+            .status()
+            .unwrap();
+        assert!(status.success());
+        images.push(torrey_texture::load_image(&out, false).unwrap().image);
+    }
+    assert_eq!(images[0], images[1]);
+    assert_eq!(images[0], images[2]);
+    // A different seed gives a different (noisy) image.
+    let out = dir.join("other.exr");
+    torrey()
+        .arg(&scene)
+        .args(["--seed", "6", "--quiet", "-o"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert_ne!(
+        images[0],
+        torrey_texture::load_image(&out, false).unwrap().image
+    );
+}
