@@ -176,3 +176,31 @@ fn sidedness_follows_the_dialect() {
         assert!((c.x - 0.5).abs() < 0.03, "{name}: {c}");
     }
 }
+
+/// Normal maps whose perturbed normal lies in the tangent plane, or points into the surface, must
+/// neither blacken pixels nor produce NaN: the normal is bent back until it is just visible.
+#[test]
+fn extreme_normal_maps_never_go_black() {
+    let dir = std::env::temp_dir().join(format!("torrey-analytic-{}-nmap", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, rgb) in [("tangent", Vec3::new(1.0, 0.5, 0.5)), ("inward", Vec3::new(0.5, 0.5, 0.0))] {
+        let map = dir.join(format!("{name}.exr"));
+        torrey_texture::write_exr(&map, &torrey_texture::Image::filled(4, 4, rgb)).unwrap();
+        for version in ["0.6.0", "3.0.0"] {
+            let xml = format!(
+                r#"<scene version="{version}">{}
+                   <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+                   <bsdf type="diffuse" id="d"><rgb name="reflectance" value="0.5"/>
+                     <texture type="bitmap" name="normal_map"><string name="filename" value="{}"/></texture>
+                   </bsdf>
+                   <shape type="rectangle"><transform name="toWorld"><scale value="3"/></transform><ref id="d"/></shape>
+                   </scene>"#,
+                camera("0, -2, 2", "0, 0, 0", "0, 0, 1", 30.0),
+                map.display()
+            );
+            let r = render_xml(&format!("nmap-{name}-{version}"), &xml, 32, 16, None);
+            let black = r.image.pixels.iter().filter(|p| p.max_element() <= 0.0).count();
+            assert_eq!(black, 0, "{name} map, version {version}: {black} black pixels");
+        }
+    }
+}
