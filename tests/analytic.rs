@@ -183,7 +183,10 @@ fn sidedness_follows_the_dialect() {
 fn extreme_normal_maps_never_go_black() {
     let dir = std::env::temp_dir().join(format!("torrey-analytic-{}-nmap", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    for (name, rgb) in [("tangent", Vec3::new(1.0, 0.5, 0.5)), ("inward", Vec3::new(0.5, 0.5, 0.0))] {
+    for (name, rgb) in [
+        ("tangent", Vec3::new(1.0, 0.5, 0.5)),
+        ("inward", Vec3::new(0.5, 0.5, 0.0)),
+    ] {
         let map = dir.join(format!("{name}.exr"));
         torrey_texture::write_exr(&map, &torrey_texture::Image::filled(4, 4, rgb)).unwrap();
         for version in ["0.6.0", "3.0.0"] {
@@ -199,8 +202,16 @@ fn extreme_normal_maps_never_go_black() {
                 map.display()
             );
             let r = render_xml(&format!("nmap-{name}-{version}"), &xml, 32, 16, None);
-            let black = r.image.pixels.iter().filter(|p| p.max_element() <= 0.0).count();
-            assert_eq!(black, 0, "{name} map, version {version}: {black} black pixels");
+            let black = r
+                .image
+                .pixels
+                .iter()
+                .filter(|p| p.max_element() <= 0.0)
+                .count();
+            assert_eq!(
+                black, 0,
+                "{name} map, version {version}: {black} black pixels"
+            );
         }
     }
 }

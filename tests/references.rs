@@ -34,36 +34,16 @@ fn check_reference(renderer: &str, name: &str, entry: &Value) -> Result<String, 
     if r.nonfinite > 0 {
         return Err(format!("{name}: {} NaN/inf samples", r.nonfinite));
     }
-    let ref_mean = common::mean(&reference).element_sum() as f64 / 3.0;
-    let ref_sigma = common::reference_sigma(entry["noise_rel"].as_f64().unwrap_or(0.0), ref_mean);
-    let cmp = common::compare_with_noise(
-        &r.image,
-        &r.variance,
+    let v = common::compare_to_reference(
+        &format!("{renderer}/{name}"),
+        &r,
         &reference,
-        8,
-        0.01,
-        1e-4,
-        ref_sigma,
-        5.0,
+        entry["noise_rel"].as_f64().unwrap_or(0.0),
     );
-    let summary = format!(
-        "{renderer}/{name}: outlier blocks {:.1}% of {}, max z {:.2}, mean ratio [{:.4} {:.4} {:.4}] ± [{:.4} {:.4} {:.4}]",
-        cmp.outlier_blocks * 100.0,
-        cmp.blocks,
-        cmp.max_z,
-        cmp.mean_ratio[0],
-        cmp.mean_ratio[1],
-        cmp.mean_ratio[2],
-        cmp.mean_ratio_sigma[0],
-        cmp.mean_ratio_sigma[1],
-        cmp.mean_ratio_sigma[2],
-    );
-    let mean_ok =
-        (0..3).all(|c| (cmp.mean_ratio[c] - 1.0).abs() <= 4.0 * cmp.mean_ratio_sigma[c] + 0.01);
-    if cmp.outlier_blocks > 0.02 || !mean_ok {
-        return Err(summary);
+    if !v.pass {
+        return Err(v.summary);
     }
-    Ok(summary)
+    Ok(v.summary)
 }
 
 fn check_all(renderer: &str) {

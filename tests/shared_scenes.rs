@@ -119,35 +119,16 @@ fn shared_scenes_match_mitsuba() {
         // Mitsuba does not mip-map: compare like with like here; what mip-mapping changes is
         // measured separately (docs/validation.md).
         let r = common::render_scene_opts(&source, w, h, spp, depth, 3, false);
-        let ref_mean = common::mean(&reference).element_sum() as f64 / 3.0;
-        let ref_sigma =
-            common::reference_sigma(meta["noise_rel"].as_f64().unwrap_or(0.0), ref_mean);
-        let cmp = common::compare_with_noise(
-            &r.image,
-            &r.variance,
-            &reference,
-            8,
-            0.01,
-            1e-4,
-            ref_sigma,
-            5.0,
-        );
-        let line = format!(
-            "{}: blocks beyond 5 sigma {:.1}%, max z {:.1}, mean ratio [{:.4} {:.4} {:.4}] ± {:.4}",
-            json.file_stem().unwrap().to_string_lossy(),
-            cmp.outlier_blocks * 100.0,
-            cmp.max_z,
-            cmp.mean_ratio[0],
-            cmp.mean_ratio[1],
-            cmp.mean_ratio[2],
-            cmp.mean_ratio_sigma[1]
-        );
-        println!("{line}");
-        let mean_ok =
-            (0..3).all(|c| (cmp.mean_ratio[c] - 1.0).abs() <= 4.0 * cmp.mean_ratio_sigma[c] + 0.01);
         let name = json.file_stem().unwrap().to_string_lossy().into_owned();
-        if (cmp.outlier_blocks > 0.02 || !mean_ok) && !NOISE_LIMITED.contains(&name.as_str()) {
-            failures.push(line);
+        let v = common::compare_to_reference(
+            &name,
+            &r,
+            &reference,
+            meta["noise_rel"].as_f64().unwrap_or(0.0),
+        );
+        println!("{}", v.summary);
+        if !v.pass && !NOISE_LIMITED.contains(&name.as_str()) {
+            failures.push(v.summary);
         }
     }
     assert!(failures.is_empty(), "differences:\n{}", failures.join("\n"));

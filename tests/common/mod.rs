@@ -178,3 +178,50 @@ pub fn mean(img: &Image) -> Vec3 {
 pub fn reference_sigma(noise_rel: f64, mean: f64) -> f64 {
     (std::f64::consts::PI / 2.0).sqrt() * noise_rel * mean
 }
+
+/// The verdict of [`compare_to_reference`]: a one-line summary and whether it is within tolerance.
+pub struct Verdict {
+    pub summary: String,
+    pub pass: bool,
+}
+
+/// The project's standard comparison of a render with a reference image: 8x8 blocks within 5
+/// standard errors (our noise plus the reference's, from its `noise_rel`), 1% systematic allowance;
+/// it passes when at most 2% of blocks are outside and the image mean is within 4 sigma + 1%.
+pub fn compare_to_reference(
+    label: &str,
+    r: &Rendered,
+    reference: &Image,
+    noise_rel: f64,
+) -> Verdict {
+    let ref_mean = mean(reference).element_sum() as f64 / 3.0;
+    let ref_sigma = reference_sigma(noise_rel, ref_mean);
+    let cmp = compare_with_noise(
+        &r.image,
+        &r.variance,
+        reference,
+        8,
+        0.01,
+        1e-4,
+        ref_sigma,
+        5.0,
+    );
+    let summary = format!(
+        "{label}: blocks beyond 5 sigma {:.1}% of {}, max z {:.2}, mean ratio [{:.4} {:.4} {:.4}] ± [{:.4} {:.4} {:.4}]",
+        cmp.outlier_blocks * 100.0,
+        cmp.blocks,
+        cmp.max_z,
+        cmp.mean_ratio[0],
+        cmp.mean_ratio[1],
+        cmp.mean_ratio[2],
+        cmp.mean_ratio_sigma[0],
+        cmp.mean_ratio_sigma[1],
+        cmp.mean_ratio_sigma[2],
+    );
+    let mean_ok =
+        (0..3).all(|c| (cmp.mean_ratio[c] - 1.0).abs() <= 4.0 * cmp.mean_ratio_sigma[c] + 0.01);
+    Verdict {
+        summary,
+        pass: cmp.outlier_blocks <= 0.02 && mean_ok,
+    }
+}
