@@ -28,7 +28,7 @@ impl PrimGeom {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect(&self, ray: &Ray, wr: &WatertightRay, tmax: f32) -> Option<(f32, f32, f32)> {
         match *self {
             PrimGeom::Triangle { p0, p1, p2 } => {

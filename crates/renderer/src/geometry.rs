@@ -1,7 +1,7 @@
 //! Ray-primitive intersection for the two primitive kinds the BVH holds: triangles (watertight
 //! test) and analytic spheres (Mitsuba's sphere: exact, never tessellated).
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3Swizzles};
 
 /// A ray with its valid parameter interval.
 #[derive(Clone, Copy, Debug)]
@@ -25,7 +25,9 @@ pub struct TriangleHit {
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     origin: Vec3,
-    k: [usize; 3],
+    /// The axis of the direction's largest component; the permutation (kz+1, kz+2, kz) mod 3 is
+    /// cyclic, so it is one swizzle chosen by kz.
+    kz: u8,
     shear: Vec3,
 }
 
@@ -34,7 +36,7 @@ impl WatertightRay {
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir;
         let ad = d.abs();
-        let kz = if ad.x > ad.y {
+        let kz: u8 = if ad.x > ad.y {
             if ad.x > ad.z {
                 0
             } else {
@@ -45,19 +47,28 @@ impl WatertightRay {
         } else {
             2
         };
-        let kx = if kz == 2 { 0 } else { kz + 1 };
-        let ky = if kx == 2 { 0 } else { kx + 1 };
-        let sz = 1.0 / d[kz];
+        let dp = permute(d, kz);
+        let sz = 1.0 / dp.z;
         Self {
             origin: ray.origin,
-            k: [kx, ky, kz],
-            shear: Vec3::new(-d[kx] * sz, -d[ky] * sz, sz),
+            kz,
+            shear: Vec3::new(-dp.x * sz, -dp.y * sz, sz),
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn permute(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v[self.k[0]], v[self.k[1]], v[self.k[2]])
+        permute(v, self.kz)
+    }
+}
+
+/// Cyclic axis permutation that moves axis `kz` to z.
+#[inline(always)]
+fn permute(v: Vec3, kz: u8) -> Vec3 {
+    match kz {
+        0 => v.yzx(),
+        1 => v.zxy(),
+        _ => v,
     }
 }
 
@@ -75,7 +86,7 @@ pub fn intersect_triangle(
 }
 
 /// [`intersect_triangle`] with the per-ray constants precomputed.
-#[inline]
+#[inline(always)]
 pub fn intersect_triangle_pre(
     wr: &WatertightRay,
     p0: Vec3,
