@@ -482,40 +482,8 @@ fn build_material(b: &desc::Bsdf, torrey_dialect: bool) -> Material {
         desc::ColorParam::Constant(v) => ColorSource::Constant(*v),
         desc::ColorParam::Texture(t) => ColorSource::Texture(*t as u32),
     };
-    let (model, reflectance) = match &b.kind {
-        desc::BsdfKind::Diffuse { reflectance } => (BsdfModel::Diffuse, color(reflectance)),
-        desc::BsdfKind::Mirror { reflectance } => (BsdfModel::Mirror, color(reflectance)),
-        desc::BsdfKind::Plastic { reflectance, eta } => {
-            (BsdfModel::Plastic { eta: *eta }, color(reflectance))
-        }
-        desc::BsdfKind::Phong {
-            reflectance,
-            exponent,
-        } => (
-            BsdfModel::Phong {
-                exponent: *exponent,
-            },
-            color(reflectance),
-        ),
-        desc::BsdfKind::Blinn {
-            reflectance,
-            exponent,
-        } => (
-            BsdfModel::Blinn {
-                exponent: *exponent,
-            },
-            color(reflectance),
-        ),
-        desc::BsdfKind::BlinnMicrofacet {
-            reflectance,
-            exponent,
-        } => (
-            BsdfModel::BlinnMicrofacet {
-                exponent: *exponent,
-            },
-            color(reflectance),
-        ),
-    };
+    let (model, reflectance) = BsdfModel::from_kind(&b.kind);
+    let reflectance = color(reflectance);
     Material {
         model,
         reflectance,
