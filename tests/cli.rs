@@ -114,3 +114,31 @@ fn renders_do_not_depend_on_thread_count() {
         torrey_texture::load_image(&out, false).unwrap().image
     );
 }
+
+#[test]
+fn undecodable_texture_is_reported_at_its_place_in_the_scene() {
+    let dir = temp_dir("badtex");
+    std::fs::write(dir.join("broken.png"), b"\x89PNG\r\n\x1a\nnot really a png").unwrap();
+    let scene = dir.join("tex.xml");
+    let xml = GOOD.replace(
+        r#"<bsdf type="diffuse" id="d"><rgb name="reflectance" value="0.5"/></bsdf>"#,
+        "<bsdf type=\"diffuse\" id=\"d\">\n    <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"broken.png\"/></texture>\n  </bsdf>",
+    );
+    std::fs::write(&scene, xml).unwrap();
+    let out = dir.join("tex.exr");
+    let result = torrey()
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(!result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        stderr.contains("tex.xml:8:"),
+        "the texture's scene position: {stderr}"
+    );
+    assert!(stderr.contains("broken.png"), "the image file: {stderr}");
+    assert!(!out.exists(), "no image on error");
+}

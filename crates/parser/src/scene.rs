@@ -159,6 +159,9 @@ pub struct Bitmap {
     pub raw: bool,
     pub filter: FilterType,
     pub wrap: WrapMode,
+    /// Where the `filename` parameter was given, so that an image that fails to decode at render
+    /// time is reported at its place in the scene file.
+    pub location: SourceLocation,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -498,7 +498,7 @@ fn load_bitmap_image(
 ) -> Result<torrey_texture::Image, BuildError> {
     let loaded = torrey_texture::load_image(&bitmap.filename, bitmap.raw).map_err(|e| {
         BuildError::Texture {
-            location: bitmap.filename.display().to_string(),
+            location: bitmap.location.to_string(),
             message: e.to_string(),
         }
     })?;

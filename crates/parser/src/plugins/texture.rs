@@ -104,6 +104,7 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
         raw,
         filter,
         wrap,
+        location: crate::xml::location(&ctx.file, file.value_pos),
     })
 }
 
