@@ -14,6 +14,24 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// Runs torrey on a scene that must be rejected; checks that it exits non-zero and writes no
+/// image, and returns what it printed on stderr.
+fn expect_failure(scene: &std::path::Path, out: &std::path::Path) -> String {
+    let result = torrey()
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(!result.status.success());
+    assert!(
+        !out.exists() && !out.with_extension("png").exists(),
+        "no image on error"
+    );
+    String::from_utf8_lossy(&result.stderr).into_owned()
+}
+
 const GOOD: &str = r#"<scene version="0.6.0">
   <sensor type="perspective"><float name="fov" value="40"/>
     <transform name="toWorld"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
@@ -31,15 +49,7 @@ fn bad_scene_fails_with_position_and_writes_nothing() {
     // Line 3: a shape with an unknown type; the position is that of the type attribute value.
     std::fs::write(&scene, "<scene version=\"0.6.0\">\n  <bsdf type=\"diffuse\" id=\"d\"/>\n  <shape type=\"teapot\"/>\n</scene>\n").unwrap();
     let out = dir.join("bad.exr");
-    let result = torrey()
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(!result.status.success());
-    let stderr = String::from_utf8_lossy(&result.stderr);
+    let stderr = expect_failure(&scene, &out);
     assert!(
         stderr.contains("bad.xml:3:16:"),
         "error must name file:line:column: {stderr}"
@@ -47,10 +57,6 @@ fn bad_scene_fails_with_position_and_writes_nothing() {
     assert!(
         stderr.contains("teapot"),
         "error must name the problem: {stderr}"
-    );
-    assert!(
-        !out.exists() && !out.with_extension("png").exists(),
-        "no image on error"
     );
 }
 
@@ -126,19 +132,10 @@ fn undecodable_texture_is_reported_at_its_place_in_the_scene() {
     );
     std::fs::write(&scene, xml).unwrap();
     let out = dir.join("tex.exr");
-    let result = torrey()
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(!result.status.success());
-    let stderr = String::from_utf8_lossy(&result.stderr);
+    let stderr = expect_failure(&scene, &out);
     assert!(
         stderr.contains("tex.xml:8:"),
         "the texture's scene position: {stderr}"
     );
     assert!(stderr.contains("broken.png"), "the image file: {stderr}");
-    assert!(!out.exists(), "no image on error");
 }

@@ -19,6 +19,9 @@ use torrey_texture::RayCone;
 
 /// A source of uniform numbers in [0, 1).
 pub trait Sampler {
+    /// Begins sample number `index` of the current pixel (sequences that depend on the sample
+    /// index, like Sobol, restart their dimensions here; independent samplers ignore it).
+    fn start_sample(&mut self, _index: u32) {}
     fn next_1d(&mut self) -> f32;
     fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())

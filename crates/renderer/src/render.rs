@@ -74,32 +74,22 @@ pub fn render(
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
                     let (mean, var_of_mean, dropped) = match settings.sampler {
-                        SamplerKind::Independent => {
-                            let mut sampler = PcgSampler::new(settings.seed, pixel_index);
-                            render_pixel(
-                                scene,
-                                x,
-                                y,
-                                spp,
-                                settings.filter,
-                                path,
-                                &mut sampler,
-                                |_, _| {},
-                            )
-                        }
-                        SamplerKind::Sobol => {
-                            let mut sampler = SobolSampler::new(settings.seed, pixel_index);
-                            render_pixel(
-                                scene,
-                                x,
-                                y,
-                                spp,
-                                settings.filter,
-                                path,
-                                &mut sampler,
-                                |s, i| s.start(i),
-                            )
-                        }
+                        SamplerKind::Independent => render_pixel(
+                            scene,
+                            (x, y),
+                            spp,
+                            settings.filter,
+                            path,
+                            &mut PcgSampler::new(settings.seed, pixel_index),
+                        ),
+                        SamplerKind::Sobol => render_pixel(
+                            scene,
+                            (x, y),
+                            spp,
+                            settings.filter,
+                            path,
+                            &mut SobolSampler::new(settings.seed, pixel_index),
+                        ),
                     };
                     bad += dropped;
                     out.push((mean, var_of_mean));
@@ -135,25 +125,22 @@ pub fn render(
 
 /// Renders one pixel's `spp` samples; returns the mean, the variance of the mean (from the sample
 /// variance; an overestimate for correlated low-discrepancy samples) and the count of dropped
-/// non-finite samples. `start(sampler, i)` begins sample `i`.
-#[allow(clippy::too_many_arguments)]
+/// non-finite samples.
 #[inline]
 fn render_pixel<S: Sampler>(
     scene: &RenderScene,
-    x: u32,
-    y: u32,
+    (x, y): (u32, u32),
     spp: u32,
     filter: PixelFilter,
     path: PathSettings,
     sampler: &mut S,
-    start: impl Fn(&mut S, u32),
 ) -> (Vec3, Vec3, u64) {
     // Welford's running mean and variance per channel.
     let mut mean = Vec3::ZERO;
     let mut m2 = Vec3::ZERO;
     let mut bad = 0;
     for s in 0..spp {
-        start(sampler, s);
+        sampler.start_sample(s);
         let offset = sample_filter(filter, sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
         let (o, d) = scene.camera.generate_ray(film);

@@ -44,7 +44,7 @@ fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
-/// One pixel's sample `index` of a shuffled, scrambled Sobol sequence; call [`SobolSampler::start`]
+/// One pixel's sample `index` of a shuffled, scrambled Sobol sequence; call `start_sample`
 /// before each sample. Dimensions are consumed in order by `next_1d` / `next_2d`.
 pub struct SobolSampler {
     pixel_seed: u32,
@@ -63,13 +63,6 @@ impl SobolSampler {
         }
     }
 
-    /// Begins sample number `index` of this pixel.
-    #[inline]
-    pub fn start(&mut self, index: u32) {
-        self.index = index;
-        self.dimension = 0;
-    }
-
     /// The seed of the next dimension (pair); one hash per request.
     #[inline]
     fn dimension_seed(&mut self) -> u32 {
@@ -80,6 +73,12 @@ impl SobolSampler {
 }
 
 impl Sampler for SobolSampler {
+    #[inline]
+    fn start_sample(&mut self, index: u32) {
+        self.index = index;
+        self.dimension = 0;
+    }
+
     #[inline]
     fn next_1d(&mut self) -> f32 {
         let seed = self.dimension_seed();
@@ -215,7 +214,7 @@ mod tests {
             let mut s = SobolSampler::new(42, pixel);
             let mut points: Vec<Vec<glam::Vec2>> = vec![Vec::new(); 3];
             for i in 0..n {
-                s.start(i);
+                s.start_sample(i);
                 for p in points.iter_mut() {
                     p.push(s.next_2d());
                 }
@@ -245,7 +244,7 @@ mod tests {
         let n = 64_000;
         for pixel in 0..n {
             let mut s = SobolSampler::new(1, pixel);
-            s.start(0);
+            s.start_sample(0);
             s.next_1d();
             let v = s.next_2d();
             bins[(v.x * 4.0) as usize * 4 + (v.y * 4.0) as usize] += 1;
@@ -277,7 +276,7 @@ mod tests {
             let mut p = PcgSampler::new(9, t);
             let (mut a, mut b) = (0.0f64, 0.0f64);
             for i in 0..n {
-                s.start(i as u32);
+                s.start_sample(i as u32);
                 let v = s.next_2d();
                 a += f(v.x, v.y) as f64;
                 let w = p.next_2d();
