@@ -1,151 +1,63 @@
-//! The acceleration structure: one obvhs compressed wide BVH (CWBVH, 8-wide) over every
-//! primitive of the scene, triangles and analytic spheres alike. Primitive data is stored in BVH
-//! leaf order so the leaf test reads memory sequentially.
+//! The acceleration structure: one BVH over every primitive of the scene, triangles and analytic
+//! spheres alike. The layout and traversal live in [`crate::bvh4`]; this module is the interface
+//! the scene uses (closest hit and any-hit queries).
 
-use crate::geometry::{intersect_sphere, intersect_triangle_pre, Ray, WatertightRay};
-use glam::{Vec3, Vec3A};
-use obvhs::{aabb::Aabb, cwbvh::CwBvh, BvhBuildParams};
-use std::time::Duration;
-
-/// Geometry of one BVH primitive, in world space.
-#[derive(Clone, Copy, Debug)]
-pub enum PrimGeom {
-    Triangle { p0: Vec3, p1: Vec3, p2: Vec3 },
-    Sphere { center: Vec3, radius: f32 },
-}
-
-impl PrimGeom {
-    fn aabb(&self) -> Aabb {
-        match *self {
-            PrimGeom::Triangle { p0, p1, p2 } => Aabb {
-                min: Vec3A::from(p0.min(p1).min(p2)),
-                max: Vec3A::from(p0.max(p1).max(p2)),
-            },
-            PrimGeom::Sphere { center, radius } => Aabb {
-                min: Vec3A::from(center - Vec3::splat(radius)),
-                max: Vec3A::from(center + Vec3::splat(radius)),
-            },
-        }
-    }
-
-    #[inline(always)]
-    fn intersect(&self, ray: &Ray, wr: &WatertightRay, tmax: f32) -> Option<(f32, f32, f32)> {
-        match *self {
-            PrimGeom::Triangle { p0, p1, p2 } => {
-                intersect_triangle_pre(wr, p0, p1, p2, tmax).map(|h| (h.t, h.b1, h.b2))
-            }
-            PrimGeom::Sphere { center, radius } => {
-                intersect_sphere(ray, center, radius, 0.0, tmax).map(|t| (t, 0.0, 0.0))
-            }
-        }
-    }
-}
-
-/// The closest hit along a ray: distance, original primitive index, triangle barycentrics.
-#[derive(Clone, Copy, Debug)]
-pub struct ClosestHit {
-    pub t: f32,
-    pub prim: u32,
-    pub b1: f32,
-    pub b2: f32,
-}
+use crate::bvh4::Bvh4;
+pub use crate::bvh4::{ClosestHit, PrimGeom};
+use crate::geometry::Ray;
 
 pub struct Accel {
-    bvh: Option<CwBvh>,
-    /// Primitives in BVH leaf order.
-    geoms: Vec<PrimGeom>,
-    /// For each BVH slot, the primitive's index in the order given to [`Accel::build`].
-    original_index: Vec<u32>,
+    bvh: Bvh4,
+    primitive_count: usize,
 }
 
 impl Accel {
     /// Builds the BVH. An empty scene gives an accelerator that every ray misses.
     pub fn build(geoms: &[PrimGeom]) -> Self {
-        if geoms.is_empty() {
-            return Self {
-                bvh: None,
-                geoms: Vec::new(),
-                original_index: Vec::new(),
-            };
-        }
-        let aabbs: Vec<Aabb> = geoms.iter().map(PrimGeom::aabb).collect();
-        // The highest-quality build pays off while it is cheap (about 6% faster rendering on a 4k-
-        // triangle mesh); past ~100k primitives it costs seconds, so large scenes take the medium one.
-        let params = if geoms.len() < 100_000 {
-            BvhBuildParams::very_slow_build()
-        } else {
-            BvhBuildParams::medium_build()
-        };
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, params, &mut Duration::default());
-        let original_index = bvh.primitive_indices.clone();
-        let ordered = original_index.iter().map(|&i| geoms[i as usize]).collect();
         Self {
-            bvh: Some(bvh),
-            geoms: ordered,
-            original_index,
+            bvh: Bvh4::build(geoms),
+            primitive_count: geoms.len(),
         }
     }
 
     pub fn primitive_count(&self) -> usize {
-        self.geoms.len()
+        self.primitive_count
     }
 
-    /// Closest hit with t in (0, ray.tmax).
+    /// Closest hit with t in (0, ray.tmax); `prim` indexes the slice given to [`Accel::build`].
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<ClosestHit> {
-        let bvh = self.bvh.as_ref()?;
-        let bray = obvhs::ray::Ray::new(ray.origin.into(), ray.dir.into(), 0.0, ray.tmax);
-        let mut hit = obvhs::ray::RayHit::none();
-        let mut bary = (0.0, 0.0);
-        let wr = WatertightRay::new(ray);
-        let found = bvh.ray_traverse(bray, &mut hit, |r, slot| {
-            match self.geoms[slot].intersect(ray, &wr, r.tmax) {
-                Some((t, b1, b2)) => {
-                    bary = (b1, b2);
-                    t
-                }
-                None => f32::INFINITY,
-            }
-        });
-        if !found {
-            return None;
-        }
-        // `bary` holds the last accepted candidate, which is the closest: traversal only accepts
-        // hits closer than the current tmax, and the test above already enforces that.
-        Some(ClosestHit {
-            t: hit.t,
-            prim: self.original_index[hit.primitive_id as usize],
-            b1: bary.0,
-            b2: bary.1,
-        })
+        self.bvh.intersect(ray)
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax): stops at the first hit.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return false;
-        };
-        let bray = obvhs::ray::Ray::new(ray.origin.into(), ray.dir.into(), 0.0, ray.tmax);
-        let wr = WatertightRay::new(ray);
-        !bvh.ray_traverse_miss(bray, |_, slot| {
-            self.geoms[slot]
-                .intersect(ray, &wr, ray.tmax)
-                .map_or(f32::INFINITY, |h| h.0)
-        })
+        self.bvh.occluded(ray)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{intersect_sphere, intersect_triangle};
+    use glam::Vec3;
+
+    fn intersect_one(g: &PrimGeom, ray: &Ray, tmax: f32) -> Option<f32> {
+        match *g {
+            PrimGeom::Triangle { p0, p1, p2 } => {
+                intersect_triangle(ray, p0, p1, p2, tmax).map(|h| h.t)
+            }
+            PrimGeom::Sphere { center, radius } => intersect_sphere(ray, center, radius, 0.0, tmax),
+        }
+    }
 
     /// A brute-force reference: every primitive tested.
     fn brute(geoms: &[PrimGeom], ray: &Ray) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
         for (i, g) in geoms.iter().enumerate() {
             let tmax = best.map_or(ray.tmax, |b| b.0);
-            if let Some((t, _, _)) = g.intersect(ray, &WatertightRay::new(ray), tmax) {
+            if let Some(t) = intersect_one(g, ray, tmax) {
                 best = Some((t, i as u32));
             }
         }

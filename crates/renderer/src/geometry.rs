@@ -60,6 +60,19 @@ impl WatertightRay {
     fn permute(&self, v: Vec3) -> Vec3 {
         permute(v, self.kz)
     }
+
+    /// The source axes of the permuted x, y and z: `permute(v) == (v[axes[0]], v[axes[1]], v[axes[2]])`.
+    #[inline(always)]
+    pub fn axes(&self) -> [usize; 3] {
+        let kz = self.kz as usize;
+        [(kz + 1) % 3, (kz + 2) % 3, kz]
+    }
+
+    /// The shear (sx, sy, sz) that maps the permuted direction to +z.
+    #[inline(always)]
+    pub fn shear(&self) -> Vec3 {
+        self.shear
+    }
 }
 
 /// Cyclic axis permutation that moves axis `kz` to z.

@@ -3,6 +3,7 @@
 
 pub mod accel;
 pub mod bsdf;
+pub mod bvh4;
 pub mod camera;
 pub mod geometry;
 pub mod integrator;
@@ -12,6 +13,7 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
+pub mod triangle4;
 
 pub use integrator::EnvStrategy;
 pub use render::{render, RenderOutput, RenderSettings};
