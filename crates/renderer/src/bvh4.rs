@@ -174,8 +174,8 @@ impl Bvh4 {
         } else {
             BvhBuildParams::medium_build()
         };
-        params.max_prims_per_leaf = 4;
-        params.collapse_traversal_cost = 3.0;
+        params.max_prims_per_leaf = std::env::var("TORREY_LEAF").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
+        params.collapse_traversal_cost = std::env::var("TORREY_COST").ok().and_then(|v| v.parse().ok()).unwrap_or(3.0);
         let bvh2 = obvhs::bvh2::builder::build_bvh2(&aabbs, params, &mut Duration::default());
         let root = &bvh2.nodes[0];
         let mut depth = 0;
@@ -185,6 +185,12 @@ impl Bvh4 {
             bvh.add_inner(&bvh2, 0, geoms, 1, &mut depth)
         };
         bvh.stack_needed = 3 * depth + 1;
+        if std::env::var_os("TORREY_BVH_STATS").is_some() {
+            let lanes: usize = bvh.blocks.iter().map(|b| b.prim.iter().filter(|&&p| p != u32::MAX).count()).sum();
+            let inner_children: usize = bvh.nodes.iter().map(|n| n.children.iter().filter(|&&c| c != EMPTY).count()).sum();
+            eprintln!("bvh4: {} nodes ({:.2} children avg), {} leaves, {} blocks ({:.2} tris/block), {} spheres, depth {}, bvh2 nodes {}",
+                bvh.nodes.len(), inner_children as f32 / bvh.nodes.len().max(1) as f32, bvh.leaves.len(), bvh.blocks.len(), lanes as f32 / bvh.blocks.len().max(1) as f32, bvh.spheres.len(), depth, bvh2.nodes.len());
+        }
         bvh
     }
 
@@ -278,8 +284,21 @@ impl Bvh4 {
             // Uninitialised: zeroing 1 KiB per ray showed up in profiles as 3% memset.
             self.intersect_with(ray, &mut [const { MaybeUninit::uninit() }; STACK_SIZE])
         } else {
-            self.intersect_with(ray, &mut vec![MaybeUninit::uninit(); self.stack_needed])
+            self.intersect_deep(ray)
         }
+    }
+
+    /// [`Bvh4::intersect`] for trees too deep for the fixed stack (never seen in practice).
+    #[cold]
+    #[inline(never)]
+    fn intersect_deep(&self, ray: &Ray) -> Option<ClosestHit> {
+        self.intersect_with(ray, &mut vec![MaybeUninit::uninit(); self.stack_needed])
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn occluded_deep(&self, ray: &Ray) -> bool {
+        self.occluded_with(ray, &mut vec![MaybeUninit::uninit(); self.stack_needed])
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax); stops at the first hit.
@@ -291,7 +310,7 @@ impl Bvh4 {
         if self.stack_needed <= STACK_SIZE {
             self.occluded_with(ray, &mut [const { MaybeUninit::uninit() }; STACK_SIZE])
         } else {
-            self.occluded_with(ray, &mut vec![MaybeUninit::uninit(); self.stack_needed])
+            self.occluded_deep(ray)
         }
     }
 
@@ -320,9 +339,24 @@ impl Bvh4 {
                         current = node.children[first];
                         continue;
                     }
-                    // Several children: push them all sorted far to near (insertion into the
+                    let second = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        // Two children, the common case: visit the nearer, push the farther.
+                        let (near_lane, far_lane) = if near[second] < near[first] {
+                            (second, first)
+                        } else {
+                            (first, second)
+                        };
+                        stack[top] = MaybeUninit::new((node.children[far_lane], near[far_lane]));
+                        top += 1;
+                        current = node.children[near_lane];
+                        continue;
+                    }
+                    // Three or four children: push them all sorted far to near (insertion into the
                     // top of the stack), then continue with the nearest.
                     let base = top;
+                    mask |= 1 << second;
                     let mut lane = first;
                     loop {
                         let entry = (node.children[lane], near[lane]);
