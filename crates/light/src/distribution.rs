@@ -20,6 +20,14 @@ pub struct Distribution1D {
     func: Vec<f32>,
     /// Normalised running sum, `len() + 1` entries, `cdf[0] = 0`, `cdf[len()] = 1`.
     cdf: Vec<f32>,
+    /// Density of each bin over [0, 1) (what [`Self::bin_density`] computes), precomputed so the
+    /// samplers and pdfs read one f32 instead of doing an f64 division.
+    density: Vec<f32>,
+    /// Guide (cutpoint) table for the inverse-cdf search: `guide[k]` is the bin that `u = k / G`
+    /// falls in, for `k` in `0..=G` with `G = guide.len() - 1` a power of two. Since `u * G` is
+    /// exact for a power of two, every `u` in `[k / G, (k + 1) / G)` falls in a bin between
+    /// `guide[k]` and `guide[k + 1]`, so the search only looks at that (usually tiny) range.
+    guide: Vec<u32>,
     /// Integral of `func` over [0, 1): sum of weights divided by the bin count.
     integral: f32,
     /// Sum of the weights (kept in f64 so discrete probabilities of huge maps stay exact).
@@ -55,12 +63,41 @@ impl Distribution1D {
             }
         }
         *cdf.last_mut().unwrap() = 1.0;
+        let density = (0..n)
+            .map(|i| {
+                if sum > 0.0 {
+                    (func[i] as f64 * n as f64 / sum) as f32
+                } else {
+                    1.0
+                }
+            })
+            .collect();
         Self {
             integral: (sum / n as f64) as f32,
+            guide: Self::build_guide(&cdf),
             func,
             cdf,
+            density,
             sum,
         }
+    }
+
+    /// The guide table for `cdf` (see the field): one entry per `k / G`, `G` the power of two at
+    /// or above the bin count, each the bin [`Self::find_slow`] returns for that `u`.
+    fn build_guide(cdf: &[f32]) -> Vec<u32> {
+        let n = cdf.len() - 1;
+        let g = n.next_power_of_two();
+        let mut guide = Vec::with_capacity(g + 1);
+        let mut i = 0usize;
+        for k in 0..=g {
+            // Exact: k and g are small integers and g is a power of two.
+            let t = k as f32 / g as f32;
+            while i + 1 < n && cdf[i + 1] <= t {
+                i += 1;
+            }
+            guide.push(i as u32);
+        }
+        guide
     }
 
     /// Integral of the (unnormalised) step function over [0, 1): the average weight. Zero means
@@ -84,13 +121,31 @@ impl Distribution1D {
         self.func.get(i).copied().unwrap_or(0.0)
     }
 
-    /// Finds the bin whose cdf interval contains `u`, skipping zero-width bins.
+    /// Finds the bin whose cdf interval contains `u` (in [0, 1), as [`Self::clamp_u`] returns),
+    /// skipping zero-width bins: the largest `i` in `[0, len() - 1]` with `cdf[i] <= u`. Since
+    /// `cdf[len()] = 1 > u`, bin `i` has positive width. Uses the guide table to narrow the search
+    /// to the bins that `u`'s guide cell spans; gives exactly [`Self::find_slow`]'s answer.
     #[inline]
     fn find(&self, u: f32) -> usize {
+        let g = self.guide.len() - 1;
+        // u < 1 and g is a power of two, so u * g is exact and k < g.
+        let k = ((u * g as f32) as usize).min(g - 1);
+        let (lo, hi) = match self.guide.get(k..k + 2) {
+            Some(&[lo, hi]) => (lo as usize, hi as usize),
+            _ => return self.find_slow(u),
+        };
+        // cdf[lo] <= k / g <= u, and the answer is at most hi because u < (k + 1) / g.
+        match self.cdf.get(lo + 1..hi + 1) {
+            Some(c) if c.len() <= 8 => lo + c.iter().take_while(|&&c| c <= u).count(),
+            Some(c) => lo + c.partition_point(|&c| c <= u),
+            None => self.find_slow(u),
+        }
+    }
+
+    /// Plain binary search over the whole cdf: the reference for [`Self::find`].
+    fn find_slow(&self, u: f32) -> usize {
         let n = self.func.len();
-        // Largest i in [0, n-1] with cdf[i] <= u; since cdf[n] = 1 > u, bin i has positive width.
-        let i = self.cdf[..n].partition_point(|&c| c <= u);
-        i.saturating_sub(1)
+        self.cdf[..n].partition_point(|&c| c <= u).saturating_sub(1)
     }
 
     #[inline]
@@ -105,11 +160,7 @@ impl Distribution1D {
     /// Density of bin `i` over [0, 1) (1 for an all-zero distribution, which samples uniformly).
     #[inline]
     fn bin_density(&self, i: usize) -> f32 {
-        if self.sum > 0.0 {
-            (self.func[i] as f64 * self.func.len() as f64 / self.sum) as f32
-        } else {
-            1.0
-        }
+        self.density[i]
     }
 
     /// Continuous sample in [0,1): returns (x, pdf(x) density over [0,1), bin index).
@@ -195,6 +246,10 @@ impl Distribution1D {
 pub struct Distribution2D {
     conditionals: Vec<Distribution1D>,
     marginal: Distribution1D,
+    /// Density of every cell, row-major: the marginal density of its row times the conditional
+    /// density of its column (the same f32 product [`Self::sample`] returns), so [`Self::pdf`]
+    /// is one load.
+    cell_pdf: Vec<f32>,
 }
 
 impl Distribution2D {
@@ -213,9 +268,18 @@ impl Distribution2D {
         }
         let marginal_weights: Vec<f32> = conditionals.iter().map(|d| d.integral()).collect();
         let marginal = Distribution1D::new(&marginal_weights);
+        let cell_pdf = conditionals
+            .iter()
+            .enumerate()
+            .flat_map(|(r, d)| {
+                let pdf_v = marginal.bin_density(r);
+                d.density.iter().map(move |&pdf_u| pdf_v * pdf_u)
+            })
+            .collect();
         Self {
             conditionals,
             marginal,
+            cell_pdf,
         }
     }
 
@@ -249,7 +313,8 @@ impl Distribution2D {
             return 0.0;
         }
         let row = self.marginal.bin_of(uv.y);
-        self.marginal.pdf_continuous(uv.y) * self.conditionals[row].pdf_continuous(uv.x)
+        let col = self.conditionals[0].bin_of(uv.x);
+        self.cell_pdf[row * self.width() + col]
     }
 }
 
@@ -353,6 +418,47 @@ mod tests {
     }
 
     #[test]
+    fn guide_table_search_matches_binary_search() {
+        let mut rng = Rng::new(5);
+        // Peaked, sparse, flat, tiny and non-power-of-two sizes, including zero-weight runs.
+        let mut cases: Vec<Vec<f32>> = vec![
+            vec![1.0],
+            vec![0.0, 0.0, 1.0],
+            vec![3.0, 1.0],
+            vec![0.0; 7],
+            (0..513)
+                .map(|i| if i == 300 { 1e6 } else { 1e-3 })
+                .collect(),
+            (0..1000)
+                .map(|i| if i % 17 == 0 { 1.0 } else { 0.0 })
+                .collect(),
+            (0..64).map(|i| (i as f32).powi(6)).collect(),
+        ];
+        for n in [5usize, 100, 256, 777] {
+            cases.push((0..n).map(|_| rng.f32().powi(8)).collect());
+        }
+        for weights in &cases {
+            let d = Distribution1D::new(weights);
+            let g = d.guide.len() - 1;
+            let mut us: Vec<f32> = (0..20_000).map(|_| rng.f32()).collect();
+            // Every cdf value, its neighbours and the guide cell edges: the boundary cases.
+            for &c in &d.cdf {
+                us.extend([
+                    c,
+                    f32::from_bits(c.to_bits().saturating_sub(1)),
+                    c.next_up(),
+                ]);
+            }
+            us.extend((0..=g).map(|k| k as f32 / g as f32));
+            us.extend([0.0, ONE_MINUS_EPSILON]);
+            for u in us {
+                let u = Distribution1D::clamp_u(u);
+                assert_eq!(d.find(u), d.find_slow(u), "u {u} weights {weights:?}");
+            }
+        }
+    }
+
+    #[test]
     fn distribution_2d_histogram_matches_pdf() {
         let (w, h) = (12, 8);
         // Includes a zero row and zero cells.
@@ -378,6 +484,12 @@ mod tests {
             assert!((0.0..1.0).contains(&uv.x) && (0.0..1.0).contains(&uv.y));
             let rel = (pdf - d.pdf(uv)).abs() / pdf;
             assert!(rel < 1e-6, "pdf mismatch at {uv}: {pdf} vs {}", d.pdf(uv));
+            // The cell table holds exactly the product of the 1D densities.
+            let row = d.marginal.bin_of(uv.y);
+            let product =
+                d.marginal.pdf_continuous(uv.y) * d.conditionals[row].pdf_continuous(uv.x);
+            assert_eq!(d.pdf(uv), product);
+            assert_eq!(pdf, product);
             let cell = (uv.y * h as f32) as usize * w + (uv.x * w as f32) as usize;
             assert!(weights[cell] > 0.0, "sampled a zero cell");
             assert!((pdf - weights[cell] * (w * h) as f32 / total).abs() < 1e-4 * pdf);

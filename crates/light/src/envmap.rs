@@ -14,6 +14,7 @@
 //! lat-long map), so sample/pdf stay consistent everywhere.
 
 use crate::distribution::{Distribution2D, ONE_MINUS_EPSILON};
+use crate::fastmath;
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};
@@ -173,11 +174,14 @@ impl EnvMap {
         self.to_world
     }
 
-    /// Local lat-long uv of a local direction (need not be normalised).
+    /// Local lat-long uv of a local direction (need not be normalised), and sin(theta) of the
+    /// normalised direction. A zero or non-finite direction reads as the zenith (+y), whose
+    /// sin(theta) is 0.
     #[inline]
-    fn local_dir_to_uv(d: Vec3) -> Vec2 {
+    fn local_dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
         let d = d.normalize_or(Vec3::Y);
-        let mut u = d.x.atan2(-d.z) * (0.5 / PI);
+        let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+        let mut u = fastmath::atan2(d.x, -d.z) * (0.5 / PI);
         if u < 0.0 {
             u += 1.0;
         }
@@ -185,16 +189,31 @@ impl EnvMap {
             u = 0.0;
         }
         // atan2 rather than acos(d.y): acos loses half the digits near the poles.
-        let v = ((d.x * d.x + d.z * d.z).sqrt().atan2(d.y) / PI).clamp(0.0, 1.0);
-        Vec2::new(u, v)
+        let v = (fastmath::atan2(sin_theta, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
+        (Vec2::new(u, v), sin_theta)
+    }
+
+    /// Local lat-long uv of a local direction (need not be normalised).
+    #[inline]
+    fn local_dir_to_uv(d: Vec3) -> Vec2 {
+        Self::local_dir_to_uv_sin(d).0
+    }
+
+    /// Local direction of a lat-long uv, and its sin(theta).
+    #[inline]
+    fn uv_to_local_dir_sin(uv: Vec2) -> (Vec3, f32) {
+        let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+        let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+        (
+            Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta),
+            sin_theta,
+        )
     }
 
     /// Local direction of a lat-long uv.
     #[inline]
     fn uv_to_local_dir(uv: Vec2) -> Vec3 {
-        let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-        let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-        Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta)
+        Self::uv_to_local_dir_sin(uv).0
     }
 
     /// Lat-long uv of a world direction (the inverse rotation is applied first).
@@ -227,10 +246,40 @@ impl EnvMap {
 
     #[inline]
     fn lookup_level_clamped(&self, level: usize, uv: Vec2) -> Vec3 {
-        let h = self.mip.level(level).height as f32;
+        let img = self.mip.level(level);
+        let (w, h) = (img.width as f32, img.height as f32);
         let half = 0.5 / h;
         let v = uv.y.clamp(half, 1.0 - half);
-        self.mip.lookup_level(level, Vec2::new(uv.x, v))
+        // MipMap::lookup_level's bilinear arithmetic, step for step (so the result is the same
+        // to the bit), specialised to this map: WrapMode::Repeat with coordinates that are at
+        // most one texel outside the image, so wrapping is a compare instead of a division, and
+        // floor is a truncation instead of a libm call.
+        let x = uv.x * w - 0.5;
+        let y = v * h - 0.5;
+        if !(x >= -1.0 && x < w && y >= -1.0 && y < h) {
+            return self.mip.lookup_level(level, Vec2::new(uv.x, v));
+        }
+        let (i, fx) = floor_frac(x);
+        let (j, fy) = floor_frac(y);
+        let (w, h) = (img.width as i32, img.height as i32);
+        let wrap = |k: i32, n: i32| {
+            if k < 0 {
+                n - 1
+            } else if k >= n {
+                0
+            } else {
+                k
+            }
+        };
+        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
+        let (r0, r1) = (
+            wrap(j, h) as usize * w as usize,
+            wrap(j + 1, h) as usize * w as usize,
+        );
+        let px = &img.pixels;
+        let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
+        let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
+        top * (1.0 - fy) + bottom * fy
     }
 
     /// Filter width in uv units (the MipMap's convention: texels = footprint x max(W, H)) for a
@@ -258,6 +307,18 @@ impl EnvMap {
         self.lookup(uv, self.footprint(spread)) * self.scale
     }
 
+    /// `(self.eval(dir, spread), self.pdf(dir))`, converting the direction to uv once: what a
+    /// path that escapes to the sky needs for its MIS weight.
+    #[inline]
+    pub fn eval_pdf(&self, dir: Vec3, spread: f32) -> (Vec3, f32) {
+        if self.scale == 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
+        let radiance = self.lookup(uv, self.footprint(spread)) * self.scale;
+        (radiance, self.pdf_uv(uv, sin_theta))
+    }
+
     /// Importance-samples a direction by luminance x sin(theta). `None` for a black map or a
     /// sample that lands exactly on a pole.
     #[inline]
@@ -270,15 +331,14 @@ impl EnvMap {
             return None;
         }
         let uv = self.away_from_texel_edges(uv);
-        let local = Self::uv_to_local_dir(uv);
-        let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
+        let (local, sin_theta) = Self::uv_to_local_dir_sin(uv);
         if sin_theta.is_nan() || sin_theta <= 0.0 {
             return None;
         }
         let pdf = p / (2.0 * PI * PI * sin_theta);
         Some(EnvSample {
             direction: self.to_world * local,
-            radiance: self.lookup(uv, 0.0) * self.scale,
+            radiance: self.lookup_level_clamped(0, uv) * self.scale,
             pdf,
         })
     }
@@ -292,7 +352,8 @@ impl EnvMap {
     fn away_from_texel_edges(&self, uv: Vec2) -> Vec2 {
         let size = Vec2::new(self.width as f32, self.height as f32);
         let t = uv * size;
-        let cell = t.floor().min(size - 1.0);
+        // uv is in [0, 1), so truncation is floor (and cheaper than libm's floorf).
+        let cell = Vec2::new((t.x as u32) as f32, (t.y as u32) as f32).min(size - 1.0);
         let frac = (t - cell).clamp(
             Vec2::splat(TEXEL_EDGE_MARGIN),
             Vec2::splat(1.0 - TEXEL_EDGE_MARGIN),
@@ -306,14 +367,27 @@ impl EnvMap {
         if !self.samplable {
             return 0.0;
         }
-        let local = (self.to_local * dir).normalize_or_zero();
-        let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
-        if sin_theta.is_nan() || sin_theta <= 0.0 {
+        let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
+        self.pdf_uv(uv, sin_theta)
+    }
+
+    /// [`Self::pdf`] of the direction with local `uv` and `sin_theta`.
+    #[inline]
+    fn pdf_uv(&self, uv: Vec2, sin_theta: f32) -> f32 {
+        if !self.samplable || sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
-        let uv = Self::local_dir_to_uv(local);
         self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
     }
+}
+
+/// `(floor(t), t - floor(t))` for `t` in [-2^31, 2^31): what `MipMap::lookup_level` computes with
+/// `f32::floor`, without the libm call that baseline x86-64 needs for it.
+#[inline]
+fn floor_frac(t: f32) -> (i32, f32) {
+    let k = t as i32;
+    let k = if k as f32 > t { k - 1 } else { k };
+    (k, t - k as f32)
 }
 
 #[cfg(test)]
@@ -383,6 +457,95 @@ mod tests {
                     (got - want).length() < 1e-4 * want.length(),
                     "{got} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// The generic MipMap path that `lookup_level_clamped` specialises.
+    fn generic_lookup(env: &EnvMap, level: usize, uv: Vec2) -> Vec3 {
+        let half = 0.5 / env.mip.level(level).height as f32;
+        env.mip
+            .lookup_level(level, Vec2::new(uv.x, uv.y.clamp(half, 1.0 - half)))
+    }
+
+    #[test]
+    fn specialised_lookup_matches_mipmap_bit_for_bit() {
+        let mut rng = Rng::new(26);
+        for (w, h) in [(16u32, 8u32), (7, 5), (1, 1), (64, 32)] {
+            let env = EnvMap::new(test_image(w, h), 1.0, Mat3::IDENTITY);
+            for level in 0..env.mip.levels() {
+                let img = env.mip.level(level);
+                let (lw, lh) = (img.width as f32, img.height as f32);
+                let mut uvs: Vec<Vec2> = (0..2000).map(|_| rng.vec2()).collect();
+                // Texel edges and centres, the seam, the poles and a little outside.
+                for k in 0..=2 * img.width.max(img.height) {
+                    let t = k as f32 * 0.5;
+                    uvs.extend([
+                        Vec2::new(t / lw, t / lh),
+                        Vec2::new((t / lw).next_up(), (t / lh).next_down()),
+                    ]);
+                }
+                uvs.extend([
+                    Vec2::ZERO,
+                    Vec2::new(ONE_MINUS_EPSILON, ONE_MINUS_EPSILON),
+                    Vec2::ONE,
+                    Vec2::new(-0.3, 1.7),
+                    Vec2::new(2.5, -0.1),
+                    Vec2::new(f32::NAN, 0.5),
+                    Vec2::new(0.5, f32::NAN),
+                    Vec2::new(f32::INFINITY, 0.5),
+                ]);
+                for uv in uvs {
+                    let got = env.lookup_level_clamped(level, uv);
+                    let want = generic_lookup(&env, level, uv);
+                    assert_eq!(
+                        got.to_array().map(f32::to_bits),
+                        want.to_array().map(f32::to_bits),
+                        "{w}x{h} level {level} uv {uv}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn floor_frac_is_floor() {
+        let mut rng = Rng::new(27);
+        let mut ts: Vec<f32> = (0..10_000).map(|_| 4000.0 * rng.f32() - 2000.0).collect();
+        ts.extend([
+            -1.0, -0.5, -1e-30, -0.0, 0.0, 1e-30, 0.5, 1.0, 511.5, 4095.999,
+        ]);
+        ts.extend([(-1.0f32).next_up(), 1.0f32.next_down(), 2.0f32.next_down()]);
+        for t in ts {
+            let (k, f) = floor_frac(t);
+            assert_eq!(k as f32, t.floor(), "{t}");
+            // `+ 0.0` equates -0 and +0 (t = -0 gives -0 here and +0 with floor; the lookup's
+            // coordinates are never -0 anyway).
+            assert_eq!((f + 0.0).to_bits(), (t - t.floor()).to_bits(), "{t}");
+        }
+    }
+
+    #[test]
+    fn eval_pdf_matches_eval_and_pdf() {
+        let mut rng = Rng::new(28);
+        for to_world in [Mat3::IDENTITY, rotation()] {
+            let env = EnvMap::new(test_image(32, 16), 1.5, to_world);
+            let mut dirs: Vec<Vec3> = (0..5000)
+                .map(|_| formula_dir(rng.vec2()) * (0.5 + 2.0 * rng.f32()))
+                .collect();
+            dirs.extend([
+                Vec3::Y,
+                -Vec3::Y,
+                Vec3::ZERO,
+                Vec3::NAN,
+                Vec3::new(0.0, 0.0, -1.0),
+            ]);
+            for d in dirs {
+                for spread in [0.0, 0.02, 0.5] {
+                    let (l, p) = env.eval_pdf(d, spread);
+                    assert_eq!(l, env.eval(d, spread), "{d}");
+                    assert_eq!(p.to_bits(), env.pdf(d).to_bits(), "{d}");
+                }
             }
         }
     }

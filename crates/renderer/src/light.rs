@@ -228,7 +228,7 @@ impl Light {
     pub fn eval_infinite(&self, dir: Vec3, spread: f32) -> (Vec3, f32) {
         match &self.kind {
             LightKind::Constant { radiance } => (*radiance, crate::sampling::uniform_sphere_pdf()),
-            LightKind::Env(env) => (env.eval(dir, spread), env.pdf(dir)),
+            LightKind::Env(env) => env.eval_pdf(dir, spread),
             _ => (Vec3::ZERO, 0.0),
         }
     }
