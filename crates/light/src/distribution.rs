@@ -127,22 +127,11 @@ impl Distribution1D {
     /// to the bins that `u`'s guide cell spans; gives exactly [`Self::find_slow`]'s answer.
     #[inline]
     fn find(&self, u: f32) -> usize {
-        let g = self.guide.len() - 1;
-        // u < 1 and g is a power of two, so u * g is exact and k < g.
-        let k = ((u * g as f32) as usize).min(g - 1);
-        let (lo, hi) = match self.guide.get(k..k + 2) {
-            Some(&[lo, hi]) => (lo as usize, hi as usize),
-            _ => return self.find_slow(u),
-        };
-        // cdf[lo] <= k / g <= u, and the answer is at most hi because u < (k + 1) / g.
-        match self.cdf.get(lo + 1..hi + 1) {
-            Some(c) if c.len() <= 8 => lo + c.iter().take_while(|&&c| c <= u).count(),
-            Some(c) => lo + c.partition_point(|&c| c <= u),
-            None => self.find_slow(u),
-        }
+        find_in(&self.cdf, |c| c, &self.guide, u)
     }
 
     /// Plain binary search over the whole cdf: the reference for [`Self::find`].
+    #[cfg(test)]
     fn find_slow(&self, u: f32) -> usize {
         let n = self.func.len();
         self.cdf[..n].partition_point(|&c| c <= u).saturating_sub(1)
@@ -168,25 +157,8 @@ impl Distribution1D {
     pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
         let u = Self::clamp_u(u);
         let i = self.find(u);
-        let lo = self.cdf[i];
-        let width = self.cdf[i + 1] - lo;
-        let du = if width > 0.0 {
-            ((u - lo) / width).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let n = self.func.len() as f32;
-        let mut x = ((i as f32 + du) / n).min(ONE_MINUS_EPSILON);
-        // Rounding can push x across a bin edge (possibly into a zero-density neighbour); nudge it
-        // back so that `pdf_continuous(x)` agrees with the returned pdf.
-        while self.bin_of(x) > i {
-            x = f32::from_bits(x.to_bits() - 1);
-        }
-        while self.bin_of(x) < i {
-            x = f32::from_bits(x.to_bits() + 1);
-        }
-        let pdf = self.bin_density(i);
-        (x, pdf, i)
+        let x = warp_in(&self.cdf, |c| c, i, u);
+        (x, self.bin_density(i), i)
     }
 
     /// Discrete: (index, probability, u remapped to [0,1) within the chosen bin).
@@ -230,13 +202,59 @@ impl Distribution1D {
     /// Bin that [`Self::pdf_continuous`] uses for `x` (clamped into range).
     #[inline]
     pub fn bin_of(&self, x: f32) -> usize {
-        let n = self.func.len();
-        if x.is_nan() || x <= 0.0 {
-            0
-        } else {
-            ((x * n as f32) as usize).min(n - 1)
-        }
+        bin_of_n(x, self.func.len())
     }
+}
+
+/// The bin of `x` among `n` equal bins over [0, 1), clamped into range (NaN reads as bin 0).
+#[inline(always)]
+fn bin_of_n(x: f32, n: usize) -> usize {
+    if x.is_nan() || x <= 0.0 {
+        0
+    } else {
+        ((x * n as f32) as usize).min(n - 1)
+    }
+}
+
+/// The guide-table search of [`Distribution1D::find`] over any table whose entries carry the cdf
+/// (`cdf(table[i])`, `n + 1` entries); `guide` as [`Distribution1D`]'s field. `u` in [0, 1).
+#[inline(always)]
+fn find_in<T: Copy>(table: &[T], cdf: impl Fn(T) -> f32, guide: &[u32], u: f32) -> usize {
+    let g = guide.len() - 1;
+    // u < 1 and g is a power of two, so u * g is exact and k < g.
+    let k = ((u * g as f32) as usize).min(g - 1);
+    let (lo, hi) = (guide[k] as usize, guide[k + 1] as usize);
+    // cdf[lo] <= k / g <= u, and the answer is at most hi because u < (k + 1) / g.
+    let c = &table[lo + 1..hi + 1];
+    if c.len() <= 8 {
+        lo + c.iter().take_while(|&&e| cdf(e) <= u).count()
+    } else {
+        lo + c.partition_point(|&e| cdf(e) <= u)
+    }
+}
+
+/// The continuous warp of [`Distribution1D::sample_continuous`]: `u` (in [0, 1), inside bin `i`
+/// of the cdf carried by `table`'s `n + 1` entries) to x in bin `i` of [0, 1).
+#[inline(always)]
+fn warp_in<T: Copy>(table: &[T], cdf: impl Fn(T) -> f32, i: usize, u: f32) -> f32 {
+    let n = table.len() - 1;
+    let lo = cdf(table[i]);
+    let width = cdf(table[i + 1]) - lo;
+    let du = if width > 0.0 {
+        ((u - lo) / width).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut x = ((i as f32 + du) / n as f32).min(ONE_MINUS_EPSILON);
+    // Rounding can push x across a bin edge (possibly into a zero-density neighbour); nudge it
+    // back so that `pdf_continuous(x)` agrees with the returned pdf.
+    while bin_of_n(x, n) > i {
+        x = f32::from_bits(x.to_bits() - 1);
+    }
+    while bin_of_n(x, n) < i {
+        x = f32::from_bits(x.to_bits() + 1);
+    }
+    x
 }
 
 /// A piecewise-constant density over the unit square on a `width` x `height` grid: a marginal
@@ -244,12 +262,19 @@ impl Distribution1D {
 /// the top of the image (v = 0).
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
-    conditionals: Vec<Distribution1D>,
+    width: usize,
+    height: usize,
     marginal: Distribution1D,
-    /// Density of every cell, row-major: the marginal density of its row times the conditional
-    /// density of its column (the same f32 product [`Self::sample`] returns), so [`Self::pdf`]
-    /// is one load.
-    cell_pdf: Vec<f32>,
+    /// The conditionals, flattened: row `r` owns entries `r * (width + 1) ..` of `width + 1`
+    /// pairs (cdf of the row's [`Distribution1D`], density of the cell), where the cell density
+    /// is the marginal density of the row times the conditional density of the column (the same
+    /// f32 product sampling the two 1D distributions gives). One allocation with the cdf and
+    /// the density side by side, so sampling a row touches as few cache lines as possible and
+    /// [`Self::pdf`] is one load.
+    rows: Vec<[f32; 2]>,
+    /// The rows' guide tables, `guide_len` entries per row (see [`Distribution1D`]).
+    guides: Vec<u32>,
+    guide_len: usize,
 }
 
 impl Distribution2D {
@@ -268,18 +293,24 @@ impl Distribution2D {
         }
         let marginal_weights: Vec<f32> = conditionals.iter().map(|d| d.integral()).collect();
         let marginal = Distribution1D::new(&marginal_weights);
-        let cell_pdf = conditionals
-            .iter()
-            .enumerate()
-            .flat_map(|(r, d)| {
-                let pdf_v = marginal.bin_density(r);
-                d.density.iter().map(move |&pdf_u| pdf_v * pdf_u)
-            })
-            .collect();
+        let guide_len = conditionals[0].guide.len();
+        let mut rows = Vec::with_capacity(height * (width + 1));
+        let mut guides = Vec::with_capacity(height * guide_len);
+        for (r, d) in conditionals.iter().enumerate() {
+            let pdf_v = marginal.bin_density(r);
+            rows.extend(d.cdf.iter().enumerate().map(|(i, &c)| {
+                let pdf_u = d.density.get(i).copied().unwrap_or(0.0);
+                [c, pdf_v * pdf_u]
+            }));
+            guides.extend_from_slice(&d.guide);
+        }
         Self {
-            conditionals,
+            width,
+            height,
             marginal,
-            cell_pdf,
+            rows,
+            guides,
+            guide_len,
         }
     }
 
@@ -290,20 +321,26 @@ impl Distribution2D {
 
     /// Grid width (columns, u).
     pub fn width(&self) -> usize {
-        self.conditionals[0].len()
+        self.width
     }
 
     /// Grid height (rows, v).
     pub fn height(&self) -> usize {
-        self.conditionals.len()
+        self.height
     }
 
     /// Returns (uv in [0,1)^2, density over the unit square).
     #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
-        let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
-        let (x, pdf_u, _) = self.conditionals[row].sample_continuous(u.x);
-        (Vec2::new(x, v), pdf_v * pdf_u)
+        let (v, _, row) = self.marginal.sample_continuous(u.y);
+        let stride = self.width + 1;
+        let table = &self.rows[row * stride..(row + 1) * stride];
+        let guide = &self.guides[row * self.guide_len..(row + 1) * self.guide_len];
+        // Exactly Distribution1D::sample_continuous on the row's conditional.
+        let ux = Distribution1D::clamp_u(u.x);
+        let i = find_in(table, |e| e[0], guide, ux);
+        let x = warp_in(table, |e| e[0], i, ux);
+        (Vec2::new(x, v), table[i][1])
     }
 
     /// Density of [`Self::sample`] at `uv` (0 outside the unit square).
@@ -313,8 +350,8 @@ impl Distribution2D {
             return 0.0;
         }
         let row = self.marginal.bin_of(uv.y);
-        let col = self.conditionals[0].bin_of(uv.x);
-        self.cell_pdf[row * self.width() + col]
+        let col = bin_of_n(uv.x, self.width);
+        self.rows[row * (self.width + 1) + col][1]
     }
 }
 
@@ -479,17 +516,20 @@ mod tests {
         let (bw, bh) = (2 * w, 2 * h);
         let mut hist = vec![0.0f64; bw * bh];
         let mut rng = Rng::new(3);
+        let conditionals: Vec<Distribution1D> =
+            weights.chunks(w).map(Distribution1D::new).collect();
         for _ in 0..n {
-            let (uv, pdf) = d.sample(rng.vec2());
+            let u = rng.vec2();
+            let (uv, pdf) = d.sample(u);
             assert!((0.0..1.0).contains(&uv.x) && (0.0..1.0).contains(&uv.y));
             let rel = (pdf - d.pdf(uv)).abs() / pdf;
             assert!(rel < 1e-6, "pdf mismatch at {uv}: {pdf} vs {}", d.pdf(uv));
-            // The cell table holds exactly the product of the 1D densities.
+            // The flattened rows give exactly what the row's own Distribution1D gives.
             let row = d.marginal.bin_of(uv.y);
-            let product =
-                d.marginal.pdf_continuous(uv.y) * d.conditionals[row].pdf_continuous(uv.x);
+            let product = d.marginal.pdf_continuous(uv.y) * conditionals[row].pdf_continuous(uv.x);
             assert_eq!(d.pdf(uv), product);
             assert_eq!(pdf, product);
+            assert_eq!(uv.x, conditionals[row].sample_continuous(u.x).0);
             let cell = (uv.y * h as f32) as usize * w + (uv.x * w as f32) as usize;
             assert!(weights[cell] > 0.0, "sampled a zero cell");
             assert!((pdf - weights[cell] * (w * h) as f32 / total).abs() < 1e-4 * pdf);
