@@ -102,19 +102,10 @@ impl BoxRay {
     fn new(ray: &Ray) -> Self {
         // A zero direction component would give 0 × inf = NaN on a box face through the origin;
         // a tiny replacement keeps the slabs finite and the test conservative.
-        let safe = |d: f32| {
-            if d.abs() < 1e-20 {
-                1e-20f32.copysign(d)
-            } else {
-                d
-            }
-        };
-        let inv = Vec3::new(
-            1.0 / safe(ray.dir.x),
-            1.0 / safe(ray.dir.y),
-            1.0 / safe(ray.dir.z),
-        );
-        let org_inv = ray.origin * inv;
+        let d = Vec3A::from(ray.dir);
+        let tiny = d.abs().cmplt(Vec3A::splat(1e-20));
+        let inv = Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d);
+        let org_inv = Vec3A::from(ray.origin) * inv;
         let (nx, ny, nz) = (
             if inv.x >= 0.0 { 0 } else { 3 },
             if inv.y >= 0.0 { 1 } else { 4 },
@@ -136,7 +127,8 @@ impl BoxRay {
     #[inline(always)]
     fn test(&self, node: &Node4, tmax: f32) -> (Vec4, u32) {
         let b = &node.bounds;
-        let t = |i: usize, a: usize| b[i] * self.inv[a] - self.org_inv[a];
+        // SAFETY: `near` and `far` hold indices below 6, set in `BoxRay::new`.
+        let t = |i: usize, a: usize| unsafe { *b.get_unchecked(i) } * self.inv[a] - self.org_inv[a];
         let near = t(self.near[0], 0)
             .max(t(self.near[1], 1))
             .max(t(self.near[2], 2).max(Vec4::ZERO));
@@ -174,8 +166,8 @@ impl Bvh4 {
         } else {
             BvhBuildParams::medium_build()
         };
-        params.max_prims_per_leaf = std::env::var("TORREY_LEAF").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
-        params.collapse_traversal_cost = std::env::var("TORREY_COST").ok().and_then(|v| v.parse().ok()).unwrap_or(3.0);
+        params.max_prims_per_leaf = 4;
+        params.collapse_traversal_cost = 3.0;
         let bvh2 = obvhs::bvh2::builder::build_bvh2(&aabbs, params, &mut Duration::default());
         let root = &bvh2.nodes[0];
         let mut depth = 0;
@@ -185,12 +177,6 @@ impl Bvh4 {
             bvh.add_inner(&bvh2, 0, geoms, 1, &mut depth)
         };
         bvh.stack_needed = 3 * depth + 1;
-        if std::env::var_os("TORREY_BVH_STATS").is_some() {
-            let lanes: usize = bvh.blocks.iter().map(|b| b.prim.iter().filter(|&&p| p != u32::MAX).count()).sum();
-            let inner_children: usize = bvh.nodes.iter().map(|n| n.children.iter().filter(|&&c| c != EMPTY).count()).sum();
-            eprintln!("bvh4: {} nodes ({:.2} children avg), {} leaves, {} blocks ({:.2} tris/block), {} spheres, depth {}, bvh2 nodes {}",
-                bvh.nodes.len(), inner_children as f32 / bvh.nodes.len().max(1) as f32, bvh.leaves.len(), bvh.blocks.len(), lanes as f32 / bvh.blocks.len().max(1) as f32, bvh.spheres.len(), depth, bvh2.nodes.len());
-        }
         bvh
     }
 

@@ -75,6 +75,9 @@ pub struct MeshData {
     pub normals: Vec<Vec3>,
     pub uvs: Vec<Vec2>,
     pub indices: Vec<[u32; 3]>,
+    /// Unit geometric normal of each triangle ((p1 − p0) × (p2 − p0), normalised), computed once
+    /// at build instead of at every hit.
+    pub face_normals: Vec<Vec3>,
 }
 
 /// The differential geometry at a ray hit.
@@ -314,7 +317,7 @@ impl RenderScene {
                 let p = b0 * p0 + hit.b1 * p1 + hit.b2 * p2;
                 let e1 = p1 - p0;
                 let e2 = p2 - p0;
-                let ng = e1.cross(e2).normalize_or(Vec3::Z);
+                let ng = self.mesh.face_normals[prim.triangle as usize];
                 let ns = if has_normals {
                     let n = b0 * self.mesh.normals[i0]
                         + hit.b1 * self.mesh.normals[i1]
@@ -469,6 +472,8 @@ fn add_mesh(
             triangle: mesh.indices.len() as u32,
         });
         mesh.indices.push(idx);
+        mesh.face_normals
+            .push((p1 - p0).cross(p2 - p0).normalize_or(Vec3::Z));
         geoms.push(PrimGeom::Triangle { p0, p1, p2 });
     }
     ShapeKind::Mesh {

@@ -1,0 +1,128 @@
+//! Ray traversal throughput: `cargo bench -p torrey-renderer --bench traversal`.
+//!
+//! For each project scene, traces camera rays, then from every primary hit a diffuse-like
+//! secondary ray (closest hit) and a shadow ray towards a random point of the scene's hit cloud
+//! (any hit), single-threaded, and prints millions of rays per second. The rays are generated
+//! once and replayed, so only the BVH queries (and the hit's surface reconstruction for closest
+//! hits) are timed. A plain `harness = false` bench: no extra dependency in the test build.
+
+use glam::{Vec2, Vec3};
+use std::path::Path;
+use std::time::Instant;
+use torrey_renderer::geometry::{offset_origin, Ray};
+use torrey_renderer::RenderScene;
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut scenes = vec![
+        root.join("scenes/cbox.xml"),
+        root.join("scenes/textured_mesh.xml"),
+        root.join("scenes/envmap_sky.xml"),
+    ];
+    let living = root.join("../shared/scenes/torrey/living-room-Wig42/scene_bgonly_available.xml");
+    if living.exists() {
+        scenes.push(living);
+    }
+    println!(
+        "{:<34} {:>10} {:>12} {:>12} {:>12}",
+        "scene", "triangles", "primary", "secondary", "shadow"
+    );
+    for path in scenes {
+        let desc = torrey_parser::load_scene(&path, &[]).expect("scene loads");
+        let scene = RenderScene::build(&desc, 256, 256).expect("scene builds");
+        let (primary, secondary, shadow) = make_rays(&scene);
+        let closest = |rays: &[Ray]| {
+            let mut hits = 0usize;
+            for r in rays {
+                hits += scene.intersect(r).is_some() as usize;
+            }
+            hits
+        };
+        let any = |rays: &[Ray]| {
+            rays.iter()
+                .filter(|r| !scene.visible(r.origin, r.dir, r.tmax))
+                .count()
+        };
+        let rate = |count: usize, f: &dyn Fn() -> usize| {
+            let mut best = f64::INFINITY;
+            for _ in 0..5 {
+                let t = Instant::now();
+                std::hint::black_box(f());
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            format!("{:.1} Mray/s", count as f64 / best / 1e6)
+        };
+        println!(
+            "{:<34} {:>10} {:>12} {:>12} {:>12}",
+            path.file_name().unwrap().to_string_lossy(),
+            scene.triangle_count(),
+            rate(primary.len(), &|| closest(&primary)),
+            rate(secondary.len(), &|| closest(&secondary)),
+            rate(shadow.len(), &|| any(&shadow)),
+        );
+    }
+}
+
+/// Primary rays through every pixel, and from each primary hit one random hemisphere ray and one
+/// shadow segment to another primary hit point.
+fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut rnd = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut primary = Vec::new();
+    let mut hits = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let (origin, dir) = scene
+                .camera
+                .generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let ray = Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            primary.push(ray);
+            if let Some(hit) = scene.intersect(&ray) {
+                let n = if hit.ng.dot(dir) < 0.0 {
+                    hit.ng
+                } else {
+                    -hit.ng
+                };
+                hits.push((hit.p, n));
+            }
+        }
+    }
+    let mut secondary = Vec::new();
+    let mut shadow = Vec::new();
+    for i in 0..hits.len() {
+        let (p, n) = hits[i];
+        let d = loop {
+            let v = Vec3::new(rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0);
+            if v.length_squared() <= 1.0 && v.length_squared() > 1e-4 {
+                break (v.normalize() + n).normalize_or(n);
+            }
+        };
+        secondary.push(Ray {
+            origin: offset_origin(p, n, d),
+            dir: d,
+            tmax: f32::INFINITY,
+        });
+        let (q, _) = hits[(rnd() * hits.len() as f32) as usize % hits.len()];
+        let to = q - p;
+        let dist = to.length();
+        if dist > 1e-3 {
+            let d = to / dist;
+            shadow.push(Ray {
+                origin: offset_origin(p, n, d),
+                dir: d,
+                tmax: dist * (1.0 - 2e-4),
+            });
+        }
+    }
+    (primary, secondary, shadow)
+}
