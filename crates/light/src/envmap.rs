@@ -202,8 +202,9 @@ impl EnvMap {
     /// Local direction of a lat-long uv, and its sin(theta).
     #[inline]
     fn uv_to_local_dir_sin(uv: Vec2) -> (Vec3, f32) {
-        let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-        let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+        // theta = pi v = 2 pi (v / 2), phi = 2 pi u; halving is exact.
+        let (sin_theta, cos_theta) = fastmath::sin_cos_2pi(0.5 * uv.y);
+        let (sin_phi, cos_phi) = fastmath::sin_cos_2pi(uv.x);
         (
             Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta),
             sin_theta,
