@@ -23,7 +23,9 @@ TIME = "/usr/bin/time"
 SUMMARY_RE = re.compile(
     r"(?P<w>\d+)x(?P<h>\d+) px, (?P<spp>\d+) spp, max depth (?P<depth>-?\d+), (?P<tris>\d+) triangles; "
     r"load (?P<load>[\d.]+) s, build (?P<build>[\d.]+) s, render (?P<render>[\d.]+) s, "
-    r"(?P<msps>[\d.]+) M samples/s")
+    r"(?P<msps>[\d.]+) M samples/s"
+    r"(?:, (?P<mrays>[\d.]+) M rays/s \((?P<closest>\d+) closest \+ (?P<shadow>\d+) shadow\), "
+    r"first tile after (?P<first_tile>[\d.]+) s)?")
 
 
 def log(msg):
@@ -109,7 +111,11 @@ def run_torrey(scene, width, height, spp, depth, threads, seed, out_exr, extra=(
             "build_s": float(d["build"]), "msamples_s_reported": float(d["msps"]),
             "triangles": int(d["tris"]), "spp": int(d["spp"]), "peak_rss_mb": rss,
             "process_wall_s": round(wall, 3), "loadavg_before": la, "seed": seed,
-            "nonfinite_warning": "NaN or infinite" in p.stderr}
+            "nonfinite_warning": "NaN or infinite" in p.stderr,
+            "mrays_s_reported": float(d["mrays"]) if d.get("mrays") else None,
+            "rays_closest": int(d["closest"]) if d.get("closest") else None,
+            "rays_shadow": int(d["shadow"]) if d.get("shadow") else None,
+            "first_tile_s": float(d["first_tile"]) if d.get("first_tile") else None}
 
 
 def run_mitsuba_budget(variant, xml, budget_s, threads, seed, plugins, out_exr, calib_spp=4):

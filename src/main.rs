@@ -187,7 +187,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s",
+        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s",
         scene_path.display(),
         width,
         height,
@@ -198,6 +198,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         build_time.as_secs_f64(),
         secs,
         samples as f64 / secs.max(1e-9) / 1e6,
+        (out.rays.closest + out.rays.shadow) as f64 / secs.max(1e-9) / 1e6,
+        out.rays.closest,
+        out.rays.shadow,
+        out.first_tile.as_secs_f64(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

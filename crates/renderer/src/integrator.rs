@@ -51,7 +51,16 @@ pub enum EnvStrategy {
     ImportanceMis,
 }
 
-/// Radiance arriving at the camera along the primary ray.
+/// Rays traced, by query kind, for the rays-per-second report.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayCount {
+    /// Closest-hit queries (camera rays and path continuations).
+    pub closest: u64,
+    /// Any-hit (shadow) queries.
+    pub shadow: u64,
+}
+
+/// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
 pub fn radiance(
     scene: &RenderScene,
     origin: Vec3,
@@ -59,6 +68,7 @@ pub fn radiance(
     cone: RayCone,
     settings: PathSettings,
     sampler: &mut impl Sampler,
+    rays: &mut RayCount,
 ) -> Vec3 {
     let max_depth = if settings.max_depth < 0 {
         u32::MAX
@@ -91,6 +101,7 @@ pub fn radiance(
     let mut depth: u32 = 0;
 
     loop {
+        rays.closest += 1;
         let Some(hit) = scene.intersect(&ray) else {
             // Escaped: lights at infinity.
             for &li in &scene.infinite_lights {
@@ -173,6 +184,7 @@ pub fn radiance(
                     } else {
                         f32::INFINITY
                     };
+                    rays.shadow += 1;
                     if scene.visible(origin, ls.wi, tmax) {
                         let light_pdf = ls.pdf * light_select_pdf;
                         let w = if ls.is_delta

@@ -2,7 +2,7 @@
 //! its samples from its own PCG stream (seeded by the render seed and the pixel index), so a
 //! render is deterministic for a given seed whatever the thread count or tile order.
 
-use crate::integrator::{radiance, EnvStrategy, PathSettings, Sampler};
+use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount, Sampler};
 use crate::sampler::{PcgSampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
 use glam::{Vec2, Vec3};
@@ -35,6 +35,10 @@ pub struct RenderOutput {
     /// Samples whose value was NaN or infinite; they were dropped (counted as zero).
     pub nonfinite_samples: u64,
     pub elapsed: Duration,
+    /// Rays traced, closest-hit and shadow.
+    pub rays: RayCount,
+    /// From the start of rendering until the first tile was finished (its pixels final).
+    pub first_tile: Duration,
 }
 
 /// A tile's origin and its pixels' (mean, variance of the mean), row by row.
@@ -55,6 +59,9 @@ pub fn render(
     let total = tiles.len() as u64;
     let done = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);
+    let closest_rays = AtomicU64::new(0);
+    let shadow_rays = AtomicU64::new(0);
+    let first_tile_ns = AtomicU64::new(u64::MAX);
     let path = PathSettings {
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
@@ -70,6 +77,7 @@ pub fn render(
             let y1 = (y0 + ts).min(height);
             let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             let mut bad = 0u64;
+            let mut rays = RayCount::default();
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
@@ -81,6 +89,7 @@ pub fn render(
                             settings.filter,
                             path,
                             &mut PcgSampler::new(settings.seed, pixel_index),
+                            &mut rays,
                         ),
                         SamplerKind::Sobol => render_pixel(
                             scene,
@@ -89,6 +98,7 @@ pub fn render(
                             settings.filter,
                             path,
                             &mut SobolSampler::new(settings.seed, pixel_index),
+                            &mut rays,
                         ),
                     };
                     bad += dropped;
@@ -96,6 +106,9 @@ pub fn render(
                 }
             }
             nonfinite.fetch_add(bad, Ordering::Relaxed);
+            closest_rays.fetch_add(rays.closest, Ordering::Relaxed);
+            shadow_rays.fetch_add(rays.shadow, Ordering::Relaxed);
+            first_tile_ns.fetch_min(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             progress(d, total);
             ((x0, y0), out)
@@ -114,12 +127,18 @@ pub fn render(
             variance.pixels[y * width as usize + x] = v;
         }
     }
+    let elapsed = start.elapsed();
     RenderOutput {
         image,
         variance,
         spp,
         nonfinite_samples: nonfinite.into_inner(),
-        elapsed: start.elapsed(),
+        elapsed,
+        rays: RayCount {
+            closest: closest_rays.into_inner(),
+            shadow: shadow_rays.into_inner(),
+        },
+        first_tile: Duration::from_nanos(first_tile_ns.into_inner()).min(elapsed),
     }
 }
 
@@ -134,6 +153,7 @@ fn render_pixel<S: Sampler>(
     filter: PixelFilter,
     path: PathSettings,
     sampler: &mut S,
+    rays: &mut RayCount,
 ) -> (Vec3, Vec3, u64) {
     // Welford's running mean and variance per channel.
     let mut mean = Vec3::ZERO;
@@ -145,7 +165,7 @@ fn render_pixel<S: Sampler>(
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
         let (o, d) = scene.camera.generate_ray(film);
         let cone = RayCone::from_pixel(scene.camera.pixel_spread);
-        let mut l = radiance(scene, o, d, cone, path, sampler);
+        let mut l = radiance(scene, o, d, cone, path, sampler, rays);
         if !l.is_finite() {
             bad += 1;
             l = Vec3::ZERO;
