@@ -24,7 +24,10 @@ fn main() {
     if living.exists() {
         scenes.push(living);
     }
-    let filters: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let filters: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
     scenes.retain(|p| {
         let name = p.file_name().unwrap().to_string_lossy();
         filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()))
