@@ -43,9 +43,10 @@ fn sin_cos_eighth(x: f32) -> (f32, f32) {
 /// in [−π/4, π/4], which [`sin_cos_eighth`] handles; absolute error below 4e-7.
 #[inline]
 pub fn sin_cos_2pi(u: f32) -> (f32, f32) {
-    let q = (4.0 * u).round();
-    let (s, c) = sin_cos_eighth((4.0 * u - q) * FRAC_PI_2);
-    match q as i32 & 3 {
+    // Nearest quarter turn; a truncating cast, not `round`, which is a libm call without SSE4.1.
+    let q = (4.0 * u + 0.5) as i32;
+    let (s, c) = sin_cos_eighth((4.0 * u - q as f32) * FRAC_PI_2);
+    match q & 3 {
         0 => (s, c),
         1 => (c, -s),
         2 => (-s, -c),

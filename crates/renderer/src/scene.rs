@@ -89,6 +89,9 @@ pub struct SurfaceHit {
     pub ng: Vec3,
     /// Shading normal (interpolated vertex normal, or `ng`), not turned towards the ray.
     pub ns: Vec3,
+    /// Texture coordinates and their position derivatives; only computed when the material reads
+    /// a texture (zero otherwise: nothing else uses them, and spheres pay two inverse
+    /// trigonometric functions for them).
     pub uv: Vec2,
     pub dpdu: Vec3,
     pub dpdv: Vec3,
@@ -301,6 +304,7 @@ impl RenderScene {
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = self.prims[hit.prim as usize];
         let shape = &self.shapes[prim.shape as usize];
+        let needs_uv = self.materials[shape.material as usize].is_textured();
         let mut sh = match shape.kind {
             ShapeKind::Mesh {
                 has_normals,
@@ -327,7 +331,9 @@ impl RenderScene {
                     ng
                 };
                 // Without uvs Mitsuba uses the barycentrics as uv, so dp/du = e1, dp/dv = e2.
-                let (uv, dpdu, dpdv) = if has_uvs {
+                let (uv, dpdu, dpdv) = if !needs_uv {
+                    (Vec2::ZERO, Vec3::ZERO, Vec3::ZERO)
+                } else if has_uvs {
                     let (t0, t1, t2) = (self.mesh.uvs[i0], self.mesh.uvs[i1], self.mesh.uvs[i2]);
                     let uv = b0 * t0 + hit.b1 * t1 + hit.b2 * t2;
                     let (d1, d2) = (t1 - t0, t2 - t0);
@@ -365,17 +371,21 @@ impl RenderScene {
                 let n = (p_ray - center).normalize_or(Vec3::Z);
                 // Re-project onto the surface: the ray's point carries the cancellation error.
                 let p = center + radius * n;
-                let local = to_object * n;
-                let (uv, dpdu_l, dpdv_l) = sphere_uv(local);
-                let to_world = to_object.transpose();
+                let (uv, dpdu, dpdv) = if needs_uv {
+                    let (uv, dpdu_l, dpdv_l) = sphere_uv(to_object * n);
+                    let to_world = to_object.transpose();
+                    (uv, to_world * dpdu_l * radius, to_world * dpdv_l * radius)
+                } else {
+                    (Vec2::ZERO, Vec3::ZERO, Vec3::ZERO)
+                };
                 SurfaceHit {
                     t: hit.t,
                     p,
                     ng: n,
                     ns: n,
                     uv,
-                    dpdu: to_world * dpdu_l * radius,
-                    dpdv: to_world * dpdv_l * radius,
+                    dpdu,
+                    dpdv,
                     shape: prim.shape,
                     prim: hit.prim,
                 }
