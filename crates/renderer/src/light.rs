@@ -61,6 +61,20 @@ pub struct LightSample {
     pub is_delta: bool,
 }
 
+/// Importance-samples an environment map. Kept out of [`Light::sample`] (whose other arms are
+/// small) so that inlining the map's sampling does not bloat the area-light path.
+#[inline(never)]
+fn sample_env(env: &EnvMap, u: Vec2) -> Option<LightSample> {
+    let s = env.sample(u)?;
+    Some(LightSample {
+        wi: s.direction,
+        dist: f32::INFINITY,
+        radiance: s.radiance,
+        pdf: s.pdf,
+        is_delta: false,
+    })
+}
+
 impl Light {
     pub fn is_infinite(&self) -> bool {
         matches!(self.kind, LightKind::Constant { .. } | LightKind::Env(_))
@@ -185,16 +199,7 @@ impl Light {
                     is_delta: false,
                 })
             }
-            LightKind::Env(env) => {
-                let s = env.sample(u)?;
-                Some(LightSample {
-                    wi: s.direction,
-                    dist: f32::INFINITY,
-                    radiance: s.radiance,
-                    pdf: s.pdf,
-                    is_delta: false,
-                })
-            }
+            LightKind::Env(env) => sample_env(env, u),
         }
     }
 
