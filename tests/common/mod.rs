@@ -220,8 +220,15 @@ pub fn compare_to_reference(
     );
     let mean_ok =
         (0..3).all(|c| (cmp.mean_ratio[c] - 1.0).abs() <= 4.0 * cmp.mean_ratio_sigma[c] + 0.01);
+    // Up to 2% of the blocks, but never fewer than two, may lie beyond 5 sigma: a small bright sun
+    // in an environment map makes the per-block noise heavy-tailed (a block's sample variance
+    // misses the rare sun paths), and over seeds 7-11 single scenes showed exactly two such blocks
+    // about a third of the time with a correct renderer; a real difference moves many blocks
+    // and the mean (negative control in tests/references.rs).
+    let outliers = (cmp.outlier_blocks * cmp.blocks as f64).round();
+    let allowed = (0.02 * cmp.blocks as f64).max(2.0);
     Verdict {
         summary,
-        pass: cmp.outlier_blocks <= 0.02 && mean_ok,
+        pass: outliers <= allowed && mean_ok,
     }
 }

@@ -101,6 +101,15 @@ pub fn radiance(
     let mut depth: u32 = 0;
 
     loop {
+        // This bounce's random numbers, drawn before tracing: they do not depend on the hit, so
+        // the sampler's hashing overlaps with the traversal instead of waiting for it, and every
+        // bounce uses the same sampler dimensions (4 draws) whichever branches it takes.
+        let light_rr = sampler.next_2d();
+        let u_pos = sampler.next_2d();
+        let u_dir = sampler.next_2d();
+        let u_lobe = sampler.next_1d();
+        let (u_light, u_rr) = (light_rr.x, light_rr.y);
+
         rays.closest += 1;
         let Some(hit) = scene.intersect(&ray) else {
             // Escaped: lights at infinity.
@@ -169,8 +178,6 @@ pub fn radiance(
 
         // Next-event estimation.
         if !model.is_delta() && light_count > 0 {
-            let u_light = sampler.next_1d();
-            let u_pos = sampler.next_2d();
             let index = ((u_light * light_count as f32) as usize).min(light_count - 1);
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
@@ -202,8 +209,6 @@ pub fn radiance(
         }
 
         // BSDF sampling continues the path.
-        let u_lobe = sampler.next_1d();
-        let u_dir = sampler.next_2d();
         let Some(bs) = model.sample(reflectance, wo_local, u_dir, u_lobe) else {
             break;
         };
@@ -229,7 +234,7 @@ pub fn radiance(
         // Russian roulette, as Mitsuba: survive with probability min(max throughput, 0.95).
         if depth as i32 >= settings.rr_depth {
             let q = throughput.max_element().min(0.95);
-            if sampler.next_1d() >= q {
+            if u_rr >= q {
                 break;
             }
             throughput /= q;
