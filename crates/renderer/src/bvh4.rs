@@ -44,9 +44,13 @@ pub struct ClosestHit {
     pub b2: f32,
 }
 
-/// A child reference: an inner node index, or `LEAF | leaf index`, or `EMPTY`.
+/// A child reference: an inner node index, or a leaf, or `EMPTY`. A leaf of triangles only is
+/// `LEAF | block count << 27 | first block` (count 1-15), so its blocks are found without a
+/// further memory access; other leaves are `LEAF | leaf index` (count 0) into `leaves`.
 type ChildRef = u32;
 const LEAF: u32 = 1 << 31;
+const LEAF_COUNT_SHIFT: u32 = 27;
+const LEAF_INDEX_MASK: u32 = (1 << LEAF_COUNT_SHIFT) - 1;
 const EMPTY: u32 = u32::MAX;
 
 /// An inner node: four child boxes, structure-of-arrays. `bounds` is
@@ -251,6 +255,11 @@ impl Bvh4 {
         }
         let first_block = self.blocks.len() as u32;
         self.blocks.extend(tris.chunks(4).map(Triangle4::new));
+        let block_count = self.blocks.len() as u32 - first_block;
+        let sphere_count = self.spheres.len() as u32 - first_sphere;
+        if sphere_count == 0 && (1..16).contains(&block_count) && first_block <= LEAF_INDEX_MASK {
+            return LEAF | block_count << LEAF_COUNT_SHIFT | first_block;
+        }
         self.leaves.push(Leaf {
             first_block,
             block_count: self.blocks.len() as u32 - first_block,
@@ -258,6 +267,21 @@ impl Bvh4 {
             sphere_count: self.spheres.len() as u32 - first_sphere,
         });
         LEAF | (self.leaves.len() as u32 - 1)
+    }
+
+    /// The triangle blocks and spheres of leaf `r`.
+    #[inline(always)]
+    fn leaf_ranges(&self, r: ChildRef) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+        let index = (r & LEAF_INDEX_MASK) as usize;
+        let count = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+        if count != 0 {
+            return (index..index + count, 0..0);
+        }
+        let leaf = &self.leaves[index];
+        (
+            leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize,
+            leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize,
+        )
     }
 
     /// Closest hit with t in (0, ray.tmax).
@@ -365,9 +389,7 @@ impl Bvh4 {
                     continue;
                 }
             } else {
-                let leaf = &self.leaves[(current & !LEAF) as usize];
-                let blocks =
-                    leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
+                let (blocks, spheres) = self.leaf_ranges(current);
                 for block in &self.blocks[blocks] {
                     if let Some((lane, t, b1, b2)) = block.intersect(&ray4, tmax) {
                         tmax = t;
@@ -379,8 +401,6 @@ impl Bvh4 {
                         });
                     }
                 }
-                let spheres =
-                    leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize;
                 for s in &self.spheres[spheres] {
                     if let Some(t) = intersect_sphere(ray, s.center, s.radius, 0.0, tmax) {
                         tmax = t;
@@ -428,16 +448,12 @@ impl Bvh4 {
                     top += 1;
                 }
             } else {
-                let leaf = &self.leaves[(current & !LEAF) as usize];
-                let blocks =
-                    leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
+                let (blocks, spheres) = self.leaf_ranges(current);
                 for block in &self.blocks[blocks] {
                     if block.intersect(&ray4, tmax).is_some() {
                         return true;
                     }
                 }
-                let spheres =
-                    leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize;
                 for s in &self.spheres[spheres] {
                     if intersect_sphere(ray, s.center, s.radius, 0.0, tmax).is_some() {
                         return true;
