@@ -284,9 +284,8 @@ impl Bvh4 {
         )
     }
 
-    /// Closest hit with t in (0, ray.tmax). Not inlined: inside the integrator's large loop the
-    /// traversal's registers spilled more (cbox 3-5% slower inlined, 1 thread, 3 runs each).
-    #[inline(never)]
+    /// Closest hit with t in (0, ray.tmax).
+    #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<ClosestHit> {
         if self.root == EMPTY {
             return None;
@@ -313,8 +312,7 @@ impl Bvh4 {
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax); stops at the first hit.
-    /// Not inlined, like [`Bvh4::intersect`].
-    #[inline(never)]
+    #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         if self.root == EMPTY {
             return false;
