@@ -184,6 +184,12 @@ def summarize(entry):
             d["load_s_median"] = median([r["load_s"] for r in runs])
             d["build_s_median"] = median([r["build_s"] for r in runs])
             d["time_to_render_start_s_median"] = median([r["load_s"] + r["build_s"] for r in runs])
+            rays = [r.get("mrays_s_reported") for r in runs if r.get("mrays_s_reported") is not None]
+            d["mrays_s_median"] = median(rays) if rays else None
+            first = [r["load_s"] + r["build_s"] + r["first_tile_s"] for r in runs
+                     if r.get("first_tile_s") is not None]
+            # load + BVH build + the first 16x16 tile: when the first final pixels exist
+            d["time_to_first_pixel_s_median"] = median(first) if first else None
         else:
             d["load_s_median"] = median([r["load_s"] for r in runs])
             d["import_s_median"] = median([r["import_s"] for r in runs])
@@ -240,6 +246,9 @@ def print_table(result):
         t = s["torrey"]
         extra.append("torrey load %.2f s + build %.2f s; mitsuba-llvm load %s s" % (
             t["load_s_median"], t["build_s_median"], fmt(s.get("mitsuba-llvm_ad_rgb", {}).get("load_s_median"))))
+        if t.get("mrays_s_median") is not None:
+            extra.append("torrey %.2f M rays/s, first pixel after %s s (load + build + first tile)" % (
+                t["mrays_s_median"], fmt(t.get("time_to_first_pixel_s_median"), "%.3f")))
         print("  %s: %s" % (name, "; ".join(extra)))
 
 
