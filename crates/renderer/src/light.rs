@@ -132,7 +132,8 @@ impl Light {
                     );
                     let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
                     let q = (1.0 - b1 - b2) * p0 + b1 * p1 + b2 * p2;
-                    let mut n = (p1 - p0).cross(p2 - p0).normalize_or(Vec3::Z);
+                    // The same unit normal, precomputed at scene build.
+                    let mut n = mesh.face_normals[prim.triangle as usize];
                     if *flip_normals {
                         n = -n;
                     }
