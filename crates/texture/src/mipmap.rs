@@ -51,6 +51,52 @@ impl WrapMode {
             }
         }
     }
+
+    /// `(apply(i, n), apply(i + 1, n))` for a bilinear pair of neighbours, `n >= 1`: no wrapping
+    /// at all when both are inside (the common case), at most one division otherwise.
+    #[inline]
+    fn apply_pair(self, i: i32, n: u32) -> (usize, usize) {
+        // `i as u32` maps negatives above `u32::MAX / 2`, so one compare covers 0 <= i < n - 1.
+        if (i as u32) < n - 1 {
+            return (i as usize, i as usize + 1);
+        }
+        self.apply_pair_outside(i, n)
+    }
+
+    #[inline]
+    fn apply_pair_outside(self, i: i32, n: u32) -> (usize, usize) {
+        if n > i32::MAX as u32 / 2 {
+            // Not reachable for real images; the general i64 path keeps it exact.
+            let (i, n) = (i as i64, n as i64);
+            return (self.apply(i, n) as usize, self.apply(i + 1, n) as usize);
+        }
+        // `i` comes from a float below 2^23 in magnitude, so `i + 1` and `2 * n` fit in i32.
+        let n = n as i32;
+        let (a, b) = match self {
+            WrapMode::Repeat => {
+                // Power-of-two sizes (most textures and their mip levels) need no division:
+                // two's complement `&` is rem_euclid there.
+                let a = if n & (n - 1) == 0 {
+                    i & (n - 1)
+                } else {
+                    i.rem_euclid(n)
+                };
+                (a, if a + 1 == n { 0 } else { a + 1 })
+            }
+            WrapMode::Clamp => (i.clamp(0, n - 1), (i + 1).clamp(0, n - 1)),
+            WrapMode::Mirror => {
+                let m = if n & (n - 1) == 0 {
+                    i & (2 * n - 1)
+                } else {
+                    i.rem_euclid(2 * n)
+                };
+                let m1 = if m + 1 == 2 * n { 0 } else { m + 1 };
+                let fold = |m: i32| if m >= n { 2 * n - 1 - m } else { m };
+                (fold(m), fold(m1))
+            }
+        };
+        (a as usize, b as usize)
+    }
 }
 
 /// A mip pyramid: level 0 is the image itself, each next level about half the size, down to 1x1.
@@ -114,6 +160,12 @@ impl MipMap {
         } else {
             image
         };
+        // Every level then holds at least width * height texels (level 0 checked here, the
+        // others are built that size), which the lookups rely on.
+        assert!(
+            image.pixels.len() >= image.width as usize * image.height as usize,
+            "image has fewer pixels than width * height"
+        );
         let mut levels = vec![image];
         loop {
             let last = levels.last().expect("at least one level");
@@ -162,35 +214,70 @@ impl MipMap {
 
     /// Bilinear (or nearest) lookup within one level; uv (0,0) = top-left corner of texel (0,0),
     /// texel centres at ((i + 0.5)/W, (j + 0.5)/H) as in Mitsuba. Non-finite uv reads texel 0.
+    #[inline]
     pub fn lookup_level(&self, level: usize, uv: Vec2) -> Vec3 {
         let img = self.level(level);
+        match self.filter {
+            FilterType::Nearest => {
+                let x = uv.x * img.width as f32;
+                let y = uv.y * img.height as f32;
+                let (w, h) = (img.width as i64, img.height as i64);
+                let i = self.wrap.apply(floor_index(x), w) as usize;
+                let j = self.wrap.apply(floor_index(y), h) as usize;
+                img.pixels[j * img.width as usize + i]
+            }
+            FilterType::Bilinear => {
+                let x = uv.x * img.width as f32 - 0.5;
+                let y = uv.y * img.height as f32 - 0.5;
+                if !(x.abs() < TWO_POW_23 && y.abs() < TWO_POW_23) {
+                    // Huge or non-finite coordinates (NaN fails the compare too).
+                    return self.bilinear_general(img, x, y);
+                }
+                // Here floor is exact by truncation, and `x - floor(x)` is what
+                // `x - x.floor()` gives (x = a - 0.5 is never -0.0, so no signed-zero case).
+                let (i, j) = (floor_i32(x), floor_i32(y));
+                let (fx, fy) = (x - i as f32, y - j as f32);
+                let (c0, c1) = self.wrap.apply_pair(i, img.width);
+                let (r0, r1) = self.wrap.apply_pair(j, img.height);
+                let w = img.width as usize;
+                let (r0, r1) = (r0 * w, r1 * w);
+                let px = &img.pixels;
+                debug_assert!(r1.max(r0) + c1.max(c0) < w * img.height as usize);
+                debug_assert!(px.len() >= w * img.height as usize);
+                // SAFETY: apply_pair returns columns < width and rows < height, and every level
+                // holds at least width * height texels (checked in `MipMap::new`).
+                let at = |k: usize| unsafe { *px.get_unchecked(k) };
+                let top = at(r0 + c0) * (1.0 - fx) + at(r0 + c1) * fx;
+                let bottom = at(r1 + c0) * (1.0 - fx) + at(r1 + c1) * fx;
+                top * (1.0 - fy) + bottom * fy
+            }
+        }
+    }
+
+    /// The bilinear lookup for any coordinates (texel space, minus the half-texel offset), with
+    /// libm floor and i64 wrapping: the reference the fast path in `lookup_level` matches.
+    #[cold]
+    #[inline(never)]
+    fn bilinear_general(&self, img: &Image, x: f32, y: f32) -> Vec3 {
         let (w, h) = (img.width as i64, img.height as i64);
-        let x = uv.x * img.width as f32;
-        let y = uv.y * img.height as f32;
         let wrap = self.wrap;
         let row = |j: i64| wrap.apply(j, h) as usize * img.width as usize;
         let col = |i: i64| wrap.apply(i, w) as usize;
         let px = &img.pixels;
-        match self.filter {
-            FilterType::Nearest => px[row(fix(y.floor())) + col(fix(x.floor()))],
-            FilterType::Bilinear => {
-                let (x, y) = (x - 0.5, y - 0.5);
-                let (x0, y0) = (x.floor(), y.floor());
-                let (fx, fy) = (x - x0, y - y0);
-                let (fx, fy) = if fx.is_finite() && fy.is_finite() {
-                    (fx, fy)
-                } else {
-                    (0.0, 0.0)
-                };
-                let (i, j) = (fix(x0), fix(y0));
-                // Wrap each of the two columns and rows once, then fetch the 4 texels.
-                let (c0, c1) = (col(i), col(i + 1));
-                let (r0, r1) = (row(j), row(j + 1));
-                let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
-                let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
-                top * (1.0 - fy) + bottom * fy
-            }
-        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (fx, fy) = if fx.is_finite() && fy.is_finite() {
+            (fx, fy)
+        } else {
+            (0.0, 0.0)
+        };
+        let (i, j) = (fix(x0), fix(y0));
+        // Wrap each of the two columns and rows once, then fetch the 4 texels.
+        let (c0, c1) = (col(i), col(i + 1));
+        let (r0, r1) = (row(j), row(j + 1));
+        let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
+        let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
+        top * (1.0 - fy) + bottom * fy
     }
 
     /// The continuous pyramid level for a filter width `footprint` in uv units:
@@ -212,14 +299,38 @@ impl MipMap {
             return self.lookup_level(0, uv);
         }
         let level = self.level_for_footprint(footprint);
-        let l0 = level.floor();
-        let t = level - l0;
-        let l0 = l0 as usize;
+        // `level` is finite and in [0, levels - 1], so truncation is floor.
+        let l0 = level as usize;
+        let t = level - l0 as f32;
         let a = self.lookup_level(l0, uv);
         if t <= 0.0 || l0 + 1 >= self.levels.len() {
             return a;
         }
         a * (1.0 - t) + self.lookup_level(l0 + 1, uv) * t
+    }
+}
+
+/// 2^23: from here on every f32 is an integer, and below it `as i32` cannot overflow.
+const TWO_POW_23: f32 = 8_388_608.0;
+
+/// `x.floor() as i32` for |x| < 2^23 (the caller checks): truncate towards zero, then step
+/// down once if that rounded a negative non-integer up. No libm call (baseline x86-64 has no
+/// SSE4.1 `roundss`, so `f32::floor` is a function call there).
+#[inline(always)]
+fn floor_i32(x: f32) -> i32 {
+    debug_assert!(x.abs() < TWO_POW_23);
+    // SAFETY: |x| < 2^23 (the caller's check) is finite and fits i32 after truncation.
+    let t: i32 = unsafe { x.to_int_unchecked() };
+    t - ((t as f32) > x) as i32
+}
+
+/// `fix(v.floor())`: the nearest path's texel index (NaN → 0, saturating far outside).
+#[inline]
+fn floor_index(v: f32) -> i64 {
+    if v.abs() < TWO_POW_23 {
+        floor_i32(v) as i64
+    } else {
+        fix(v.floor())
     }
 }
 
@@ -233,6 +344,175 @@ fn fix(v: f32) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `f32::floor` built on `floor_i32`, bit for bit for every input (signed zeros,
+    /// infinities and NaN included).
+    fn floor_f32(x: f32) -> f32 {
+        if x.abs() < TWO_POW_23 {
+            // copysign keeps -0.0 (the only negative input whose floor is zero).
+            (floor_i32(x) as f32).copysign(x)
+        } else {
+            x // already an integer, or infinite / NaN
+        }
+    }
+
+    /// A small deterministic generator (SplitMix64) for the randomised comparisons.
+    struct Rng(u64);
+    impl Rng {
+        fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        /// Uniform in [lo, hi).
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * ((self.next_u64() >> 40) as f32 / (1u64 << 24) as f32)
+        }
+    }
+
+    #[test]
+    fn cast_floor_matches_libm_floor() {
+        let check = |x: f32| {
+            let want = x.floor();
+            let got = floor_f32(x);
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "floor({x:e}) = {got:e}, want {want:e}"
+            );
+            if x.abs() < TWO_POW_23 {
+                assert_eq!(floor_i32(x), want as i32, "floor_i32({x:e})");
+            }
+            // The nearest path's index helper equals the original `fix(v.floor())`.
+            assert_eq!(floor_index(x), fix(want), "floor_index({x:e})");
+        };
+        // Dense sweep through [-1100, 1100] in 1/64 steps (hits every integer and half-integer
+        // exactly, both signs) plus quarter-ulp neighbourhoods of integers.
+        for k in -70_400..=70_400 {
+            let x = k as f32 / 64.0;
+            check(x);
+            check(f32::from_bits(x.to_bits().wrapping_add(1)));
+            check(f32::from_bits(x.to_bits().wrapping_sub(1)));
+        }
+        // Every float bit pattern near the 2^23 boundary, and a stride over all of f32.
+        for base in [TWO_POW_23, -TWO_POW_23, 1.0, -1.0, 0.5, -0.5] {
+            let b = base.to_bits();
+            for d in 0..4096u32 {
+                check(f32::from_bits(b.wrapping_add(d)));
+                check(f32::from_bits(b.wrapping_sub(d)));
+            }
+        }
+        for bits in (0..=u32::MAX).step_by(9973) {
+            check(f32::from_bits(bits));
+        }
+        for x in [
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MAX,
+            f32::MIN,
+            8_388_607.5,
+            -8_388_607.5,
+            16_777_216.0,
+            -16_777_217.0,
+        ] {
+            check(x);
+        }
+    }
+
+    #[test]
+    fn wrap_pairs_match_per_index_wrapping() {
+        for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            for n in [1u32, 2, 3, 4, 5, 7, 8, 37, 256] {
+                let ni = n as i64;
+                for i in -(5 * n as i32 + 3)..=5 * n as i32 + 3 {
+                    let want = (
+                        wrap.apply(i as i64, ni) as usize,
+                        wrap.apply(i as i64 + 1, ni) as usize,
+                    );
+                    assert_eq!(wrap.apply_pair(i, n), want, "{wrap:?} n {n} i {i}");
+                }
+                for i in [-8_388_608, -8_388_607, 8_388_606, 8_388_607, -1_000_001] {
+                    let want = (
+                        wrap.apply(i as i64, ni) as usize,
+                        wrap.apply(i as i64 + 1, ni) as usize,
+                    );
+                    assert_eq!(wrap.apply_pair(i, n), want, "{wrap:?} n {n} i {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fast_bilinear_matches_general_path() {
+        let mut rng = Rng(0x5EED);
+        for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            for (w, h) in [(37, 20), (1, 5), (5, 1), (64, 64), (1, 1), (2, 3)] {
+                let mip = MipMap::new(pattern(w, h), wrap, FilterType::Bilinear);
+                for level in 0..mip.levels() {
+                    let img = mip.level(level);
+                    let (fw, fh) = (img.width as f32, img.height as f32);
+                    for k in 0..4000 {
+                        // Inside, a few tiles out, far out (up to ~1e5 texels), both signs.
+                        let span = [1.0, 6.0, 3000.0][k % 3];
+                        let uv = Vec2::new(rng.range(-span, span), rng.range(-span, span));
+                        let uv = if k % 7 == 0 {
+                            // Exactly on texel centres and edges.
+                            let i = (rng.next_u64() % 200) as f32 - 100.0;
+                            let j = (rng.next_u64() % 200) as f32 - 100.0;
+                            let off = [0.0, 0.5][k % 2];
+                            Vec2::new((i + off) / fw, (j + off) / fh)
+                        } else {
+                            uv
+                        };
+                        let fast = mip.lookup_level(level, uv);
+                        let x = uv.x * fw - 0.5;
+                        let y = uv.y * fh - 0.5;
+                        let general = mip.bilinear_general(img, x, y);
+                        assert_eq!(
+                            fast.to_array().map(f32::to_bits),
+                            general.to_array().map(f32::to_bits),
+                            "{wrap:?} {w}x{h} level {level} uv {uv}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn non_finite_and_huge_uv_read_texel_zero_or_saturate() {
+        let img = pattern(5, 3);
+        for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            let mip = MipMap::new(img.clone(), wrap, FilterType::Bilinear);
+            let near = MipMap::new(img.clone(), wrap, FilterType::Nearest);
+            // NaN → index 0 and weight 0 on both axes: texel (0, 0) exactly.
+            assert_eq!(mip.lookup_level(0, Vec2::NAN), img.pixels[0], "{wrap:?}");
+            assert_eq!(near.lookup_level(0, Vec2::NAN), img.pixels[0], "{wrap:?}");
+            // Non-finite or beyond-2^23 coordinates go through the general path unchanged.
+            for uv in [
+                Vec2::new(f32::INFINITY, 0.3),
+                Vec2::new(0.3, f32::NEG_INFINITY),
+                Vec2::new(f32::NAN, 0.7),
+                Vec2::new(-1e30, 1e30),
+                Vec2::new(3e6, -2e6),
+            ] {
+                let (x, y) = (uv.x * 5.0 - 0.5, uv.y * 3.0 - 0.5);
+                assert_eq!(
+                    mip.lookup_level(0, uv),
+                    mip.bilinear_general(mip.level(0), x, y)
+                );
+                let _ = near.lookup_level(0, uv);
+            }
+        }
+    }
 
     fn mean(img: &Image) -> Vec3 {
         let s: glam::DVec3 = img.pixels.iter().map(|p| p.as_dvec3()).sum();

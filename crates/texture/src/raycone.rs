@@ -46,12 +46,15 @@ impl RayCone {
     /// (sphere poles) it falls back to the longer of |dpdu|, |dpdv|; with no usable derivatives
     /// the footprint is 0 (finest level). Never NaN.
     pub fn uv_footprint(&self, ray_dir: Vec3, normal: Vec3, dpdu: Vec3, dpdv: Vec3) -> f32 {
-        let d = ray_dir.normalize_or_zero();
-        let n = normal.normalize_or_zero();
-        let cos = if d == Vec3::ZERO || n == Vec3::ZERO {
-            1.0
+        // `normalize_or_zero` step for step (same reciprocals, same products, so the same bits),
+        // but testing the reciprocals instead of comparing the normalised vectors with zero:
+        // a valid reciprocal never normalises a vector to zero.
+        let rd = ray_dir.length_recip();
+        let rn = normal.length_recip();
+        let cos = if rd.is_finite() && rd > 0.0 && rn.is_finite() && rn > 0.0 {
+            (ray_dir * rd).dot(normal * rn).abs().max(MIN_COS)
         } else {
-            d.dot(n).abs().max(MIN_COS)
+            1.0
         };
         let world = self.width.abs() / cos;
         let area = dpdu.cross(dpdv).length();
@@ -76,6 +79,77 @@ impl RayCone {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The previous `uv_footprint` (normalize_or_zero and a comparison with zero), kept as the
+    /// reference the current one must match bit for bit.
+    fn uv_footprint_reference(c: &RayCone, ray_dir: Vec3, normal: Vec3, du: Vec3, dv: Vec3) -> f32 {
+        let d = ray_dir.normalize_or_zero();
+        let n = normal.normalize_or_zero();
+        let cos = if d == Vec3::ZERO || n == Vec3::ZERO {
+            1.0
+        } else {
+            d.dot(n).abs().max(MIN_COS)
+        };
+        let world = c.width.abs() / cos;
+        let area = du.cross(dv).length();
+        let scale = if area > 1e-20 && area.is_finite() {
+            area.sqrt()
+        } else {
+            du.length().max(dv.length())
+        };
+        let fp = if scale > 0.0 && scale.is_finite() {
+            world / scale
+        } else {
+            0.0
+        };
+        if fp.is_finite() {
+            fp
+        } else {
+            0.0
+        }
+    }
+
+    #[test]
+    fn footprint_matches_reference_bit_for_bit() {
+        let mut state = 0x1234_5678_9ABC_DEF0u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // Mostly ordinary values at very different scales, sometimes special ones.
+        let mut value = move || -> f32 {
+            let r = next();
+            match r % 16 {
+                0 => [
+                    0.0,
+                    -0.0,
+                    f32::NAN,
+                    f32::INFINITY,
+                    -f32::INFINITY,
+                    1e-30,
+                    -1e-25,
+                ][(r >> 8) as usize % 7],
+                1 => [1e-20, 3e-23, 1e19, -2e20, f32::MIN_POSITIVE, 1e-40][(r >> 8) as usize % 6],
+                _ => {
+                    let m = ((r >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0;
+                    m * [1.0, 1e-3, 1e3, 1e-12, 1e12][(r >> 8) as usize % 5]
+                }
+            }
+        };
+        let mut v3 = || Vec3::new(value(), value(), value());
+        for _ in 0..200_000 {
+            let cone = RayCone {
+                width: v3().x,
+                spread: 0.0,
+            };
+            let (d, n, du, dv) = (v3(), v3(), v3(), v3());
+            let got = cone.uv_footprint(d, n, du, dv);
+            let want = uv_footprint_reference(&cone, d, n, du, dv);
+            assert_eq!(got.to_bits(), want.to_bits(), "{cone:?} {d} {n} {du} {dv}");
+        }
+    }
 
     #[test]
     fn width_grows_linearly_with_distance() {
