@@ -26,7 +26,7 @@ fn atan_unit(s: f32) -> f32 {
 /// (`atan2(+0, -0) = pi`, `atan2(-0, -0) = -pi`, `atan2(0, 0) = 0`). NaN in, NaN out. Both inputs
 /// infinite gives NaN (std gives a multiple of pi/4); the callers only pass finite components.
 #[inline]
-pub(crate) fn atan2(y: f32, x: f32) -> f32 {
+pub fn atan2(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
     let (lo, hi) = if ay > ax { (ax, ay) } else { (ay, ax) };
     // 0 / 0 reads as 0 (the angle of a zero vector, as std); otherwise lo / hi is in [0, 1]
@@ -46,23 +46,31 @@ pub(crate) fn atan2(y: f32, x: f32) -> f32 {
     }
 }
 
+/// `(x.sin(), x.cos())` for |x| <= pi/4 (at most an eighth of a turn) by Cephes' sinf/cosf
+/// polynomials, to within about 1 ULP of 1; the core of [`sin_cos_2pi`], and of the renderer's
+/// concentric disk map, whose angles already lie in that range.
+#[inline(always)]
+pub fn sin_cos_eighth(x: f32) -> (f32, f32) {
+    let z = x * x;
+    let s = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * x + x;
+    let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    (s, c)
+}
+
 /// `((2 pi t).sin(), (2 pi t).cos())` for `t` in [0, 1] without libm, to within 1.2e-7 absolute
 /// (about 1 ULP of 1). Exact reduction: `t` minus the nearest quarter turn is exact in f32 on
 /// [0, 1], so unlike `(2.0 * PI * t).sin_cos()` no argument rounding is added near t = 1. The
 /// remainder (at most an eighth of a turn) goes through Cephes' sinf/cosf polynomials. Outside
 /// [0, 1] (or NaN) it falls back to std.
 #[inline]
-pub(crate) fn sin_cos_2pi(t: f32) -> (f32, f32) {
+pub fn sin_cos_2pi(t: f32) -> (f32, f32) {
     if !(0.0..=1.0).contains(&t) {
         return (2.0 * PI * t).sin_cos();
     }
     let q = (4.0 * t + 0.5) as u32; // nearest quarter turn, 0..=4
-    let x = (t - q as f32 * 0.25) * (2.0 * PI); // in [-pi/4, pi/4]
-    let z = x * x;
-    let s = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * x + x;
-    let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
-    // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
-    // (s, c), (c, -s), (-s, -c), (-c, s).
+    let (s, c) = sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * PI)); // in [-pi/4, pi/4]
+                                                                     // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
+                                                                     // (s, c), (c, -s), (-s, -c), (-c, s).
     let (a, b) = if q & 1 != 0 { (c, s) } else { (s, c) };
     let sin_sign = (q & 2) << 30;
     let cos_sign = ((q + 1) & 2) << 30;

@@ -8,7 +8,7 @@
 
 pub mod distribution;
 pub mod envmap;
-mod fastmath;
+pub mod fastmath;
 pub mod geometry;
 
 #[cfg(test)]

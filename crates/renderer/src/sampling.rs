@@ -9,7 +9,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI, TAU};
+use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth};
 
 /// Maps the unit square to the unit disk with Shirley and Chiu's concentric mapping, which keeps
 /// strata compact (unlike the polar map) so stratified samples stay well spread on the disk.
@@ -26,31 +27,6 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     } else {
         let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (a / b));
         Vec2::new(b * sin, b * cos)
-    }
-}
-
-/// sin and cos of x for |x| ≤ π/4 by Taylor polynomials (degrees 7 and 8): absolute error below
-/// 4e-7, a third of the cost of `f32::sin_cos` (sampling warps call this once per bounce).
-#[inline]
-fn sin_cos_eighth(x: f32) -> (f32, f32) {
-    let x2 = x * x;
-    let sin = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0))));
-    let cos = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));
-    (sin, cos)
-}
-
-/// sin and cos of 2πu for u in [0, 1]: the angle is split into a quarter turn q and a remainder
-/// in [−π/4, π/4], which [`sin_cos_eighth`] handles; absolute error below 4e-7.
-#[inline]
-pub fn sin_cos_2pi(u: f32) -> (f32, f32) {
-    // Nearest quarter turn; a truncating cast, not `round`, which is a libm call without SSE4.1.
-    let q = (4.0 * u + 0.5) as i32;
-    let (s, c) = sin_cos_eighth((4.0 * u - q as f32) * FRAC_PI_2);
-    match q & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
     }
 }
 
@@ -440,22 +416,6 @@ pub(crate) mod testutil {
 mod tests {
     use super::testutil::*;
     use super::*;
-
-    /// The polynomial sin/cos agrees with the library's to 5e-7 over a dense sweep of [0, 1].
-    #[test]
-    fn fast_sin_cos_is_accurate() {
-        let n = 1_000_000;
-        let mut worst = 0.0f64;
-        for i in 0..=n {
-            let u = i as f32 / n as f32;
-            let (s, c) = sin_cos_2pi(u);
-            let phi = std::f64::consts::TAU * u as f64;
-            worst = worst
-                .max((s as f64 - phi.sin()).abs())
-                .max((c as f64 - phi.cos()).abs());
-        }
-        assert!(worst < 5e-7, "worst error {worst}");
-    }
 
     #[test]
     fn chi2_sf_matches_tables() {

@@ -56,23 +56,30 @@ impl RayCone {
         } else {
             1.0
         };
-        let world = self.width.abs() / cos;
-        let area = dpdu.cross(dpdv).length();
-        let scale = if area > 1e-20 && area.is_finite() {
-            area.sqrt()
-        } else {
-            dpdu.length().max(dpdv.length())
-        };
-        let fp = if scale > 0.0 && scale.is_finite() {
-            world / scale
-        } else {
-            0.0
-        };
-        if fp.is_finite() {
-            fp
-        } else {
-            0.0
-        }
+        footprint_from_cos(self.width, cos, dpdu, dpdv)
+    }
+}
+
+/// The footprint for a cone of `width` meeting the surface at `cos`: the projected world width
+/// over sqrt(|dpdu x dpdv|) (or the longer axis where that degenerates); 0 when not finite.
+#[inline]
+fn footprint_from_cos(width: f32, cos: f32, dpdu: Vec3, dpdv: Vec3) -> f32 {
+    let world = width.abs() / cos;
+    let area = dpdu.cross(dpdv).length();
+    let scale = if area > 1e-20 && area.is_finite() {
+        area.sqrt()
+    } else {
+        dpdu.length().max(dpdv.length())
+    };
+    let fp = if scale > 0.0 && scale.is_finite() {
+        world / scale
+    } else {
+        0.0
+    };
+    if fp.is_finite() {
+        fp
+    } else {
+        0.0
     }
 }
 
@@ -80,8 +87,8 @@ impl RayCone {
 mod tests {
     use super::*;
 
-    /// The previous `uv_footprint` (normalize_or_zero and a comparison with zero), kept as the
-    /// reference the current one must match bit for bit.
+    /// The previous `uv_footprint`'s cosine (normalize_or_zero and a comparison with zero), kept
+    /// as the reference the current one must match bit for bit.
     fn uv_footprint_reference(c: &RayCone, ray_dir: Vec3, normal: Vec3, du: Vec3, dv: Vec3) -> f32 {
         let d = ray_dir.normalize_or_zero();
         let n = normal.normalize_or_zero();
@@ -90,23 +97,8 @@ mod tests {
         } else {
             d.dot(n).abs().max(MIN_COS)
         };
-        let world = c.width.abs() / cos;
-        let area = du.cross(dv).length();
-        let scale = if area > 1e-20 && area.is_finite() {
-            area.sqrt()
-        } else {
-            du.length().max(dv.length())
-        };
-        let fp = if scale > 0.0 && scale.is_finite() {
-            world / scale
-        } else {
-            0.0
-        };
-        if fp.is_finite() {
-            fp
-        } else {
-            0.0
-        }
+        // The projection onto uv is unchanged; only the cosine's zero test was rewritten.
+        footprint_from_cos(c.width, cos, du, dv)
     }
 
     #[test]
