@@ -269,19 +269,61 @@ impl Bvh4 {
         LEAF | (self.leaves.len() as u32 - 1)
     }
 
-    /// The triangle blocks and spheres of leaf `r`.
+    /// Inner node `r`.
     #[inline(always)]
-    fn leaf_ranges(&self, r: ChildRef) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
-        let index = (r & LEAF_INDEX_MASK) as usize;
+    fn node(&self, r: ChildRef) -> &Node4 {
+        debug_assert!((r as usize) < self.nodes.len());
+        // SAFETY: inner references are indices into `nodes`, written by `add_inner` only.
+        unsafe { self.nodes.get_unchecked(r as usize) }
+    }
+
+    /// The triangle blocks of leaf `r` when its reference carries them (a leaf of triangles
+    /// only); None for a leaf stored in `leaves`.
+    #[inline(always)]
+    fn packed_blocks(&self, r: ChildRef) -> Option<&[Triangle4]> {
+        let first = (r & LEAF_INDEX_MASK) as usize;
         let count = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
-        if count != 0 {
-            return (index..index + count, 0..0);
+        if count == 0 {
+            return None;
         }
-        let leaf = &self.leaves[index];
-        (
-            leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize,
-            leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize,
-        )
+        debug_assert!(first + count <= self.blocks.len());
+        // SAFETY: `add_leaf` packs only block ranges that it has just pushed to `blocks`.
+        Some(unsafe { self.blocks.get_unchecked(first..first + count) })
+    }
+
+    /// Closest hit in (0, tmax) among the triangles and spheres of leaf `r` of `leaves`. Kept
+    /// out of line: leaves with spheres are rare, and inlining the sphere test into the
+    /// traversal loops costs every ray registers and set-up.
+    #[inline(never)]
+    fn intersect_leaf(&self, r: ChildRef, ray: &Ray, ray4: &Ray4, tmax: f32) -> Option<ClosestHit> {
+        let leaf = &self.leaves[(r & LEAF_INDEX_MASK) as usize];
+        let blocks = leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
+        let spheres = leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize;
+        let mut tmax = tmax;
+        let mut best = None;
+        for block in &self.blocks[blocks] {
+            if let Some((lane, t, b1, b2)) = block.intersect(ray4, ray, tmax) {
+                tmax = t;
+                best = Some(ClosestHit {
+                    t,
+                    prim: block.prim[lane],
+                    b1,
+                    b2,
+                });
+            }
+        }
+        for s in &self.spheres[spheres] {
+            if let Some(t) = intersect_sphere(ray, s.center, s.radius, 0.0, tmax) {
+                tmax = t;
+                best = Some(ClosestHit {
+                    t,
+                    prim: s.prim,
+                    b1: 0.0,
+                    b2: 0.0,
+                });
+            }
+        }
+        best
     }
 
     /// Closest hit with t in (0, ray.tmax).
@@ -331,15 +373,14 @@ impl Bvh4 {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
         let box_ray = BoxRay::new(ray);
-        let wr = WatertightRay::new(ray);
-        let ray4 = Ray4::new(wr, ray.origin);
+        let ray4 = Ray4::new(&WatertightRay::new(ray), ray.origin);
         let mut tmax = ray.tmax;
         let mut best: Option<ClosestHit> = None;
         let mut top = 0usize;
         let mut current = self.root;
         loop {
             if current & LEAF == 0 {
-                let node = &self.nodes[current as usize];
+                let node = self.node(current);
                 let (near, mut mask) = box_ray.test(node, tmax);
                 if mask != 0 {
                     let near = near.to_array();
@@ -388,10 +429,9 @@ impl Bvh4 {
                     current = unsafe { stack[top].assume_init() }.0;
                     continue;
                 }
-            } else {
-                let (blocks, spheres) = self.leaf_ranges(current);
-                for block in &self.blocks[blocks] {
-                    if let Some((lane, t, b1, b2)) = block.intersect(&ray4, tmax) {
+            } else if let Some(blocks) = self.packed_blocks(current) {
+                for block in blocks {
+                    if let Some((lane, t, b1, b2)) = block.intersect(&ray4, ray, tmax) {
                         tmax = t;
                         best = Some(ClosestHit {
                             t,
@@ -401,17 +441,9 @@ impl Bvh4 {
                         });
                     }
                 }
-                for s in &self.spheres[spheres] {
-                    if let Some(t) = intersect_sphere(ray, s.center, s.radius, 0.0, tmax) {
-                        tmax = t;
-                        best = Some(ClosestHit {
-                            t,
-                            prim: s.prim,
-                            b1: 0.0,
-                            b2: 0.0,
-                        });
-                    }
-                }
+            } else if let Some(hit) = self.intersect_leaf(current, ray, &ray4, tmax) {
+                tmax = hit.t;
+                best = Some(hit);
             }
             // Pop the nearest pending node that can still hold a closer hit.
             loop {
@@ -431,14 +463,13 @@ impl Bvh4 {
     #[inline(always)]
     fn occluded_with(&self, ray: &Ray, stack: &mut [MaybeUninit<ChildRef>]) -> bool {
         let box_ray = BoxRay::new(ray);
-        let wr = WatertightRay::new(ray);
-        let ray4 = Ray4::new(wr, ray.origin);
+        let ray4 = Ray4::new(&WatertightRay::new(ray), ray.origin);
         let tmax = ray.tmax;
         let mut top = 0usize;
         let mut current = self.root;
         loop {
             if current & LEAF == 0 {
-                let node = &self.nodes[current as usize];
+                let node = self.node(current);
                 let (_, mut mask) = box_ray.test(node, tmax);
                 // Any hit ends the search, so order does not matter: push all but one.
                 while mask != 0 {
@@ -447,18 +478,14 @@ impl Bvh4 {
                     stack[top] = MaybeUninit::new(node.children[lane]);
                     top += 1;
                 }
-            } else {
-                let (blocks, spheres) = self.leaf_ranges(current);
-                for block in &self.blocks[blocks] {
-                    if block.intersect(&ray4, tmax).is_some() {
+            } else if let Some(blocks) = self.packed_blocks(current) {
+                for block in blocks {
+                    if block.intersect(&ray4, ray, tmax).is_some() {
                         return true;
                     }
                 }
-                for s in &self.spheres[spheres] {
-                    if intersect_sphere(ray, s.center, s.radius, 0.0, tmax).is_some() {
-                        return true;
-                    }
-                }
+            } else if self.intersect_leaf(current, ray, &ray4, tmax).is_some() {
+                return true;
             }
             if top == 0 {
                 return false;

@@ -5,7 +5,7 @@
 //! axis permutation of the watertight test is just a choice of which array to read. Unused lanes
 //! hold NaN vertices: every comparison on them is false, so they never report a hit.
 
-use crate::geometry::{intersect_triangle_pre, WatertightRay};
+use crate::geometry::{intersect_triangle_pre, Ray, WatertightRay};
 use glam::{Vec3, Vec4};
 
 /// Up to four triangles in structure-of-arrays layout, with their primitive indices.
@@ -53,7 +53,7 @@ impl Triangle4 {
     /// The closest hit among the four with t in (0, tmax): (lane, t, b1, b2), where b1 and b2
     /// weight vertices 1 and 2.
     #[inline(always)]
-    pub fn intersect(&self, r: &Ray4, tmax: f32) -> Option<(usize, f32, f32, f32)> {
+    pub fn intersect(&self, r: &Ray4, ray: &Ray, tmax: f32) -> Option<(usize, f32, f32, f32)> {
         let [kx, ky, kz] = r.axes;
         let (sx, sy, sz) = (r.shear[0], r.shear[1], r.shear[2]);
         let [ox, oy, oz] = r.origin;
@@ -73,7 +73,7 @@ impl Triangle4 {
         // Exactly zero edge functions need the double-precision fallback of the scalar test;
         // it is rare, so the whole block takes the scalar path then.
         if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
-            return self.intersect_scalar(&r.scalar, tmax);
+            return self.intersect_scalar(&WatertightRay::new(ray), tmax);
         }
         let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
         let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
@@ -105,6 +105,7 @@ impl Triangle4 {
 
     /// The scalar test on every used lane: exact agreement with the one-triangle path.
     #[cold]
+    #[inline(never)]
     fn intersect_scalar(&self, wr: &WatertightRay, tmax: f32) -> Option<(usize, f32, f32, f32)> {
         let mut best: Option<(usize, f32, f32, f32)> = None;
         for lane in 0..4 {
@@ -128,12 +129,11 @@ pub struct Ray4 {
     axes: [usize; 3],
     shear: [Vec4; 3],
     origin: [Vec4; 3],
-    scalar: WatertightRay,
 }
 
 impl Ray4 {
     #[inline(always)]
-    pub fn new(wr: WatertightRay, origin: Vec3) -> Self {
+    pub fn new(wr: &WatertightRay, origin: Vec3) -> Self {
         let axes = wr.axes();
         let shear = wr.shear();
         Self {
@@ -148,7 +148,6 @@ impl Ray4 {
                 Vec4::splat(origin[axes[1]]),
                 Vec4::splat(origin[axes[2]]),
             ],
-            scalar: wr,
         }
     }
 }
@@ -156,7 +155,6 @@ impl Ray4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Ray;
 
     /// Every lane agrees with the scalar test, hits and misses alike, including unused lanes.
     #[test]
@@ -191,7 +189,7 @@ mod tests {
             };
             let tmax = if case % 3 == 0 { 1.5 } else { f32::INFINITY };
             let wr = WatertightRay::new(&ray);
-            let simd = block.intersect(&Ray4::new(wr, ray.origin), tmax);
+            let simd = block.intersect(&Ray4::new(&wr, ray.origin), &ray, tmax);
             let scalar = block.intersect_scalar(&wr, tmax);
             match (simd, scalar) {
                 (None, None) => {}
@@ -221,7 +219,7 @@ mod tests {
             tmax: f32::INFINITY,
         };
         let wr = WatertightRay::new(&ray);
-        let hit = block.intersect(&Ray4::new(wr, ray.origin), f32::INFINITY);
+        let hit = block.intersect(&Ray4::new(&wr, ray.origin), &ray, f32::INFINITY);
         assert!(hit.is_some_and(|h| (h.1 - 1.0).abs() < 1e-6));
     }
 }
