@@ -110,10 +110,11 @@ impl BoxRay {
         let tiny = d.abs().cmplt(Vec3A::splat(1e-20));
         let inv = Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d);
         let org_inv = Vec3A::from(ray.origin) * inv;
+        let negative = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
         let (nx, ny, nz) = (
-            if inv.x >= 0.0 { 0 } else { 3 },
-            if inv.y >= 0.0 { 1 } else { 4 },
-            if inv.z >= 0.0 { 2 } else { 5 },
+            (negative & 1) * 3,
+            1 + (negative >> 1 & 1) * 3,
+            2 + (negative >> 2) * 3,
         );
         Self {
             inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],

@@ -36,17 +36,12 @@ impl WatertightRay {
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir;
         let ad = d.abs();
-        let kz: u8 = if ad.x > ad.y {
-            if ad.x > ad.z {
-                0
-            } else {
-                2
-            }
-        } else if ad.y > ad.z {
-            1
-        } else {
-            2
-        };
+        // The largest axis from three comparisons and a table instead of a branch tree (which
+        // mispredicts on random directions): bit 0 = |x| > |y|, bit 1 = |x| > |z|, bit 2 = |y| > |z|.
+        const LARGEST: [u8; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
+        let kz = LARGEST[(ad.x > ad.y) as usize
+            | ((ad.x > ad.z) as usize) << 1
+            | ((ad.y > ad.z) as usize) << 2];
         let dp = permute(d, kz);
         let sz = 1.0 / dp.z;
         Self {
