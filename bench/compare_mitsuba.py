@@ -78,6 +78,9 @@ def main():
     ap.add_argument("--torrey-sampler", default="independent", choices=["independent", "sobol"],
                     help="torrey's sample generator; independent (default) matches Mitsuba's for a "
                          "like-for-like throughput table, sobol is torrey's own default")
+    ap.add_argument("--torrey-bin", help="torrey binary to time (default target/release/torrey; "
+                    "bench/pgo_build.sh writes the profile-guided build to target/pgo/torrey); "
+                    "implies --no-build")
     ap.add_argument("--save-images", action="store_true", help="keep both renderers' EXRs in out/bench/img/")
     ap.add_argument("--json", help="output JSON path (default out/bench/compare_<date>.json)")
     a = ap.parse_args()
@@ -90,7 +93,9 @@ def main():
     mitsuba_line = common.setup_mitsuba()
     common.reexec_in_venv()  # from here on: tests/mitsuba/.venv's python (numpy, mitsuba)
     common.ensure_gnu_time()
-    if not a.no_build:
+    if a.torrey_bin:
+        common.TORREY = os.path.abspath(a.torrey_bin)
+    elif not a.no_build:
         common.build_torrey()
     os.makedirs(OUT, exist_ok=True)
     img_dir = os.path.join(OUT, "img")
@@ -103,7 +108,7 @@ def main():
         "git": common.git_rev(), "host": platform.node(), "cpu": cpu_name(), "cores": os.cpu_count(),
         "threads": a.threads, "runs": a.runs, "spp_scale": a.spp_scale, "mitsuba": mitsuba_line,
         "llvm_cache": "warm (~/.drjit kept)" if a.warm_cache else "cold (empty HOME per process)",
-        "torrey_args": torrey_extra, "loadavg_start": common.loadavg(), "scenes": {}, "skipped": {},
+        "torrey_args": torrey_extra, "torrey_bin": os.path.relpath(common.TORREY, common.REPO), "loadavg_start": common.loadavg(), "scenes": {}, "skipped": {},
     }
     log("load average at start: %s" % result["loadavg_start"])
 

@@ -67,10 +67,11 @@ pub fn sin_cos_2pi(t: f32) -> (f32, f32) {
     if !(0.0..=1.0).contains(&t) {
         return (2.0 * PI * t).sin_cos();
     }
-    let q = (4.0 * t + 0.5) as u32; // nearest quarter turn, 0..=4
-    let (s, c) = sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * PI)); // in [-pi/4, pi/4]
-                                                                     // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
-                                                                     // (s, c), (c, -s), (-s, -c), (-c, s).
+    // The nearest quarter turn (0..=4); the remainder is at most an eighth of a turn.
+    let q = (4.0 * t + 0.5) as u32;
+    let (s, c) = sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * PI));
+    // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
+    // (s, c), (c, -s), (-s, -c), (-c, s).
     let (a, b) = if q & 1 != 0 { (c, s) } else { (s, c) };
     let sin_sign = (q & 2) << 30;
     let cos_sign = ((q + 1) & 2) << 30;
