@@ -6,7 +6,8 @@ One command, from the repository root:
     python3 bench/compare_mitsuba.py --runs 1 --spp-scale 0.125     # smoke test
     python3 bench/compare_mitsuba.py --only cbox,textured_mesh --runs 5
 Other options: --threads N (default: all cores, both renderers), --no-build, --no-scalar,
---no-warm, --warm-cache, --torrey-no-mipmap, --save-images, --json PATH.
+--no-warm, --warm-cache, --torrey-no-mipmap, --torrey-bin PATH (e.g. the PGO build target/pgo/torrey),
+--save-images, --json PATH.
 
 What it does (details and the remaining setup differences: docs/performance.md):
   * `bash tests/mitsuba/setup.sh` (idempotent: venv with mitsuba 3.9.1, libLLVM 19), then re-runs
