@@ -147,6 +147,30 @@ impl BoxRay {
     }
 }
 
+/// The closest hit in (0, tmax) among the triangles of `blocks`.
+#[inline(always)]
+fn closest_in_blocks(
+    blocks: &[Triangle4],
+    ray4: &Ray4,
+    ray: &Ray,
+    tmax: f32,
+) -> Option<ClosestHit> {
+    let mut tmax = tmax;
+    let mut best = None;
+    for block in blocks {
+        if let Some((lane, t, b1, b2)) = block.intersect(ray4, ray, tmax) {
+            tmax = t;
+            best = Some(ClosestHit {
+                t,
+                prim: block.prim[lane],
+                b1,
+                b2,
+            });
+        }
+    }
+    best
+}
+
 impl Bvh4 {
     /// Builds the BVH over `geoms`; primitive indices in hits refer to positions in `geoms`.
     pub fn build(geoms: &[PrimGeom]) -> Self {
@@ -300,19 +324,8 @@ impl Bvh4 {
         let leaf = &self.leaves[(r & LEAF_INDEX_MASK) as usize];
         let blocks = leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
         let spheres = leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize;
-        let mut tmax = tmax;
-        let mut best = None;
-        for block in &self.blocks[blocks] {
-            if let Some((lane, t, b1, b2)) = block.intersect(ray4, ray, tmax) {
-                tmax = t;
-                best = Some(ClosestHit {
-                    t,
-                    prim: block.prim[lane],
-                    b1,
-                    b2,
-                });
-            }
-        }
+        let mut best = closest_in_blocks(&self.blocks[blocks], ray4, ray, tmax);
+        let mut tmax = best.map_or(tmax, |h| h.t);
         for s in &self.spheres[spheres] {
             if let Some(t) = intersect_sphere(ray, s.center, s.radius, 0.0, tmax) {
                 tmax = t;
@@ -430,19 +443,10 @@ impl Bvh4 {
                     current = unsafe { stack[top].assume_init() }.0;
                     continue;
                 }
-            } else if let Some(blocks) = self.packed_blocks(current) {
-                for block in blocks {
-                    if let Some((lane, t, b1, b2)) = block.intersect(&ray4, ray, tmax) {
-                        tmax = t;
-                        best = Some(ClosestHit {
-                            t,
-                            prim: block.prim[lane],
-                            b1,
-                            b2,
-                        });
-                    }
-                }
-            } else if let Some(hit) = self.intersect_leaf(current, ray, &ray4, tmax) {
+            } else if let Some(hit) = match self.packed_blocks(current) {
+                Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
+                None => self.intersect_leaf(current, ray, &ray4, tmax),
+            } {
                 tmax = hit.t;
                 best = Some(hit);
             }
