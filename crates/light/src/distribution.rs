@@ -130,7 +130,9 @@ impl Distribution1D {
         let n = self.func.len();
         if n <= 8 {
             // A few bins (a light's triangles): scanning the cdf beats reading the guide first.
-            return self.cdf[1..n].iter().take_while(|&&c| c <= u).count();
+            // The cdf is non-decreasing, so counting every entry <= u equals counting the leading
+            // ones, and the full count has no data-dependent exit to mispredict.
+            return self.cdf[1..n].iter().filter(|&&c| c <= u).count();
         }
         find_in(&self.cdf, |c| c, &self.guide, u)
     }
@@ -232,7 +234,7 @@ fn find_in<T: Copy>(table: &[T], cdf: impl Fn(T) -> f32, guide: &[u32], u: f32) 
     // cdf[lo] <= k / g <= u, and the answer is at most hi because u < (k + 1) / g.
     let c = &table[lo + 1..hi + 1];
     if c.len() <= 8 {
-        lo + c.iter().take_while(|&&e| cdf(e) <= u).count()
+        lo + c.iter().filter(|&&e| cdf(e) <= u).count()
     } else {
         lo + c.partition_point(|&e| cdf(e) <= u)
     }

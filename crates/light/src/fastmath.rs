@@ -72,7 +72,14 @@ pub fn sin_cos_2pi(t: f32) -> (f32, f32) {
     let (s, c) = sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * PI));
     // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
     // (s, c), (c, -s), (-s, -c), (-c, s).
-    let (a, b) = if q & 1 != 0 { (c, s) } else { (s, c) };
+    // (A vector select: LLVM turns a scalar float select like this one back into a branch, which
+    // mispredicts half the time on random angles.)
+    let ab = glam::Vec4::select(
+        glam::BVec4A::splat(q & 1 != 0),
+        glam::Vec4::new(c, s, 0.0, 0.0),
+        glam::Vec4::new(s, c, 0.0, 0.0),
+    );
+    let (a, b) = (ab.x, ab.y);
     let sin_sign = (q & 2) << 30;
     let cos_sign = ((q + 1) & 2) << 30;
     (

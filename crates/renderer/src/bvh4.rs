@@ -101,6 +101,24 @@ struct BoxRay {
     far: [usize; 3],
 }
 
+/// The bound rows (of `Node4::bounds`) a ray enters and leaves each axis' slab through, by the
+/// octant of its direction (bit i set: negative along axis i, so it enters through the max bound).
+const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
+    let mut table = [([0; 3], [0; 3]); 8];
+    let mut octant = 0;
+    while octant < 8 {
+        let mut axis = 0;
+        while axis < 3 {
+            let negative = (octant >> axis) & 1;
+            table[octant].0[axis] = axis + 3 * negative;
+            table[octant].1[axis] = axis + 3 * (1 - negative);
+            axis += 1;
+        }
+        octant += 1;
+    }
+    table
+};
+
 impl BoxRay {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
@@ -110,12 +128,7 @@ impl BoxRay {
         let tiny = d.abs().cmplt(Vec3A::splat(1e-20));
         let inv = Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d);
         let org_inv = Vec3A::from(ray.origin) * inv;
-        let negative = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
-        let (nx, ny, nz) = (
-            (negative & 1) * 3,
-            1 + (negative >> 1 & 1) * 3,
-            2 + (negative >> 2) * 3,
-        );
+        let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
         Self {
             inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
             org_inv: [
@@ -123,8 +136,8 @@ impl BoxRay {
                 Vec4::splat(org_inv.y),
                 Vec4::splat(org_inv.z),
             ],
-            near: [nx, ny, nz],
-            far: [(nx + 3) % 6, (ny + 3) % 6, (nz + 3) % 6],
+            near,
+            far,
         }
     }
 

@@ -8,7 +8,7 @@
 // Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use glam::{Vec2, Vec3};
+use glam::{BVec4A, Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI, TAU};
 use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth};
 
@@ -20,14 +20,19 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     if a == 0.0 && b == 0.0 {
         return Vec2::ZERO;
     }
-    // φ = π/4 · (b/a), or π/2 − π/4 · (a/b): both need only sin and cos on [−π/4, π/4].
-    if a.abs() > b.abs() {
-        let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (b / a));
-        Vec2::new(a * cos, a * sin)
-    } else {
-        let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (a / b));
-        Vec2::new(b * sin, b * cos)
-    }
+    // φ = π/4 · (b/a), or π/2 − π/4 · (a/b): both need only sin and cos on [−π/4, π/4]. The two
+    // cases share one evaluation through selects: which one applies is random from sample to
+    // sample, and a branch on it mispredicted half the time.
+    let wide = a.abs() > b.abs();
+    let (r, other) = if wide { (a, b) } else { (b, a) };
+    let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (other / r));
+    // A vector select: LLVM turns a scalar float select like this one back into a branch.
+    let xy = Vec4::select(
+        BVec4A::splat(wide),
+        Vec4::new(cos, sin, 0.0, 0.0),
+        Vec4::new(sin, cos, 0.0, 0.0),
+    ) * r;
+    Vec2::new(xy.x, xy.y)
 }
 
 /// Cosine-weighted direction on the +z hemisphere (Malley's method): the importance-sampling

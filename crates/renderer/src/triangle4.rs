@@ -136,6 +136,7 @@ impl Ray4 {
     pub fn new(wr: &WatertightRay, origin: Vec3) -> Self {
         let axes = wr.axes();
         let shear = wr.shear();
+        let origin = origin.to_array();
         Self {
             axes,
             shear: [
