@@ -120,13 +120,19 @@ const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
 };
 
 impl BoxRay {
+    /// The reciprocal direction. A zero direction component would give 0 × inf = NaN on a box
+    /// face through the origin; a tiny replacement keeps the slabs finite and the test
+    /// conservative. (The largest component, all the watertight triangle test reads, is never
+    /// replaced for a non-zero direction.)
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        // A zero direction component would give 0 × inf = NaN on a box face through the origin;
-        // a tiny replacement keeps the slabs finite and the test conservative.
+    fn reciprocal(ray: &Ray) -> Vec3A {
         let d = Vec3A::from(ray.dir);
         let tiny = d.abs().cmplt(Vec3A::splat(1e-20));
-        let inv = Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d);
+        Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d)
+    }
+
+    #[inline(always)]
+    fn new(ray: &Ray, inv: Vec3A) -> Self {
         let org_inv = Vec3A::from(ray.origin) * inv;
         let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
         Self {
@@ -399,8 +405,9 @@ impl Bvh4 {
         ray: &Ray,
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
-        let box_ray = BoxRay::new(ray);
-        let ray4 = Ray4::new(&WatertightRay::new(ray), ray.origin);
+        let inv = BoxRay::reciprocal(ray);
+        let box_ray = BoxRay::new(ray, inv);
+        let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv.into()), ray.origin);
         let mut tmax = ray.tmax;
         let mut best: Option<ClosestHit> = None;
         let mut top = 0usize;
@@ -480,8 +487,9 @@ impl Bvh4 {
 
     #[inline(always)]
     fn occluded_with(&self, ray: &Ray, stack: &mut [MaybeUninit<ChildRef>]) -> bool {
-        let box_ray = BoxRay::new(ray);
-        let ray4 = Ray4::new(&WatertightRay::new(ray), ray.origin);
+        let inv = BoxRay::reciprocal(ray);
+        let box_ray = BoxRay::new(ray, inv);
+        let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv.into()), ray.origin);
         let tmax = ray.tmax;
         let mut top = 0usize;
         let mut current = self.root;

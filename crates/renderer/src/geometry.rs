@@ -34,16 +34,21 @@ pub struct WatertightRay {
 impl WatertightRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir;
-        let ad = d.abs();
-        // The largest axis from three comparisons and a table instead of a branch tree (which
-        // mispredicts on random directions): bit 0 = |x| > |y|, bit 1 = |x| > |z|, bit 2 = |y| > |z|.
-        const LARGEST: [u8; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
-        let kz = LARGEST[(ad.x > ad.y) as usize
-            | ((ad.x > ad.z) as usize) << 1
-            | ((ad.y > ad.z) as usize) << 2];
-        let dp = permute(d, kz);
-        let sz = 1.0 / dp.z;
+        let kz = largest_axis(ray.dir);
+        let dp = permute(ray.dir, kz);
+        Self::with_shear(ray, kz, dp, 1.0 / dp.z)
+    }
+
+    /// [`WatertightRay::new`] for a ray whose reciprocal direction `inv` is at hand (the box test
+    /// computes it): 1/d along the largest axis is one of its lanes, so the division is shared.
+    #[inline]
+    pub fn with_reciprocal(ray: &Ray, inv: Vec3) -> Self {
+        let kz = largest_axis(ray.dir);
+        Self::with_shear(ray, kz, permute(ray.dir, kz), permute(inv, kz).z)
+    }
+
+    #[inline(always)]
+    fn with_shear(ray: &Ray, kz: u8, dp: Vec3, sz: f32) -> Self {
         Self {
             origin: ray.origin,
             kz,
@@ -67,6 +72,16 @@ impl WatertightRay {
     pub fn shear(&self) -> Vec3 {
         self.shear
     }
+}
+
+/// The axis of `d`'s largest component, from three comparisons and a table instead of a branch
+/// tree (which mispredicts on random directions): bit 0 = |x| > |y|, bit 1 = |x| > |z|,
+/// bit 2 = |y| > |z|.
+#[inline(always)]
+fn largest_axis(d: Vec3) -> u8 {
+    const LARGEST: [u8; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
+    let ad = d.abs();
+    LARGEST[(ad.x > ad.y) as usize | ((ad.x > ad.z) as usize) << 1 | ((ad.y > ad.z) as usize) << 2]
 }
 
 /// The source axes of the cyclic permutation (kz+1, kz+2, kz) mod 3 that moves axis kz to z, by
