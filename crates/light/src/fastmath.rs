@@ -57,6 +57,19 @@ pub fn sin_cos_eighth(x: f32) -> (f32, f32) {
     (s, c)
 }
 
+/// `(b, a)` when `swap`, else `(a, b)`, without a branch: for choices made by random numbers,
+/// where a branch mispredicts half the time. A vector select on purpose: LLVM turns a scalar
+/// float select like this one back into a branch.
+#[inline(always)]
+pub fn swap_if(swap: bool, a: f32, b: f32) -> (f32, f32) {
+    let v = glam::Vec4::select(
+        glam::BVec4A::splat(swap),
+        glam::Vec4::new(b, a, 0.0, 0.0),
+        glam::Vec4::new(a, b, 0.0, 0.0),
+    );
+    (v.x, v.y)
+}
+
 /// `((2 pi t).sin(), (2 pi t).cos())` for `t` in [0, 1] without libm, to within 1.2e-7 absolute
 /// (about 1 ULP of 1). Exact reduction: `t` minus the nearest quarter turn is exact in f32 on
 /// [0, 1], so unlike `(2.0 * PI * t).sin_cos()` no argument rounding is added near t = 1. The
@@ -72,14 +85,7 @@ pub fn sin_cos_2pi(t: f32) -> (f32, f32) {
     let (s, c) = sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * PI));
     // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
     // (s, c), (c, -s), (-s, -c), (-c, s).
-    // (A vector select: LLVM turns a scalar float select like this one back into a branch, which
-    // mispredicts half the time on random angles.)
-    let ab = glam::Vec4::select(
-        glam::BVec4A::splat(q & 1 != 0),
-        glam::Vec4::new(c, s, 0.0, 0.0),
-        glam::Vec4::new(s, c, 0.0, 0.0),
-    );
-    let (a, b) = (ab.x, ab.y);
+    let (a, b) = swap_if(q & 1 != 0, s, c);
     let sin_sign = (q & 2) << 30;
     let cos_sign = ((q + 1) & 2) << 30;
     (

@@ -1,7 +1,7 @@
 //! Sampling helpers for area lights: pure geometry, shared by the renderer's next-event estimation
 //! and by its MIS weights (every sampler has a matching pdf).
 
-use glam::{BVec4A, Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Below this sin^2 of the cone half-angle (about 1.5 degrees) the cone is sampled with a Taylor
@@ -17,13 +17,7 @@ pub fn sample_triangle_uniform(u: Vec2) -> (f32, f32) {
     // from min and max, without a branch that mispredicts half the time.
     let half = 0.5 * u.x.min(u.y);
     let rest = u.x.max(u.y) - half;
-    // A vector select: LLVM turns a scalar float select like this one back into a branch.
-    let b = Vec4::select(
-        BVec4A::splat(u.x < u.y),
-        Vec4::new(half, rest, 0.0, 0.0),
-        Vec4::new(rest, half, 0.0, 0.0),
-    );
-    let (b0, b1) = (b.x, b.y);
+    let (b0, b1) = crate::fastmath::swap_if(u.x < u.y, rest, half);
     let b2 = (1.0 - b0 - b1).max(0.0);
     (b1, b2)
 }

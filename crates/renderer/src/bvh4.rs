@@ -166,6 +166,14 @@ impl BoxRay {
     }
 }
 
+/// A ray's constants for the box and the triangle tests, sharing the reciprocal direction.
+#[inline(always)]
+fn ray_constants(ray: &Ray) -> (BoxRay, Ray4) {
+    let inv = BoxRay::reciprocal(ray);
+    let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv.into()), ray.origin);
+    (BoxRay::new(ray, inv), ray4)
+}
+
 /// The closest hit in (0, tmax) among the triangles of `blocks`.
 #[inline(always)]
 fn closest_in_blocks(
@@ -405,9 +413,7 @@ impl Bvh4 {
         ray: &Ray,
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
-        let inv = BoxRay::reciprocal(ray);
-        let box_ray = BoxRay::new(ray, inv);
-        let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv.into()), ray.origin);
+        let (box_ray, ray4) = ray_constants(ray);
         let mut tmax = ray.tmax;
         let mut best: Option<ClosestHit> = None;
         let mut top = 0usize;
@@ -487,9 +493,7 @@ impl Bvh4 {
 
     #[inline(always)]
     fn occluded_with(&self, ray: &Ray, stack: &mut [MaybeUninit<ChildRef>]) -> bool {
-        let inv = BoxRay::reciprocal(ray);
-        let box_ray = BoxRay::new(ray, inv);
-        let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv.into()), ray.origin);
+        let (box_ray, ray4) = ray_constants(ray);
         let tmax = ray.tmax;
         let mut top = 0usize;
         let mut current = self.root;

@@ -8,9 +8,9 @@
 // Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use glam::{BVec4A, Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI, TAU};
-use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth};
+use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth, swap_if};
 
 /// Maps the unit square to the unit disk with Shirley and Chiu's concentric mapping, which keeps
 /// strata compact (unlike the polar map) so stratified samples stay well spread on the disk.
@@ -26,13 +26,8 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     let wide = a.abs() > b.abs();
     let (r, other) = if wide { (a, b) } else { (b, a) };
     let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (other / r));
-    // A vector select: LLVM turns a scalar float select like this one back into a branch.
-    let xy = Vec4::select(
-        BVec4A::splat(wide),
-        Vec4::new(cos, sin, 0.0, 0.0),
-        Vec4::new(sin, cos, 0.0, 0.0),
-    ) * r;
-    Vec2::new(xy.x, xy.y)
+    let (x, y) = swap_if(wide, sin, cos);
+    Vec2::new(r * x, r * y)
 }
 
 /// Cosine-weighted direction on the +z hemisphere (Malley's method): the importance-sampling
