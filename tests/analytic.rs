@@ -44,9 +44,16 @@ fn mean_rect(img: &torrey_texture::Image, x0: u32, y0: u32, x1: u32, y1: u32) ->
 }
 
 /// A convex diffuse object under a uniform environment L reflects exactly rho * L: it cannot see
-/// itself. The default torrey background is 0.5.
+/// itself. The default torrey background is 0.5. Unbounded paths, and direct light only (depth 2:
+/// the BSDF-sampled segment is the last, traced as an any-hit query since nothing else emits, and
+/// its MIS share of the background must still be counted).
 #[test]
 fn diffuse_furnace_with_default_background() {
+    diffuse_furnace(None);
+    diffuse_furnace(Some(2));
+}
+
+fn diffuse_furnace(max_depth: Option<i32>) {
     let xml = format!(
         r#"<scene version="0.6.0">{}
            <bsdf type="diffuse" id="d"><rgb name="reflectance" value="0.6, 0.3, 0.9"/></bsdf>
@@ -54,7 +61,7 @@ fn diffuse_furnace_with_default_background() {
            </scene>"#,
         camera("0, 0, 5", "0, 0, 0", "0, 1, 0", 30.0)
     );
-    let r = render_xml("furnace", &xml, 32, 64, None);
+    let r = render_xml("furnace", &xml, 32, 64, max_depth);
     let centre = mean_rect(&r.image, 12, 12, 20, 20);
     let expected = Vec3::new(0.6, 0.3, 0.9) * 0.5;
     // Standard error of the block mean from the render's own variance.

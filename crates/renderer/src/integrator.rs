@@ -110,26 +110,33 @@ pub fn radiance(
         let u_lobe = sampler.next_1d();
         let (u_light, u_rr) = (light_rr.x, light_rr.y);
 
-        rays.closest += 1;
-        let Some(hit) = scene.intersect(&ray) else {
-            // Escaped: lights at infinity.
-            for &li in &scene.infinite_lights {
-                let light = &scene.lights[li as usize];
-                let spread = if specular_chain && settings.mipmapping {
+        let last_segment = depth + 1 >= max_depth;
+        let hit = if last_segment && !scene.has_area_lights {
+            // Without area lights a hit on the last segment adds nothing: only whether the ray
+            // escapes to the lights at infinity matters, which an any-hit query answers sooner.
+            rays.shadow += 1;
+            if !scene.visible(ray.origin, ray.dir, ray.tmax) {
+                break;
+            }
+            None
+        } else {
+            rays.closest += 1;
+            scene.intersect(&ray)
+        };
+        let Some(hit) = hit else {
+            result += infinite_radiance(
+                scene,
+                throughput,
+                ray.dir,
+                if specular_chain && settings.mipmapping {
                     cone.spread
                 } else {
                     0.0
-                };
-                let (le, pdf) = light.eval_infinite(ray.dir, spread);
-                let w = if prev_delta {
-                    1.0
-                } else if settings.env_strategy != EnvStrategy::ImportanceMis {
-                    0.0
-                } else {
-                    power_heuristic(prev_bsdf_pdf, pdf * light_select_pdf)
-                };
-                result += throughput * le * w;
-            }
+                },
+                (!prev_delta).then_some(prev_bsdf_pdf),
+                light_select_pdf,
+                settings.env_strategy,
+            );
             break;
         };
         let wo = -ray.dir;
@@ -152,7 +159,7 @@ pub fn radiance(
             }
         }
 
-        if depth + 1 >= max_depth {
+        if last_segment {
             break;
         }
 
@@ -241,6 +248,31 @@ pub fn radiance(
         }
     }
     result
+}
+
+/// `throughput` times the radiance of the lights at infinity seen along an escaped ray `dir`, weighted against light
+/// sampling by MIS; `prev_bsdf_pdf` is the pdf of the BSDF sample that chose `dir` (None after a
+/// delta bounce or for camera rays, weight 1). `spread` filters environment maps (0: finest level).
+fn infinite_radiance(
+    scene: &RenderScene,
+    throughput: Vec3,
+    dir: Vec3,
+    spread: f32,
+    prev_bsdf_pdf: Option<f32>,
+    light_select_pdf: f32,
+    strategy: EnvStrategy,
+) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    for &li in &scene.infinite_lights {
+        let (le, pdf) = scene.lights[li as usize].eval_infinite(dir, spread);
+        let w = match prev_bsdf_pdf {
+            None => 1.0,
+            Some(_) if strategy != EnvStrategy::ImportanceMis => 0.0,
+            Some(bsdf_pdf) => power_heuristic(bsdf_pdf, pdf * light_select_pdf),
+        };
+        sum += throughput * le * w;
+    }
+    sum
 }
 
 /// The local shading frame at a hit, its normal on the side `wo` leaves from; None when that is

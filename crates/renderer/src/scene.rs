@@ -110,6 +110,9 @@ pub struct RenderScene {
     pub lights: Vec<Light>,
     /// Indices of lights at infinity (constant background, environment maps).
     pub infinite_lights: Vec<u32>,
+    /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
+    /// path's last segment only needs to know whether it escapes (an any-hit query).
+    pub has_area_lights: bool,
     pub warnings: Vec<String>,
 }
 
@@ -276,6 +279,7 @@ impl RenderScene {
         }
 
         let accel = Accel::build(&geoms);
+        let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
         Ok(Self {
             camera,
             accel,
@@ -286,6 +290,7 @@ impl RenderScene {
             textures,
             lights,
             infinite_lights,
+            has_area_lights,
             warnings,
         })
     }
