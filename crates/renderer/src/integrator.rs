@@ -56,7 +56,7 @@ pub enum EnvStrategy {
 pub struct RayCount {
     /// Closest-hit queries (camera rays and path continuations).
     pub closest: u64,
-    /// Any-hit (shadow) queries.
+    /// Any-hit queries: shadow rays, and last path segments in scenes without area lights.
     pub shadow: u64,
 }
 
