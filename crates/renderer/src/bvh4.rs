@@ -510,7 +510,7 @@ impl Bvh4 {
                 }
             } else if let Some(blocks) = self.packed_blocks(current) {
                 for block in blocks {
-                    if block.intersect(&ray4, ray, tmax).is_some() {
+                    if block.occludes(&ray4, ray, tmax) {
                         return true;
                     }
                 }

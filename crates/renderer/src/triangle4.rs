@@ -50,36 +50,41 @@ impl Triangle4 {
         (p(0), p(1), p(2))
     }
 
+    /// Whether the ray hits any of the four with t in (0, tmax): what an any-hit query needs,
+    /// without the closest lane's distance and barycentrics.
+    #[inline(always)]
+    pub fn occludes(&self, r: &Ray4, ray: &Ray, tmax: f32) -> bool {
+        let Some(e) = self.edges(r) else {
+            return self
+                .intersect_scalar(&WatertightRay::new(ray), tmax)
+                .is_some();
+        };
+        // The closest-hit conditions without its division: in a lane whose edge functions share
+        // a sign, det is non-zero with that sign, and 0 < t_num / det < tmax reads
+        // 0 < t_num s < tmax |det| with s = sign(det).
+        let t_scaled = e.t_num * e.det.signum();
+        let hit = e.one_sign
+            & t_scaled.cmpgt(Vec4::ZERO)
+            & t_scaled.cmplt(e.det.abs() * Vec4::splat(tmax));
+        hit.any()
+    }
+
     /// The closest hit among the four with t in (0, tmax): (lane, t, b1, b2), where b1 and b2
     /// weight vertices 1 and 2.
     #[inline(always)]
     pub fn intersect(&self, r: &Ray4, ray: &Ray, tmax: f32) -> Option<(usize, f32, f32, f32)> {
-        let [kx, ky, kz] = r.axes;
-        let (sx, sy, sz) = (r.shear[0], r.shear[1], r.shear[2]);
-        let [ox, oy, oz] = r.origin;
-        let (v0, v1, v2) = (&self.v[0], &self.v[1], &self.v[2]);
-        let (a_z, b_z, c_z) = (v0[kz] - oz, v1[kz] - oz, v2[kz] - oz);
-        let ax = (v0[kx] - ox) + sx * a_z;
-        let ay = (v0[ky] - oy) + sy * a_z;
-        let bx = (v1[kx] - ox) + sx * b_z;
-        let by = (v1[ky] - oy) + sy * b_z;
-        let cx = (v2[kx] - ox) + sx * c_z;
-        let cy = (v2[ky] - oy) + sy * c_z;
-
-        let u = cx * by - cy * bx;
-        let v = ax * cy - ay * cx;
-        let w = bx * ay - by * ax;
-        let zero = Vec4::ZERO;
-        // Exactly zero edge functions need the double-precision fallback of the scalar test;
-        // it is rare, so the whole block takes the scalar path then.
-        if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
+        let Some(EdgeTest {
+            v,
+            w,
+            det,
+            t_num,
+            one_sign,
+        }) = self.edges(r)
+        else {
             return self.intersect_scalar(&WatertightRay::new(ray), tmax);
-        }
-        let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-        let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
-        let det = u + v + w;
-        let t = (u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z)) / det;
-        let hit = !(negative & positive) & t.cmpgt(zero) & t.cmplt(Vec4::splat(tmax));
+        };
+        let t = t_num / det;
+        let hit = one_sign & t.cmpgt(Vec4::ZERO) & t.cmplt(Vec4::splat(tmax));
         let mut bits = hit.bitmask();
         if bits == 0 {
             return None;
@@ -103,6 +108,41 @@ impl Triangle4 {
         ))
     }
 
+    /// The watertight test's sheared edge functions and distance numerator for the four lanes;
+    /// None when an edge function is exactly zero in some lane, which needs the double-precision
+    /// fallback of the scalar test (rare, so the whole block takes the scalar path then).
+    #[inline(always)]
+    fn edges(&self, r: &Ray4) -> Option<EdgeTest> {
+        let [kx, ky, kz] = r.axes;
+        let (sx, sy, sz) = (r.shear[0], r.shear[1], r.shear[2]);
+        let [ox, oy, oz] = r.origin;
+        let (v0, v1, v2) = (&self.v[0], &self.v[1], &self.v[2]);
+        let (a_z, b_z, c_z) = (v0[kz] - oz, v1[kz] - oz, v2[kz] - oz);
+        let ax = (v0[kx] - ox) + sx * a_z;
+        let ay = (v0[ky] - oy) + sy * a_z;
+        let bx = (v1[kx] - ox) + sx * b_z;
+        let by = (v1[ky] - oy) + sy * b_z;
+        let cx = (v2[kx] - ox) + sx * c_z;
+        let cy = (v2[ky] - oy) + sy * c_z;
+
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let zero = Vec4::ZERO;
+        if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
+            return None;
+        }
+        let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+        let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+        Some(EdgeTest {
+            v,
+            w,
+            det: u + v + w,
+            t_num: u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z),
+            one_sign: !(negative & positive),
+        })
+    }
+
     /// The scalar test on every used lane: exact agreement with the one-triangle path.
     #[cold]
     #[inline(never)]
@@ -120,6 +160,17 @@ impl Triangle4 {
         }
         best
     }
+}
+
+/// The per-lane quantities of the watertight test that the closest-hit and any-hit tests share:
+/// edge functions v and w (u is folded into det), their sum det, the scaled distance numerator
+/// (t = t_num / det), and the lanes whose edge functions share a sign (the ray passes inside).
+struct EdgeTest {
+    v: Vec4,
+    w: Vec4,
+    det: Vec4,
+    t_num: Vec4,
+    one_sign: glam::BVec4A,
 }
 
 /// Per-ray constants of the 4-wide watertight test: the permuted axes, the shear and the
@@ -192,6 +243,8 @@ mod tests {
             let wr = WatertightRay::new(&ray);
             let simd = block.intersect(&Ray4::new(&wr, ray.origin), &ray, tmax);
             let scalar = block.intersect_scalar(&wr, tmax);
+            let occludes = block.occludes(&Ray4::new(&wr, ray.origin), &ray, tmax);
+            assert_eq!(occludes, simd.is_some(), "any-hit and closest-hit disagree");
             match (simd, scalar) {
                 (None, None) => {}
                 (Some(a), Some(b)) => {
