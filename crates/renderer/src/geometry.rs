@@ -44,7 +44,8 @@ impl WatertightRay {
     #[inline]
     pub fn with_reciprocal(ray: &Ray, inv: Vec3) -> Self {
         let kz = largest_axis(ray.dir);
-        Self::with_shear(ray, kz, permute(ray.dir, kz), permute(inv, kz).z)
+        // The permutation moves axis kz to z, so the permuted 1/d_z is simply 1/d[kz].
+        Self::with_shear(ray, kz, permute(ray.dir, kz), inv[kz as usize])
     }
 
     #[inline(always)]

@@ -250,9 +250,10 @@ pub fn radiance(
     result
 }
 
-/// `throughput` times the radiance of the lights at infinity seen along an escaped ray `dir`, weighted against light
-/// sampling by MIS; `prev_bsdf_pdf` is the pdf of the BSDF sample that chose `dir` (None after a
-/// delta bounce or for camera rays, weight 1). `spread` filters environment maps (0: finest level).
+/// `throughput` times the radiance of the lights at infinity seen along an escaped ray `dir`,
+/// weighted against light sampling by MIS; `prev_bsdf_pdf` is the pdf of the BSDF sample that
+/// chose `dir` (None after a delta bounce or for camera rays: weight 1). `spread` filters
+/// environment maps (0: finest level).
 fn infinite_radiance(
     scene: &RenderScene,
     throughput: Vec3,
