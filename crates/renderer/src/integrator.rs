@@ -188,7 +188,7 @@ pub fn radiance(
             let index = ((u_light * light_count as f32) as usize).min(light_count - 1);
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
-            if let Some(ls) = light.sample(hit.p, u_pos, &scene.mesh, &scene.prims, uniform_env) {
+            if let Some(ls) = light.sample(hit.p, u_pos, uniform_env) {
                 let wi_local = frame.to_local(ls.wi);
                 let f = model.eval(reflectance, wo_local, wi_local);
                 if f.max_element() > 0.0 && ls.pdf > 0.0 {

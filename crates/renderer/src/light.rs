@@ -3,20 +3,30 @@
 //! Lights are chosen uniformly, as Mitsuba 3 does, so the pdfs here include the 1/N factor only
 //! where the integrator multiplies it in.
 
-use crate::scene::{MeshData, PrimInfo};
 use glam::{Vec2, Vec3};
 use torrey_light::{
     sample_sphere_solid_angle, sample_triangle_uniform, sphere_solid_angle_pdf, Distribution1D,
     EnvMap,
 };
 
+/// One triangle of a mesh emitter, stored with the light so that sampling it reads one record
+/// instead of following primitive, index and vertex lists.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterTriangle {
+    pub p0: Vec3,
+    pub e1: Vec3,
+    pub e2: Vec3,
+    /// The unit face normal (before `flip_normals`).
+    pub normal: Vec3,
+}
+
 /// Geometry an area light samples from.
 pub enum AreaShape {
-    /// Triangles `first_prim ..` of the primitive list, chosen by area.
+    /// Triangles chosen by area.
     Mesh {
-        first_prim: u32,
         total_area: f32,
         triangles: Distribution1D,
+        geometry: Vec<EmitterTriangle>,
     },
     Sphere {
         center: Vec3,
@@ -84,14 +94,7 @@ impl Light {
     /// `uniform_env` samples environment maps uniformly over the sphere instead of by luminance
     /// (only for measuring what importance sampling gains).
     #[inline]
-    pub fn sample(
-        &self,
-        p: Vec3,
-        u: Vec2,
-        mesh: &MeshData,
-        prims: &[PrimInfo],
-        uniform_env: bool,
-    ) -> Option<LightSample> {
+    pub fn sample(&self, p: Vec3, u: Vec2, uniform_env: bool) -> Option<LightSample> {
         match &self.kind {
             LightKind::Point {
                 position,
@@ -118,22 +121,15 @@ impl Light {
                 ..
             } => match area {
                 AreaShape::Mesh {
-                    first_prim,
                     total_area,
                     triangles,
+                    geometry,
                 } => {
                     let (index, _, u_rest) = triangles.sample_discrete(u.x);
-                    let prim = prims[(*first_prim as usize) + index];
-                    let [a, b, c] = mesh.indices[prim.triangle as usize];
-                    let (p0, p1, p2) = (
-                        mesh.positions[a as usize],
-                        mesh.positions[b as usize],
-                        mesh.positions[c as usize],
-                    );
+                    let tri = &geometry[index];
                     let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
-                    let q = (1.0 - b1 - b2) * p0 + b1 * p1 + b2 * p2;
-                    // The same unit normal, precomputed at scene build.
-                    let mut n = mesh.face_normals[prim.triangle as usize];
+                    let q = tri.p0 + b1 * tri.e1 + b2 * tri.e2;
+                    let mut n = tri.normal;
                     if *flip_normals {
                         n = -n;
                     }

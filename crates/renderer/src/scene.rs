@@ -5,7 +5,7 @@ use crate::accel::{Accel, ClosestHit, PrimGeom};
 use crate::bsdf::BsdfModel;
 use crate::camera::Camera;
 use crate::geometry::{sphere_uv, Ray};
-use crate::light::{AreaShape, Light, LightKind};
+use crate::light::{AreaShape, EmitterTriangle, Light, LightKind};
 use crate::texture::{ColorSource, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use torrey_light::{Distribution1D, EnvMap};
@@ -207,23 +207,32 @@ impl RenderScene {
                             AreaShape::Sphere { center, radius }
                         }
                         ShapeKind::Mesh { .. } => {
-                            let areas: Vec<f32> = (first_prim..first_prim + prim_count)
+                            let tris: Vec<EmitterTriangle> = (first_prim..first_prim + prim_count)
                                 .map(|p| {
-                                    let [a, b, c] =
-                                        mesh.indices[prims[p as usize].triangle as usize];
+                                    let t = prims[p as usize].triangle as usize;
+                                    let [a, b, c] = mesh.indices[t];
                                     let (a, b, c) = (
                                         mesh.positions[a as usize],
                                         mesh.positions[b as usize],
                                         mesh.positions[c as usize],
                                     );
-                                    0.5 * (b - a).cross(c - a).length()
+                                    EmitterTriangle {
+                                        p0: a,
+                                        e1: b - a,
+                                        e2: c - a,
+                                        normal: mesh.face_normals[t],
+                                    }
                                 })
+                                .collect();
+                            let areas: Vec<f32> = tris
+                                .iter()
+                                .map(|t| 0.5 * t.e1.cross(t.e2).length())
                                 .collect();
                             let total: f32 = areas.iter().sum();
                             AreaShape::Mesh {
-                                first_prim,
                                 total_area: total,
                                 triangles: Distribution1D::new(&areas),
+                                geometry: tris,
                             }
                         }
                     };
