@@ -119,12 +119,23 @@ fn malformed_mesh_file_names_file_and_line() {
 }
 
 #[test]
-fn unreadable_obj_file() {
+fn malformed_obj_file_names_file_line_and_column() {
     let dir = temp_dir("bad-obj");
-    std::fs::write(dir.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
     let xml = "<scene version=\"2.0.0\">\n  <shape type=\"obj\"><string name=\"filename\" value=\"bad.obj\"/></shape>\n</scene>";
-    let e = parse_in(&dir, xml).unwrap_err();
-    assert_err(&e, "in mesh file 'bad.obj': ", pos_of(xml, "bad.obj"));
+    for (obj, message) in [
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
+            "in mesh file 'bad.obj': line 4, column 7: face refers to vertex 9, but 3 vertices are defined before this line",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1.5.2 0\nf 1 2 3\n",
+            "in mesh file 'bad.obj': line 3, column 5: cannot parse '1.5.2' as a vertex coordinate",
+        ),
+    ] {
+        std::fs::write(dir.join("bad.obj"), obj).unwrap();
+        let e = parse_in(&dir, xml).unwrap_err();
+        assert_err(&e, message, pos_of(xml, "bad.obj"));
+    }
 }
 
 #[test]

@@ -14,7 +14,13 @@ pub(crate) fn load(path: &Path, flip_v: bool) -> Result<TriangleMesh, String> {
     options.triangulate = true;
     options.ignore_points = true;
     options.ignore_lines = true;
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| e.to_string())?;
+    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| {
+        // tobj says what went wrong but not where; find the place in the text.
+        let located = std::fs::read(path)
+            .ok()
+            .and_then(|bytes| locate_error(&String::from_utf8_lossy(&bytes)));
+        located.unwrap_or_else(|| e.to_string())
+    })?;
     let mut mesh = TriangleMesh::default();
     let mut all_normals = true;
     let mut all_uvs = true;
@@ -52,4 +58,135 @@ pub(crate) fn load(path: &Path, flip_v: bool) -> Result<TriangleMesh, String> {
         );
     }
     Ok(mesh)
+}
+
+/// Where an OBJ file that tobj rejected goes wrong: "line L, column C: problem" for the first
+/// statement that does not parse or names a vertex that is not defined before it. tobj reports
+/// only the kind of error; this second pass over the text (run only after a failure) finds the
+/// place, so that the message can point at it. None when it finds nothing wrong.
+fn locate_error(text: &str) -> Option<String> {
+    // Counts of positions, texture coordinates and normals defined so far.
+    let mut counts = [0usize; 3];
+    const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    const PLURALS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    for (line_index, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("");
+        let at = |token: &str| {
+            // Tokens are slices of `line`, so their offset is a pointer difference.
+            let column = token.as_ptr() as usize - raw.as_ptr() as usize + 1;
+            format!("line {}, column {column}", line_index + 1)
+        };
+        let mut words = line.split_whitespace();
+        let Some(keyword) = words.next() else {
+            continue;
+        };
+        let (kind, needed) = match keyword {
+            "v" => (0, 3),
+            "vt" => (1, 1),
+            "vn" => (2, 3),
+            "f" => {
+                let vertices: Vec<&str> = words.collect();
+                if vertices.len() < 3 {
+                    return Some(format!(
+                        "{}: a face needs at least 3 vertices, found {}",
+                        at(keyword),
+                        vertices.len()
+                    ));
+                }
+                for vertex in vertices {
+                    let mut offset = 0;
+                    for (slot, part) in vertex.split('/').enumerate() {
+                        let token = &vertex[offset..offset + part.len()];
+                        offset += part.len() + 1;
+                        if slot > 2 {
+                            return Some(format!(
+                                "{}: face vertex '{vertex}' has more than 3 indices",
+                                at(vertex)
+                            ));
+                        }
+                        if part.is_empty() && slot > 0 {
+                            continue; // "1//3": no texture coordinate
+                        }
+                        let Ok(index) = part.parse::<i64>() else {
+                            return Some(format!(
+                                "{}: cannot parse '{part}' as a {} index",
+                                at(token),
+                                KINDS[slot]
+                            ));
+                        };
+                        let defined = counts[slot] as i64;
+                        let resolved = if index < 0 {
+                            defined + index + 1
+                        } else {
+                            index
+                        };
+                        if index == 0 || resolved < 1 || resolved > defined {
+                            let defined_text = if defined == 1 {
+                                format!("1 {} is", KINDS[slot])
+                            } else {
+                                format!("{defined} {} are", PLURALS[slot])
+                            };
+                            return Some(format!(
+                                "{}: face refers to {} {index}, but {defined_text} defined before this line",
+                                at(token),
+                                KINDS[slot],
+                            ));
+                        }
+                    }
+                }
+                continue;
+            }
+            _ => continue,
+        };
+        let mut found = 0;
+        for word in words.take(needed) {
+            if word.parse::<f32>().is_err() {
+                return Some(format!(
+                    "{}: cannot parse '{word}' as a {} coordinate",
+                    at(word),
+                    KINDS[kind]
+                ));
+            }
+            found += 1;
+        }
+        if found < needed {
+            return Some(format!(
+                "{}: a {} needs {needed} numbers, found {found}",
+                at(keyword),
+                KINDS[kind]
+            ));
+        }
+        counts[kind] += 1;
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::locate_error;
+
+    #[test]
+    fn finds_line_and_column_of_bad_statements() {
+        let cases = [
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "line 4, column 7: face refers to vertex 9, but 3 vertices are defined before this line"),
+            ("v 0 0 0\nv 1 x 0\n", "line 2, column 5: cannot parse 'x' as a vertex coordinate"),
+            ("v 0 0\n", "line 1, column 1: a vertex needs 3 numbers, found 2"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "line 4, column 1: a face needs at least 3 vertices, found 2"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", "line 5, column 9: face refers to texture coordinate 2, but 1 texture coordinate is defined before this line"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1//a 2 3\n", "line 4, column 8: cannot parse 'a' as a normal index"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4, column 9: face refers to vertex -4, but 3 vertices are defined before this line"),
+            ("v 0 0 0\nf 0 1 1\n", "line 2, column 3: face refers to vertex 0, but 1 vertex is defined before this line"),
+        ];
+        for (text, expected) in cases {
+            assert_eq!(locate_error(text).as_deref(), Some(expected), "{text:?}");
+        }
+    }
+
+    #[test]
+    fn valid_files_have_no_error() {
+        let text =
+            "# a quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 # trailing comment\nvt 0 0\nvn 0 0 1\n\
+                    f 1/1/1 2/1/1 3/1/1 4/1/1\nf -4//-1 -3//-1 -2//-1\ng group\nusemtl m\ns off\n";
+        assert_eq!(locate_error(text), None);
+    }
 }
