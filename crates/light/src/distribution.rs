@@ -365,7 +365,7 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{assert_chi_square, Rng};
+    use torrey_testkit::{assert_chi_square, Rng};
 
     #[test]
     fn continuous_histogram_matches_pdf() {

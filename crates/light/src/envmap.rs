@@ -394,7 +394,7 @@ fn floor_frac(t: f32) -> (i32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{assert_chi_square, Rng};
+    use torrey_testkit::{assert_chi_square, Rng};
 
     fn rotation() -> Mat3 {
         Mat3::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 0.9)

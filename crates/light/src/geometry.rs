@@ -169,7 +169,7 @@ pub fn sphere_solid_angle_pdf(center: Vec3, radius: f32, reference: Vec3, direct
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{assert_chi_square, Rng};
+    use torrey_testkit::{assert_chi_square, Rng};
 
     #[test]
     fn triangle_samples_are_uniform() {

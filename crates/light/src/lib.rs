@@ -11,9 +11,6 @@ pub mod envmap;
 pub mod fastmath;
 pub mod geometry;
 
-#[cfg(test)]
-mod testutil;
-
 pub use distribution::{Distribution1D, Distribution2D};
 pub use envmap::{luminance, EnvMap, EnvSample};
 pub use geometry::{

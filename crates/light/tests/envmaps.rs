@@ -5,25 +5,11 @@ use glam::{DVec3, Mat3, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use torrey_light::EnvMap;
+use torrey_testkit::Rng;
 use torrey_texture::load_image;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// SplitMix64 for reproducible samples.
-struct Rng(u64);
-impl Rng {
-    fn f32(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec2(&mut self) -> Vec2 {
-        Vec2::new(self.f32(), self.f32())
-    }
 }
 
 /// Midpoint quadrature over the sphere of world directions (pole +z, unlike the map's +y).
@@ -71,7 +57,7 @@ fn check_map(path: &Path, to_world: Mat3) {
         2400,
     );
     let count = 200_000;
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let (mut sum, mut sum2) = (0.0f64, 0.0f64);
     let mut mismatches = 0;
     let t2 = Instant::now();
@@ -158,7 +144,7 @@ fn committed_sky_has_sun_where_expected() {
     assert!(env.eval(sun, 0.0).y > 1500.0);
     // Importance sampling sends a large share of samples towards the sun (about its share of
     // luminance x solid angle, 40-45%).
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     let near = (0..20_000)
         .filter(|_| {
             env.sample(rng.vec2()).unwrap().direction.dot(sun) > (3.0f32).to_radians().cos()

@@ -67,13 +67,8 @@ mod tests {
     #[test]
     fn bvh_agrees_with_brute_force() {
         // A deterministic cloud of small triangles and spheres.
-        let mut state = 12345u32;
-        let mut rnd = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state as f32 / u32::MAX as f32) * 2.0 - 1.0
-        };
+        let mut rng = torrey_testkit::Rng::new(12345);
+        let mut rnd = || rng.range(-1.0, 1.0);
         let mut geoms = Vec::new();
         for i in 0..400 {
             let c = Vec3::new(rnd(), rnd(), rnd()) * 5.0;

@@ -211,13 +211,8 @@ mod tests {
     /// Every lane agrees with the scalar test, hits and misses alike, including unused lanes.
     #[test]
     fn agrees_with_the_scalar_test() {
-        let mut state = 0x9e37_79b9u32;
-        let mut rnd = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state as f32 / u32::MAX as f32) * 2.0 - 1.0
-        };
+        let mut rng = torrey_testkit::Rng::new(0x9e37_79b9);
+        let mut rnd = || rng.range(-1.0, 1.0);
         let mut hits = 0;
         for case in 0..20_000 {
             let count = 1 + case % 4;

@@ -356,22 +356,6 @@ mod tests {
         }
     }
 
-    /// A small deterministic generator (SplitMix64) for the randomised comparisons.
-    struct Rng(u64);
-    impl Rng {
-        fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        /// Uniform in [lo, hi).
-        fn range(&mut self, lo: f32, hi: f32) -> f32 {
-            lo + (hi - lo) * ((self.next_u64() >> 40) as f32 / (1u64 << 24) as f32)
-        }
-    }
-
     #[test]
     fn cast_floor_matches_libm_floor() {
         let check = |x: f32| {
@@ -452,7 +436,7 @@ mod tests {
 
     #[test]
     fn fast_bilinear_matches_general_path() {
-        let mut rng = Rng(0x5EED);
+        let mut rng = torrey_testkit::Rng::new(0x5EED);
         for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
             for (w, h) in [(37, 20), (1, 5), (5, 1), (64, 64), (1, 1), (2, 3)] {
                 let mip = MipMap::new(pattern(w, h), wrap, FilterType::Bilinear);
