@@ -64,6 +64,19 @@ struct RenderArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
+    /// BVH node width: `auto` (8 with AVX2 below 100k primitives, else 4), `4` or `8` (8 needs
+    /// AVX2, else 4 is used). The images are the same; this is for comparing their speed.
+    #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
+    bvh_width: BvhWidthArg,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum BvhWidthArg {
+    Auto,
+    #[value(name = "4")]
+    Four,
+    #[value(name = "8")]
+    Eight,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -122,8 +135,14 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let parse_time = load_start.elapsed();
     let (width, height) = args.size.unwrap_or((scene.film.width, scene.film.height));
     let build_start = Instant::now();
+    let bvh_width = match args.bvh_width {
+        BvhWidthArg::Auto => torrey_renderer::BvhWidth::Auto,
+        BvhWidthArg::Four => torrey_renderer::BvhWidth::Four,
+        BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
+    };
     let render_scene =
-        torrey_renderer::RenderScene::build(&scene, width, height).map_err(|e| e.to_string())?;
+        torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width)
+            .map_err(|e| e.to_string())?;
     for w in &render_scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -187,7 +206,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s",
+        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH",
         scene_path.display(),
         width,
         height,
@@ -202,6 +221,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.rays.closest,
         out.rays.shadow,
         out.first_tile.as_secs_f64(),
+        render_scene.accel.bvh_width(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

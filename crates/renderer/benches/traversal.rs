@@ -5,13 +5,14 @@
 //! (any hit), single-threaded, and prints millions of rays per second. The rays are generated
 //! once and replayed, so only the BVH queries are timed (not the surface reconstruction).
 //! `cargo bench -p torrey-renderer --bench traversal -- cbox` runs only scenes whose file name
-//! contains "cbox". A plain `harness = false` bench: no extra dependency in the test build.
+//! contains "cbox". Each scene is measured with 4-wide and, on CPUs with AVX2, 8-wide BVH nodes.
+//! A plain `harness = false` bench: no extra dependency in the test build.
 
 use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::time::Instant;
 use torrey_renderer::geometry::{offset_origin, Ray};
-use torrey_renderer::RenderScene;
+use torrey_renderer::{BvhWidth, RenderScene};
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -36,9 +37,16 @@ fn main() {
         "{:<34} {:>10} {:>12} {:>12} {:>12}",
         "scene", "triangles", "primary", "secondary", "shadow"
     );
-    for path in scenes {
-        let desc = torrey_parser::load_scene(&path, &[]).expect("scene loads");
-        let scene = RenderScene::build(&desc, 256, 256).expect("scene builds");
+    for (path, bvh_width) in scenes
+        .iter()
+        .flat_map(|p| [(p, BvhWidth::Four), (p, BvhWidth::Eight)])
+    {
+        let desc = torrey_parser::load_scene(path, &[]).expect("scene loads");
+        let scene =
+            RenderScene::build_with_width(&desc, 256, 256, bvh_width).expect("scene builds");
+        if bvh_width == BvhWidth::Eight && scene.accel.bvh_width() != 8 {
+            continue; // no AVX2
+        }
         let (primary, secondary, shadow) = make_rays(&scene);
         let closest = |rays: &[Ray]| {
             let mut hits = 0usize;
@@ -63,7 +71,11 @@ fn main() {
         };
         println!(
             "{:<34} {:>10} {:>12} {:>12} {:>12}",
-            path.file_name().unwrap().to_string_lossy(),
+            format!(
+                "{} ({}-wide)",
+                path.file_name().unwrap().to_string_lossy(),
+                scene.accel.bvh_width()
+            ),
             scene.triangle_count(),
             rate(primary.len(), &|| closest(&primary)),
             rate(secondary.len(), &|| closest(&secondary)),

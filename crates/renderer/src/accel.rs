@@ -1,23 +1,34 @@
 //! The acceleration structure: one BVH over every primitive of the scene, triangles and analytic
-//! spheres alike. The layout and traversal live in [`crate::bvh4`]; this module is the interface
+//! spheres alike. The layout and traversal live in [`crate::bvh`]; this module is the interface
 //! the scene uses (closest hit and any-hit queries).
 
-use crate::bvh4::Bvh4;
-pub use crate::bvh4::{ClosestHit, PrimGeom};
+use crate::bvh::Bvh;
+pub use crate::bvh::{BvhWidth, ClosestHit, PrimGeom};
 use crate::geometry::Ray;
 
 pub struct Accel {
-    bvh: Bvh4,
+    bvh: Bvh,
     primitive_count: usize,
 }
 
 impl Accel {
-    /// Builds the BVH. An empty scene gives an accelerator that every ray misses.
+    /// Builds the BVH ([`BvhWidth::Auto`]: eight-wide on CPUs with AVX2 for scenes below 100k
+    /// primitives). An empty scene gives an accelerator that every ray misses.
     pub fn build(geoms: &[PrimGeom]) -> Self {
+        Self::build_with_width(geoms, BvhWidth::Auto)
+    }
+
+    /// [`Accel::build`] with a chosen node width (tests and benchmarks compare them).
+    pub fn build_with_width(geoms: &[PrimGeom], width: BvhWidth) -> Self {
         Self {
-            bvh: Bvh4::build(geoms),
+            bvh: Bvh::build(geoms, width),
             primitive_count: geoms.len(),
         }
+    }
+
+    /// Children per BVH node (4 or 8).
+    pub fn bvh_width(&self) -> usize {
+        self.bvh.width()
     }
 
     pub fn primitive_count(&self) -> usize {
@@ -83,7 +94,14 @@ mod tests {
                 geoms.push(PrimGeom::Triangle { p0: c, p1, p2 });
             }
         }
-        let accel = Accel::build(&geoms);
+        for width in [BvhWidth::Four, BvhWidth::Eight] {
+            let accel = Accel::build_with_width(&geoms, width);
+            check_against_brute_force(&accel, &geoms, &mut rnd);
+        }
+    }
+
+    /// 4000 random rays: closest hits as brute force finds them, any-hit queries consistent.
+    fn check_against_brute_force(accel: &Accel, geoms: &[PrimGeom], rnd: &mut impl FnMut() -> f32) {
         let mut hits = 0;
         for _ in 0..4000 {
             let o = Vec3::new(rnd(), rnd(), rnd()) * 8.0;
@@ -94,7 +112,7 @@ mod tests {
                 tmax: f32::INFINITY,
             };
             let a = accel.intersect(&ray).map(|h| (h.t, h.prim));
-            let b = brute(&geoms, &ray);
+            let b = brute(geoms, &ray);
             match (a, b) {
                 (None, None) => {}
                 (Some(a), Some(b)) => {
@@ -121,13 +139,40 @@ mod tests {
 
     #[test]
     fn empty_scene_misses() {
-        let accel = Accel::build(&[]);
-        let ray = Ray {
-            origin: Vec3::ZERO,
-            dir: Vec3::Z,
-            tmax: f32::INFINITY,
-        };
-        assert!(accel.intersect(&ray).is_none());
-        assert!(!accel.occluded(&ray));
+        for width in [BvhWidth::Four, BvhWidth::Eight] {
+            let accel = Accel::build_with_width(&[], width);
+            let ray = Ray {
+                origin: Vec3::ZERO,
+                dir: Vec3::Z,
+                tmax: f32::INFINITY,
+            };
+            assert!(accel.intersect(&ray).is_none());
+            assert!(!accel.occluded(&ray));
+        }
+    }
+
+    /// Eight-wide nodes are built when asked for on a CPU with AVX2 (so that the test above
+    /// covers them on such machines), four-wide otherwise.
+    #[test]
+    fn width_follows_the_request() {
+        let geoms: Vec<PrimGeom> = (0..64)
+            .map(|i| {
+                let c = Vec3::new(i as f32, 0.0, 0.0);
+                PrimGeom::Triangle {
+                    p0: c,
+                    p1: c + Vec3::X * 0.5,
+                    p2: c + Vec3::Y * 0.5,
+                }
+            })
+            .collect();
+        assert_eq!(
+            Accel::build_with_width(&geoms, BvhWidth::Four).bvh_width(),
+            4
+        );
+        let eight = Accel::build_with_width(&geoms, BvhWidth::Eight).bvh_width();
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(eight, if crate::bvh8::available() { 8 } else { 4 });
+        #[cfg(not(target_arch = "x86_64"))]
+        assert_eq!(eight, 4);
     }
 }

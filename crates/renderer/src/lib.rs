@@ -3,7 +3,9 @@
 
 pub mod accel;
 pub mod bsdf;
-pub mod bvh4;
+pub mod bvh;
+#[cfg(target_arch = "x86_64")]
+pub mod bvh8;
 pub mod camera;
 pub mod geometry;
 pub mod integrator;
@@ -15,6 +17,7 @@ pub mod scene;
 pub mod texture;
 pub mod triangle4;
 
+pub use accel::BvhWidth;
 pub use integrator::EnvStrategy;
 pub use render::{render, RenderOutput, RenderSettings};
 pub use sampler::SamplerKind;

@@ -1,7 +1,7 @@
 //! The scene as the integrator sees it: world-space geometry in one BVH, resolved materials and
 //! textures, and the light list. Built once from the parser's plain description.
 
-use crate::accel::{Accel, ClosestHit, PrimGeom};
+use crate::accel::{Accel, BvhWidth, ClosestHit, PrimGeom};
 use crate::bsdf::BsdfModel;
 use crate::camera::Camera;
 use crate::geometry::{sphere_uv, Ray};
@@ -119,6 +119,17 @@ pub struct RenderScene {
 impl RenderScene {
     /// Prepares `scene` for a `width` x `height` film.
     pub fn build(scene: &desc::Scene, width: u32, height: u32) -> Result<Self, BuildError> {
+        Self::build_with_width(scene, width, height, BvhWidth::Auto)
+    }
+
+    /// [`RenderScene::build`] with a chosen BVH node width (for comparing them; the images are
+    /// the same up to which of two triangles at exactly equal distance is reported).
+    pub fn build_with_width(
+        scene: &desc::Scene,
+        width: u32,
+        height: u32,
+        bvh_width: BvhWidth,
+    ) -> Result<Self, BuildError> {
         let camera = Camera::new(
             scene.camera.to_world,
             scene.camera.fov_degrees,
@@ -287,7 +298,7 @@ impl RenderScene {
             lights.push(Light { kind });
         }
 
-        let accel = Accel::build(&geoms);
+        let accel = Accel::build_with_width(&geoms, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
         Ok(Self {
             camera,

@@ -1,0 +1,165 @@
+//! Eight-wide BVH nodes tested with AVX2: one 256-bit slab test covers a node's eight child
+//! boxes. Selected at run time (`Bvh::build`) on CPUs with AVX2; the traversal loops are the
+//! generic ones of [`crate::bvh`], compiled here inside functions with AVX2 enabled.
+
+use crate::bvh::{
+    any_hit, closest_hit, ChildRef, ClosestHit, InnerNodes, Leaves, WideBuilder, EMPTY,
+    EXIT_WIDENING, NEAR_FAR,
+};
+use crate::geometry::Ray;
+use glam::Vec3A;
+use std::arch::x86_64::*;
+use std::mem::MaybeUninit;
+
+/// True when this CPU can run eight-wide nodes.
+pub fn available() -> bool {
+    is_x86_feature_detected!("avx2")
+}
+
+/// An eight-wide inner node: `bounds` rows `[min x, min y, min z, max x, max y, max z]`, lane i
+/// for child i (unused lanes hold an inverted box).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct Node8 {
+    bounds: [[f32; 8]; 6],
+    children: [ChildRef; 8],
+}
+
+/// Eight-wide nodes. Only built when [`available`] holds, which makes the AVX2 code in
+/// [`InnerNodes::test`] sound to run.
+pub(crate) struct Nodes8(Vec<Node8>);
+
+/// Per-ray constants of the eight-wide box test: reciprocal direction and origin × reciprocal
+/// per axis, and the near and far bound rows.
+pub(crate) struct BoxRay8 {
+    inv: [f32; 3],
+    org_inv: [f32; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl Nodes8 {
+    /// Converts the BVH2 of `builder` below its root; returns the nodes and the root reference.
+    pub(crate) fn build(builder: &mut WideBuilder) -> (Self, ChildRef) {
+        assert!(available(), "eight-wide nodes need AVX2");
+        let mut nodes = Vec::new();
+        let root = builder.add_inner::<8, Node8>(
+            &mut nodes,
+            0,
+            1,
+            &|bounds| Node8 {
+                bounds,
+                children: [EMPTY; 8],
+            },
+            &|node, lane, child| node.children[lane] = child,
+        );
+        (Self(nodes), root)
+    }
+
+    /// [`closest_hit`] compiled with AVX2.
+    #[inline]
+    pub(crate) fn closest_hit(
+        &self,
+        leaves: &Leaves,
+        root: ChildRef,
+        ray: &Ray,
+        stack: &mut [MaybeUninit<(ChildRef, f32)>],
+    ) -> Option<ClosestHit> {
+        // SAFETY: `Nodes8` exists only on CPUs with AVX2 (checked in `build`).
+        unsafe { closest_hit_avx2(self, leaves, root, ray, stack) }
+    }
+
+    /// [`any_hit`] compiled with AVX2.
+    #[inline]
+    pub(crate) fn any_hit(
+        &self,
+        leaves: &Leaves,
+        root: ChildRef,
+        ray: &Ray,
+        stack: &mut [MaybeUninit<(ChildRef, f32)>],
+    ) -> bool {
+        // SAFETY: as in `closest_hit`.
+        unsafe { any_hit_avx2(self, leaves, root, ray, stack) }
+    }
+}
+
+#[target_feature(enable = "avx2")]
+unsafe fn closest_hit_avx2(
+    nodes: &Nodes8,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> Option<ClosestHit> {
+    closest_hit(nodes, leaves, root, ray, stack)
+}
+
+#[target_feature(enable = "avx2")]
+unsafe fn any_hit_avx2(
+    nodes: &Nodes8,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> bool {
+    any_hit(nodes, leaves, root, ray, stack)
+}
+
+impl InnerNodes for Nodes8 {
+    type RayConsts = BoxRay8;
+
+    #[inline(always)]
+    fn ray_consts(ray: &Ray, inv: Vec3A) -> BoxRay8 {
+        let org_inv = Vec3A::from(ray.origin) * inv;
+        let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
+        BoxRay8 {
+            inv: inv.to_array(),
+            org_inv: org_inv.to_array(),
+            near,
+            far,
+        }
+    }
+
+    #[inline(always)]
+    fn test(&self, r: ChildRef, c: &BoxRay8, tmax: f32) -> ([f32; 8], u32) {
+        debug_assert!((r as usize) < self.0.len());
+        // SAFETY: inner references are indices into the nodes, written by the build only;
+        // the row indices are below 6 (`NEAR_FAR`); AVX2 is present (see `Nodes8`).
+        unsafe {
+            let b = &self.0.get_unchecked(r as usize).bounds;
+            // The four-wide test's arithmetic, lane for lane: product, then difference (no
+            // fused multiply-add), so both widths find the same boxes.
+            let t = |row: usize, axis: usize| {
+                _mm256_sub_ps(
+                    _mm256_mul_ps(
+                        _mm256_load_ps(b.get_unchecked(row).as_ptr()),
+                        _mm256_set1_ps(c.inv[axis]),
+                    ),
+                    _mm256_set1_ps(c.org_inv[axis]),
+                )
+            };
+            let near = _mm256_max_ps(
+                _mm256_max_ps(t(c.near[0], 0), t(c.near[1], 1)),
+                _mm256_max_ps(t(c.near[2], 2), _mm256_setzero_ps()),
+            );
+            let far = _mm256_min_ps(
+                _mm256_min_ps(t(c.far[0], 0), t(c.far[1], 1)),
+                t(c.far[2], 2),
+            );
+            let far = _mm256_min_ps(
+                _mm256_mul_ps(far, _mm256_set1_ps(EXIT_WIDENING)),
+                _mm256_set1_ps(tmax),
+            );
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+            let mut nears = [0.0f32; 8];
+            _mm256_storeu_ps(nears.as_mut_ptr(), near);
+            (nears, mask)
+        }
+    }
+
+    #[inline(always)]
+    fn children(&self, r: ChildRef) -> &[ChildRef] {
+        // SAFETY: as in `test`.
+        unsafe { &self.0.get_unchecked(r as usize).children }
+    }
+}
