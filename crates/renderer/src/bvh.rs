@@ -95,7 +95,7 @@ pub(crate) trait InnerNodes {
     /// Per-ray constants of the box test.
     type RayConsts;
     fn ray_consts(ray: &Ray, inv: Vec3A) -> Self::RayConsts;
-    /// Entry distances of node `r`'s children (lanes below `WIDTH`) and the mask of children
+    /// Entry distances of node `r`'s children (the first 4 or 8 lanes) and the mask of children
     /// the ray enters within (0, tmax).
     fn test(&self, r: ChildRef, c: &Self::RayConsts, tmax: f32) -> ([f32; 8], u32);
     /// The child references of inner node `r`.
@@ -441,6 +441,8 @@ impl Bvh {
             blocks: Vec::new(),
             spheres: Vec::new(),
         };
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = width; // four-wide nodes only
         #[cfg(target_arch = "x86_64")]
         let eight = crate::bvh8::available()
             && match width {
