@@ -12,8 +12,8 @@ pub struct Accel {
 }
 
 impl Accel {
-    /// Builds the BVH ([`BvhWidth::Auto`]: eight-wide on CPUs with AVX2 for scenes below 100k
-    /// primitives). An empty scene gives an accelerator that every ray misses.
+    /// Builds the BVH ([`BvhWidth::Auto`]: eight-wide on CPUs with AVX2). An empty scene gives
+    /// an accelerator that every ray misses.
     pub fn build(geoms: &[PrimGeom]) -> Self {
         Self::build_with_width(geoms, BvhWidth::Auto)
     }

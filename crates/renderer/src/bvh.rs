@@ -4,9 +4,9 @@
 //! flattens it into nodes of four or eight children whose boxes are stored structure-of-arrays,
 //! so one ray is tested against all of a node's boxes with a handful of SIMD instructions, and
 //! into leaves whose triangles are precomputed [`Triangle4`] blocks. Eight-wide nodes (AVX2,
-//! [`crate::bvh8`]) are used when the CPU has AVX2 and the scene is not large: two thirds of the
-//! levels, each one 8-wide test, which measured 11-28% more rays per second than four-wide nodes
-//! on the project's scenes (`cargo bench --bench traversal`). Four-wide nodes (SSE,
+//! [`crate::bvh8`]) are used when the CPU has AVX2: two thirds of the levels, each one 8-wide
+//! test, which measured 11-28% more rays per second than four-wide nodes on the project's
+//! scenes (`cargo bench --bench traversal`). Four-wide nodes (SSE,
 //! every x86-64 CPU and other targets through glam) are the fallback. obvhs's own CPU traversal
 //! of its compressed wide BVH decodes quantised GPU-oriented nodes for every visit; this layout
 //! does not.
@@ -417,16 +417,13 @@ impl WideBuilder<'_> {
 }
 
 /// Primitive count from which a scene counts as large: it gets obvhs's medium build instead of
-/// the slowest, best one (which would take seconds), and four-wide nodes. Eight-wide nodes were
-/// 3.5% slower than four-wide ones on the 296k-triangle living room (sequential A/B, 6 pairs),
-/// likely because each visit of a node that is not in cache then loads twice the bytes, and
-/// 9-13% faster on the 4k-triangle textured_mesh.
+/// the slowest, best one, which would take seconds.
 const LARGE_SCENE: usize = 100_000;
 
 /// Which node width to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhWidth {
-    /// Eight when the CPU has AVX2 and the scene has fewer than 100k primitives, else four.
+    /// Eight when the CPU has AVX2, else four.
     Auto,
     Four,
     /// Eight-wide nodes; falls back to four on a CPU without AVX2.
@@ -444,12 +441,7 @@ impl Bvh {
         #[cfg(not(target_arch = "x86_64"))]
         let _ = width; // four-wide nodes only
         #[cfg(target_arch = "x86_64")]
-        let eight = crate::bvh8::available()
-            && match width {
-                BvhWidth::Four => false,
-                BvhWidth::Eight => true,
-                BvhWidth::Auto => geoms.len() < LARGE_SCENE,
-            };
+        let eight = crate::bvh8::available() && width != BvhWidth::Four;
         let empty_layout = || Layout::Four(Nodes4(Vec::new()));
         if geoms.is_empty() {
             return Self {
