@@ -114,6 +114,24 @@ pub(crate) trait InnerNodes {
 /// Four-wide nodes.
 pub(crate) struct Nodes4(Vec<Node4>);
 
+impl Nodes4 {
+    /// Converts the BVH2 of `builder` below its root; returns the nodes and the root reference.
+    fn build(builder: &mut WideBuilder) -> (Self, ChildRef) {
+        let mut nodes = Vec::new();
+        let root = builder.add_inner::<4, Node4>(
+            &mut nodes,
+            0,
+            1,
+            &|rows| Node4 {
+                bounds: rows.map(Vec4::from_array),
+                children: [EMPTY; 4],
+            },
+            &|node, lane, child| node.children[lane] = child,
+        );
+        (Self(nodes), root)
+    }
+}
+
 impl InnerNodes for Nodes4 {
     type RayConsts = BoxRay;
 
@@ -147,11 +165,54 @@ enum Layout {
     Eight(crate::bvh8::Nodes8),
 }
 
+impl Layout {
+    /// [`closest_hit`] on this layout's nodes.
+    #[inline(always)]
+    fn closest_hit(
+        &self,
+        leaves: &Leaves,
+        root: ChildRef,
+        ray: &Ray,
+        stack: &mut [MaybeUninit<(ChildRef, f32)>],
+    ) -> Option<ClosestHit> {
+        match self {
+            Layout::Four(nodes) => closest_hit(nodes, leaves, root, ray, stack),
+            #[cfg(target_arch = "x86_64")]
+            Layout::Eight(nodes) => nodes.closest_hit(leaves, root, ray, stack),
+        }
+    }
+
+    /// [`any_hit`] on this layout's nodes.
+    #[inline(always)]
+    fn any_hit(
+        &self,
+        leaves: &Leaves,
+        root: ChildRef,
+        ray: &Ray,
+        stack: &mut [MaybeUninit<(ChildRef, f32)>],
+    ) -> bool {
+        match self {
+            Layout::Four(nodes) => any_hit(nodes, leaves, root, ray, stack),
+            #[cfg(target_arch = "x86_64")]
+            Layout::Eight(nodes) => nodes.any_hit(leaves, root, ray, stack),
+        }
+    }
+
+    /// Children per inner node.
+    fn width(&self) -> usize {
+        match self {
+            Layout::Four(_) => 4,
+            #[cfg(target_arch = "x86_64")]
+            Layout::Eight(_) => 8,
+        }
+    }
+}
+
 pub struct Bvh {
     layout: Layout,
     leaves: Leaves,
     root: ChildRef,
-    /// The largest stack a traversal can need: WIDTH - 1 pushes per level below the root,
+    /// The largest stack a traversal can need: width - 1 pushes per level below the root,
     /// plus one.
     stack_needed: usize,
 }
@@ -167,7 +228,7 @@ pub(crate) struct BoxRay {
 
 /// The bound rows (of a node's `bounds`) a ray enters and leaves each axis' slab through, by the
 /// octant of its direction (bit i set: negative along axis i, so it enters through the max bound).
-pub(crate) const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
+const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
     let mut table = [([0; 3], [0; 3]); 8];
     let mut octant = 0;
     while octant < 8 {
@@ -198,11 +259,18 @@ fn reciprocal(ray: &Ray) -> Vec3A {
     Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d)
 }
 
+/// The slab test's per-ray values, whatever the node width: origin × reciprocal direction,
+/// and the near and far bound rows of the ray's octant (from [`NEAR_FAR`]).
+#[inline(always)]
+pub(crate) fn slab_setup(ray: &Ray, inv: Vec3A) -> (Vec3A, [usize; 3], [usize; 3]) {
+    let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
+    (Vec3A::from(ray.origin) * inv, near, far)
+}
+
 impl BoxRay {
     #[inline(always)]
     fn new(ray: &Ray, inv: Vec3A) -> Self {
-        let org_inv = Vec3A::from(ray.origin) * inv;
-        let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
+        let (org_inv, near, far) = slab_setup(ray, inv);
         Self {
             inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
             org_inv: [
@@ -388,8 +456,9 @@ pub(crate) struct WideBuilder<'a> {
 }
 
 impl WideBuilder<'_> {
-    /// Converts the subtree under BVH2 inner node `index`; `push` appends a node (bounds
-    /// and children of `W` lanes, the children filled in afterwards by `set_child`).
+    /// Converts the subtree under BVH2 inner node `index` into `W`-wide nodes appended to
+    /// `nodes`: `make` creates a node from its bounds rows, `set_child` fills in its children
+    /// once they are built. Returns the subtree's reference.
     pub(crate) fn add_inner<const W: usize, N>(
         &mut self,
         nodes: &mut Vec<N>,
@@ -480,42 +549,31 @@ impl Bvh {
             leaves,
             depth: 0,
         };
+        let four = |builder: &mut WideBuilder| {
+            let (nodes, root) = Nodes4::build(builder);
+            (Layout::Four(nodes), root)
+        };
         #[cfg(target_arch = "x86_64")]
-        if eight {
+        let (layout, root) = if eight {
             let (nodes, root) = crate::bvh8::Nodes8::build(&mut builder);
-            return Self {
-                layout: Layout::Eight(nodes),
-                root,
-                stack_needed: 7 * builder.depth + 1,
-                leaves: builder.leaves,
-            };
-        }
-        let mut nodes = Vec::new();
-        let root = builder.add_inner::<4, Node4>(
-            &mut nodes,
-            0,
-            1,
-            &|rows| Node4 {
-                bounds: rows.map(Vec4::from_array),
-                children: [EMPTY; 4],
-            },
-            &|node, lane, child| node.children[lane] = child,
-        );
+            (Layout::Eight(nodes), root)
+        } else {
+            four(&mut builder)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (layout, root) = four(&mut builder);
         Self {
-            layout: Layout::Four(Nodes4(nodes)),
+            // A node pushes at most all but one of its children, at each level below the root.
+            stack_needed: (layout.width() - 1) * builder.depth + 1,
+            layout,
             root,
-            stack_needed: 3 * builder.depth + 1,
             leaves: builder.leaves,
         }
     }
 
     /// Children per inner node (4 or 8).
     pub fn width(&self) -> usize {
-        match self.layout {
-            Layout::Four(_) => 4,
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(_) => 8,
-        }
+        self.layout.width()
     }
 
     /// Closest hit with t in (0, ray.tmax).
@@ -529,11 +587,7 @@ impl Bvh {
         }
         // Uninitialised: zeroing 1 KiB per ray showed up in profiles as 3% memset.
         let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
-        match &self.layout {
-            Layout::Four(nodes) => closest_hit(nodes, &self.leaves, self.root, ray, stack),
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(nodes) => nodes.closest_hit(&self.leaves, self.root, ray, stack),
-        }
+        self.layout.closest_hit(&self.leaves, self.root, ray, stack)
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax); stops at the first hit.
@@ -546,11 +600,7 @@ impl Bvh {
             return self.occluded_deep(ray);
         }
         let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
-        match &self.layout {
-            Layout::Four(nodes) => any_hit(nodes, &self.leaves, self.root, ray, stack),
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(nodes) => nodes.any_hit(&self.leaves, self.root, ray, stack),
-        }
+        self.layout.any_hit(&self.leaves, self.root, ray, stack)
     }
 
     /// [`Bvh::intersect`] for trees too deep for the fixed stack (never seen in practice).
@@ -558,22 +608,14 @@ impl Bvh {
     #[inline(never)]
     fn intersect_deep(&self, ray: &Ray) -> Option<ClosestHit> {
         let stack = &mut vec![MaybeUninit::uninit(); self.stack_needed];
-        match &self.layout {
-            Layout::Four(nodes) => closest_hit(nodes, &self.leaves, self.root, ray, stack),
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(nodes) => nodes.closest_hit(&self.leaves, self.root, ray, stack),
-        }
+        self.layout.closest_hit(&self.leaves, self.root, ray, stack)
     }
 
     #[cold]
     #[inline(never)]
     fn occluded_deep(&self, ray: &Ray) -> bool {
         let stack = &mut vec![MaybeUninit::uninit(); self.stack_needed];
-        match &self.layout {
-            Layout::Four(nodes) => any_hit(nodes, &self.leaves, self.root, ray, stack),
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(nodes) => nodes.any_hit(&self.leaves, self.root, ray, stack),
-        }
+        self.layout.any_hit(&self.leaves, self.root, ray, stack)
     }
 }
 

@@ -3,8 +3,8 @@
 //! generic ones of [`crate::bvh`], compiled here inside functions with AVX2 enabled.
 
 use crate::bvh::{
-    any_hit, closest_hit, ChildRef, ClosestHit, InnerNodes, Leaves, WideBuilder, EMPTY,
-    EXIT_WIDENING, NEAR_FAR,
+    any_hit, closest_hit, slab_setup, ChildRef, ClosestHit, InnerNodes, Leaves, WideBuilder, EMPTY,
+    EXIT_WIDENING,
 };
 use crate::geometry::Ray;
 use glam::Vec3A;
@@ -110,8 +110,7 @@ impl InnerNodes for Nodes8 {
 
     #[inline(always)]
     fn ray_consts(ray: &Ray, inv: Vec3A) -> BoxRay8 {
-        let org_inv = Vec3A::from(ray.origin) * inv;
-        let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
+        let (org_inv, near, far) = slab_setup(ray, inv);
         BoxRay8 {
             inv: inv.to_array(),
             org_inv: org_inv.to_array(),
