@@ -12,10 +12,18 @@
 //! with bilinear interpolation; the two differ by under one texel. The density over solid angle is
 //! p(u, v) / (2 pi^2 sin theta), with theta the direction's own polar angle (exact Jacobian of the
 //! lat-long map), so sample/pdf stay consistent everywhere.
+//!
+//! The cells are chosen with alias tables (a marginal one over rows, one per row over columns):
+//! one dependent memory read per level, where an inverse-cdf search reads a guide table and then
+//! the cdf. Each finest-level texel is stored with its cell's density in one 16-byte record, so
+//! the bilinear lookup of a sampled or escaped direction brings its pdf along in the same cache
+//! lines. Environment-map work was about half of an envmap-lit render before this layout
+//! (docs/performance.md, round 7).
 
-use crate::distribution::{Distribution2D, ONE_MINUS_EPSILON};
+use crate::alias::{self, AliasSlot};
+use crate::distribution::ONE_MINUS_EPSILON;
 use crate::fastmath;
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};
 
@@ -51,7 +59,13 @@ pub struct EnvMap {
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
-    distribution: Distribution2D,
+    /// The finest level's texels: rgb in xyz, and in w the density over the unit square of
+    /// choosing the texel's cell (marginal x conditional, as the alias tables realise them).
+    texels: Vec<Vec4>,
+    /// Alias table over rows (`height` slots).
+    row_slots: Vec<AliasSlot>,
+    /// One alias table per row over its columns, `width` slots each, flattened.
+    column_slots: Vec<AliasSlot>,
     /// False for an all-black map: nothing to sample, pdf is 0 everywhere.
     samplable: bool,
 }
@@ -100,6 +114,49 @@ fn sampling_weights(image: &Image, mode: SamplingWeights) -> Vec<f32> {
     weights
 }
 
+/// The alias tables over an environment map's sampling weights, and the density each cell gets.
+struct SamplingTables {
+    row_slots: Vec<AliasSlot>,
+    column_slots: Vec<AliasSlot>,
+    /// Density over the unit square of choosing each cell (row-major): the probability the tables
+    /// realise, times the cell count.
+    density: Vec<f32>,
+    /// Sum of all weights (0: nothing to sample).
+    weight_sum: f64,
+}
+
+impl SamplingTables {
+    /// `weights` row-major, `width * height` of them.
+    fn new(weights: &[f32], width: usize, height: usize) -> Self {
+        let mut column_slots = Vec::with_capacity(width * height);
+        let mut conditional = Vec::with_capacity(width * height);
+        let mut row_weights = Vec::with_capacity(height);
+        for row in weights.chunks_exact(width) {
+            conditional.extend(alias::build_slots(row, &mut column_slots));
+            row_weights.push(
+                row.iter()
+                    .filter(|w| w.is_finite() && **w > 0.0)
+                    .map(|&w| w as f64)
+                    .sum::<f64>(),
+            );
+        }
+        let mut row_slots = Vec::with_capacity(height);
+        let marginal = alias::build_slots_f64(&row_weights, &mut row_slots);
+        let cells = (width * height) as f64;
+        let density = conditional
+            .iter()
+            .enumerate()
+            .map(|(k, &p_column)| (marginal[k / width] * p_column * cells) as f32)
+            .collect();
+        Self {
+            row_slots,
+            column_slots,
+            density,
+            weight_sum: row_weights.iter().sum(),
+        }
+    }
+}
+
 /// Makes `m` a proper orthonormal basis (Gram-Schmidt on its columns, keeping handedness), so that
 /// the transform preserves solid angle and its inverse is the transpose. Degenerate input gives
 /// the identity.
@@ -142,8 +199,14 @@ impl EnvMap {
         };
         let (width, height) = (image.width as usize, image.height as usize);
         let weights = sampling_weights(&image, mode);
-        let distribution = Distribution2D::new(&weights, width, height);
-        let samplable = distribution.integral() > 0.0 && scale > 0.0;
+        let tables = SamplingTables::new(&weights, width, height);
+        let samplable = tables.weight_sum > 0.0 && scale > 0.0;
+        let texels = image
+            .pixels
+            .iter()
+            .zip(&tables.density)
+            .map(|(rgb, &density)| rgb.extend(density))
+            .collect();
         let to_world = orthonormalize(to_world);
         let texel_angle = (PI / height as f32).max(2.0 * PI / width as f32);
         Self {
@@ -154,7 +217,9 @@ impl EnvMap {
             scale,
             to_world,
             to_local: to_world.transpose(),
-            distribution,
+            texels,
+            row_slots: tables.row_slots,
+            column_slots: tables.column_slots,
             samplable,
         }
     }
@@ -234,15 +299,58 @@ impl EnvMap {
     /// with the nadir row, so each level's v is clamped to its first/last texel centre here.
     #[inline]
     fn lookup(&self, uv: Vec2, footprint: f32) -> Vec3 {
+        if footprint <= 0.0 {
+            // Every lookup after a rough bounce: no pyramid level to choose.
+            return self.bilinear_finest(uv);
+        }
         let level = self.mip.level_for_footprint(footprint);
         let l0 = level.floor();
         let t = level - l0;
         let l0 = l0 as usize;
-        let a = self.lookup_level_clamped(l0, uv);
+        let a = if l0 == 0 {
+            self.bilinear_finest(uv)
+        } else {
+            self.lookup_level_clamped(l0, uv)
+        };
         if t <= 0.0 || l0 + 1 >= self.mip.levels() {
             return a;
         }
         a * (1.0 - t) + self.lookup_level_clamped(l0 + 1, uv) * t
+    }
+
+    /// `lookup_level_clamped(0, uv)`, to the bit, read from the 16-byte texel records: one aligned
+    /// load per texel, and the cell density comes along in the same cache lines.
+    #[inline]
+    fn bilinear_finest(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let half = 0.5 / h;
+        let v = uv.y.clamp(half, 1.0 - half);
+        let x = uv.x * w - 0.5;
+        let y = v * h - 0.5;
+        if !(x >= -1.0 && x < w && y >= -1.0 && y < h) {
+            return self.lookup_level_clamped(0, uv);
+        }
+        let (i, fx) = floor_frac(x);
+        let (j, fy) = floor_frac(y);
+        let (w, h) = (self.width as i32, self.height as i32);
+        let wrap = |k: i32, n: i32| {
+            if k < 0 {
+                n - 1
+            } else if k >= n {
+                0
+            } else {
+                k
+            }
+        };
+        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
+        let (r0, r1) = (
+            wrap(j, h) as usize * w as usize,
+            wrap(j + 1, h) as usize * w as usize,
+        );
+        let px = &self.texels;
+        let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
+        let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
+        (top * (1.0 - fy) + bottom * fy).truncate()
     }
 
     #[inline]
@@ -327,39 +435,41 @@ impl EnvMap {
         if !self.samplable {
             return None;
         }
-        let (uv, p) = self.distribution.sample(u);
-        if p.is_nan() || p <= 0.0 {
+        let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
+        let (row, v_in_cell) = alias::pick(&self.row_slots, u.y);
+        let columns = &self.column_slots[row * self.width..(row + 1) * self.width];
+        let (column, u_in_cell) = alias::pick(columns, u.x);
+        let density = self.texels[row * self.width + column].w;
+        if density.is_nan() || density <= 0.0 {
             return None;
         }
-        let uv = self.away_from_texel_edges(uv);
+        let uv = self.in_cell(column, row, Vec2::new(u_in_cell, v_in_cell));
         let (local, sin_theta) = Self::uv_to_local_dir_sin(uv);
         if sin_theta.is_nan() || sin_theta <= 0.0 {
             return None;
         }
-        let pdf = p / (2.0 * PI * PI * sin_theta);
+        let pdf = density / (2.0 * PI * PI * sin_theta);
         Some(EnvSample {
             direction: self.to_world * local,
-            radiance: self.lookup_level_clamped(0, uv) * self.scale,
+            radiance: self.bilinear_finest(uv) * self.scale,
             pdf,
         })
     }
 
-    /// Keeps a sampled uv at least [`TEXEL_EDGE_MARGIN`] texels inside its texel, so that the f32
-    /// round trip uv -> direction -> uv in [`Self::pdf`] cannot land in the neighbouring texel,
-    /// whose density may differ by orders of magnitude next to a sun. This moves 0.2% of each
-    /// texel's mass by at most a thousandth of a texel: far below any visible effect, whereas a
-    /// mismatched pdf would skew MIS weights.
+    /// The uv of position `offset` (in [0, 1)^2) inside cell (`column`, `row`), kept at least
+    /// [`TEXEL_EDGE_MARGIN`] texels from the cell's edges, so that the f32 round trip uv ->
+    /// direction -> uv in [`Self::pdf`] cannot land in the neighbouring cell, whose density may
+    /// differ by orders of magnitude next to a sun. This moves 0.2% of each cell's mass by at most
+    /// a thousandth of a texel: far below any visible effect, whereas a mismatched pdf would skew
+    /// MIS weights.
     #[inline]
-    fn away_from_texel_edges(&self, uv: Vec2) -> Vec2 {
+    fn in_cell(&self, column: usize, row: usize, offset: Vec2) -> Vec2 {
         let size = Vec2::new(self.width as f32, self.height as f32);
-        let t = uv * size;
-        // uv is in [0, 1), so truncation is floor (and cheaper than libm's floorf).
-        let cell = Vec2::new((t.x as u32) as f32, (t.y as u32) as f32).min(size - 1.0);
-        let frac = (t - cell).clamp(
+        let frac = offset.clamp(
             Vec2::splat(TEXEL_EDGE_MARGIN),
             Vec2::splat(1.0 - TEXEL_EDGE_MARGIN),
         );
-        ((cell + frac) / size).min(Vec2::splat(ONE_MINUS_EPSILON))
+        ((Vec2::new(column as f32, row as f32) + frac) / size).min(Vec2::splat(ONE_MINUS_EPSILON))
     }
 
     /// Density over solid angle of [`Self::sample`] producing world direction `dir`.
@@ -372,13 +482,26 @@ impl EnvMap {
         self.pdf_uv(uv, sin_theta)
     }
 
-    /// [`Self::pdf`] of the direction with local `uv` and `sin_theta`.
+    /// [`Self::pdf`] of the direction with local `uv` (in [0, 1]^2) and `sin_theta`.
     #[inline]
     fn pdf_uv(&self, uv: Vec2, sin_theta: f32) -> f32 {
         if !self.samplable || sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
-        self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
+        // Float-to-int `as` saturates (NaN gives 0), so only the upper edge needs a clamp.
+        let column = ((uv.x * self.width as f32) as u32).min(self.width as u32 - 1) as usize;
+        let row = ((uv.y * self.height as f32) as u32).min(self.height as u32 - 1) as usize;
+        self.texels[row * self.width + column].w / (2.0 * PI * PI * sin_theta)
+    }
+}
+
+/// `u` clamped into [0, 1) for an alias-table pick (NaN reads as 0).
+#[inline]
+fn clamp_unit(u: f32) -> f32 {
+    if u.is_nan() {
+        0.0
+    } else {
+        u.clamp(0.0, ONE_MINUS_EPSILON)
     }
 }
 
@@ -504,6 +627,15 @@ mod tests {
                         want.to_array().map(f32::to_bits),
                         "{w}x{h} level {level} uv {uv}: {got} vs {want}"
                     );
+                    if level == 0 {
+                        // The texel-record copy of the finest level reads the same values.
+                        let finest = env.bilinear_finest(uv);
+                        assert_eq!(
+                            finest.to_array().map(f32::to_bits),
+                            want.to_array().map(f32::to_bits),
+                            "{w}x{h} finest uv {uv}: {finest} vs {want}"
+                        );
+                    }
                 }
             }
         }

@@ -1,4 +1,5 @@
-//! Distribution1D/2D, environment-map importance sampling, point and area light sampling.
+//! Distribution1D/2D, alias tables, environment-map importance sampling, point and area light
+//! sampling.
 //!
 //! Everything here is renderer-agnostic: the renderer owns the scene and its rays, this crate owns
 //! the densities. Every sampler has a matching pdf so that multiple importance sampling can weigh
@@ -6,11 +7,13 @@
 
 #![deny(missing_docs)]
 
+pub mod alias;
 pub mod distribution;
 pub mod envmap;
 pub mod fastmath;
 pub mod geometry;
 
+pub use alias::AliasTable;
 pub use distribution::{Distribution1D, Distribution2D};
 pub use envmap::{luminance, EnvMap, EnvSample};
 pub use geometry::{
