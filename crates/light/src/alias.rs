@@ -98,14 +98,15 @@ pub fn build_slots_f64(weights: &[f64], slots: &mut Vec<AliasSlot>) -> Vec<f64> 
 /// selects rather than a branch, which would mispredict often.
 #[inline(always)]
 pub fn pick(slots: &[AliasSlot], u: f32) -> (usize, f32) {
-    let n = slots.len();
+    // Tables hold far fewer than 2^32 slots; u32 converts to f32 in one instruction, usize not.
+    let n = slots.len() as u32;
     let t = u * n as f32;
     // u in [0, 1), so t >= 0 and truncation is floor; rounding may give t = n for u just below 1.
-    let k = (t as u32 as usize).min(n - 1);
+    let k = (t as u32).min(n - 1);
     let frac = t - k as f32;
-    let slot = slots[k];
+    let slot = slots[k as usize];
     let own = frac < slot.q;
-    let index = std::hint::select_unpredictable(own, k, slot.alias as usize);
+    let index = std::hint::select_unpredictable(own, k, slot.alias) as usize;
     // own: frac / q; alias: (frac - q) / (1 - q); both in [0, 1] (q > 0 when own, q < 1 when not).
     // A vector select: LLVM turns a scalar float select (even of bit patterns) into a branch.
     let v = glam::Vec4::select(

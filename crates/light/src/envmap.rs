@@ -56,6 +56,8 @@ pub struct EnvMap {
     texels_per_radian: f32,
     width: usize,
     height: usize,
+    /// (width, height) as f32, so the hot paths do not convert (usize to f32 costs a branch).
+    size: Vec2,
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
@@ -214,6 +216,7 @@ impl EnvMap {
             texels_per_radian: 1.0 / texel_angle,
             width,
             height,
+            size: Vec2::new(width as f32, height as f32),
             scale,
             to_world,
             to_local: to_world.transpose(),
@@ -322,7 +325,7 @@ impl EnvMap {
     /// load per texel, and the cell density comes along in the same cache lines.
     #[inline]
     fn bilinear_finest(&self, uv: Vec2) -> Vec3 {
-        let (w, h) = (self.width as f32, self.height as f32);
+        let (w, h) = (self.size.x, self.size.y);
         let half = 0.5 / h;
         let v = uv.y.clamp(half, 1.0 - half);
         let x = uv.x * w - 0.5;
@@ -464,12 +467,13 @@ impl EnvMap {
     /// MIS weights.
     #[inline]
     fn in_cell(&self, column: usize, row: usize, offset: Vec2) -> Vec2 {
-        let size = Vec2::new(self.width as f32, self.height as f32);
+        let size = self.size;
         let frac = offset.clamp(
             Vec2::splat(TEXEL_EDGE_MARGIN),
             Vec2::splat(1.0 - TEXEL_EDGE_MARGIN),
         );
-        ((Vec2::new(column as f32, row as f32) + frac) / size).min(Vec2::splat(ONE_MINUS_EPSILON))
+        ((Vec2::new(column as u32 as f32, row as u32 as f32) + frac) / size)
+            .min(Vec2::splat(ONE_MINUS_EPSILON))
     }
 
     /// Density over solid angle of [`Self::sample`] producing world direction `dir`.
@@ -489,8 +493,8 @@ impl EnvMap {
             return 0.0;
         }
         // Float-to-int `as` saturates (NaN gives 0), so only the upper edge needs a clamp.
-        let column = ((uv.x * self.width as f32) as u32).min(self.width as u32 - 1) as usize;
-        let row = ((uv.y * self.height as f32) as u32).min(self.height as u32 - 1) as usize;
+        let column = ((uv.x * self.size.x) as u32).min(self.width as u32 - 1) as usize;
+        let row = ((uv.y * self.size.y) as u32).min(self.height as u32 - 1) as usize;
         self.texels[row * self.width + column].w / (2.0 * PI * PI * sin_theta)
     }
 }
