@@ -265,15 +265,18 @@ fn infinite_radiance(
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
     for &li in &scene.infinite_lights {
-        let (le, pdf) = scene.lights[li as usize].eval_infinite(dir, spread);
-        let w = match prev_bsdf_pdf {
-            None => 1.0,
-            Some(_) if strategy != EnvStrategy::ImportanceMis => 0.0,
-            Some(bsdf_pdf) => power_heuristic(bsdf_pdf, pdf * light_select_pdf),
+        let light = &scene.lights[li as usize];
+        sum += match prev_bsdf_pdf {
+            None => light.radiance_infinite(dir, spread),
+            // Counted through light samples only.
+            Some(_) if strategy != EnvStrategy::ImportanceMis => continue,
+            Some(bsdf_pdf) => {
+                let (le, pdf) = light.eval_infinite(dir, spread);
+                le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
+            }
         };
-        sum += throughput * le * w;
     }
-    sum
+    throughput * sum
 }
 
 /// The local shading frame at a hit, its normal on the side `wo` leaves from; None when that is

@@ -234,4 +234,15 @@ impl Light {
             _ => (Vec3::ZERO, 0.0),
         }
     }
+
+    /// [`Light::eval_infinite`]'s radiance alone, for rays whose MIS weight is 1 (camera rays and
+    /// rays after a delta bounce): an environment map then skips its density lookup.
+    #[inline]
+    pub fn radiance_infinite(&self, dir: Vec3, spread: f32) -> Vec3 {
+        match &self.kind {
+            LightKind::Constant { radiance } => *radiance,
+            LightKind::Env(env) => env.eval(dir, spread),
+            _ => Vec3::ZERO,
+        }
+    }
 }
