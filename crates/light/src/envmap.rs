@@ -18,7 +18,7 @@
 //! the cdf. Each finest-level texel is stored with its cell's density in one 16-byte record, so
 //! the bilinear lookup of a sampled or escaped direction brings its pdf along in the same cache
 //! lines. Environment-map work was about half of an envmap-lit render before this layout
-//! (docs/performance.md, round 7).
+//! (docs/performance.md, rounds 6 and 7).
 
 use crate::alias::{self, AliasSlot};
 use crate::distribution::ONE_MINUS_EPSILON;
