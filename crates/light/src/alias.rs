@@ -101,9 +101,10 @@ pub fn pick(slots: &[AliasSlot], u: f32) -> (usize, f32) {
     // Tables hold far fewer than 2^32 slots; u32 converts to f32 in one instruction, usize not.
     let n = slots.len() as u32;
     let t = u * n as f32;
-    // u in [0, 1), so t >= 0 and truncation is floor; rounding may give t = n for u just below 1.
+    // u in [0, 1), so t >= 0 and truncation is floor. Keeping frac below 1 guarantees q > frac
+    // for a full slot (q = 1), so the alias branch below never divides by 1 - q = 0.
     let k = (t as u32).min(n - 1);
-    let frac = t - k as f32;
+    let frac = (t - k as f32).min(crate::distribution::ONE_MINUS_EPSILON);
     let slot = slots[k as usize];
     let own = frac < slot.q;
     let index = std::hint::select_unpredictable(own, k, slot.alias) as usize;
@@ -236,6 +237,23 @@ mod tests {
             let count: f64 = rest.iter().sum();
             let expected = vec![count / 8.0; 8];
             assert_chi_square(&format!("rest of u within index {w}"), rest, &expected);
+        }
+    }
+
+    #[test]
+    fn pick_at_the_top_of_the_unit_interval() {
+        // The largest u the samplers produce, on tables of awkward sizes with full slots (q = 1)
+        // last: the rest of u must stay a number in [0, 1).
+        let top = crate::distribution::ONE_MINUS_EPSILON;
+        for n in [1usize, 3, 7, 1000, 4097, 65_537] {
+            let weights: Vec<f32> = (0..n).map(|i| 1.0 + (i % 3) as f32).collect();
+            let mut slots = Vec::new();
+            build_slots(&weights, &mut slots);
+            for u in [top, top.next_down(), 0.0] {
+                let (i, rest) = pick(&slots, u);
+                assert!(i < n, "n = {n}, u = {u}: index {i}");
+                assert!((0.0..1.0).contains(&rest), "n = {n}, u = {u}: rest {rest}");
+            }
         }
     }
 
