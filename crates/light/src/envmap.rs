@@ -58,6 +58,8 @@ pub struct EnvMap {
     height: usize,
     /// (width, height) as f32, so the hot paths do not convert (usize to f32 costs a branch).
     size: Vec2,
+    /// 1 / `size`.
+    inv_size: Vec2,
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
@@ -217,6 +219,7 @@ impl EnvMap {
             width,
             height,
             size: Vec2::new(width as f32, height as f32),
+            inv_size: Vec2::new(width as f32, height as f32).recip(),
             scale,
             to_world,
             to_local: to_world.transpose(),
@@ -247,8 +250,18 @@ impl EnvMap {
     /// sin(theta) is 0.
     #[inline]
     fn local_dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
-        let d = d.normalize_or(Vec3::Y);
-        let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+        // Both atan2s are scale-invariant, so the direction is not normalised first: that would
+        // put a square root and a division in front of everything else on the lookup's critical
+        // path. Only sin(theta), which the pdf needs, is taken of the normalised direction.
+        let (r2, l2) = (d.x * d.x + d.z * d.z, d.length_squared());
+        // A zero, NaN or overflowing direction reads as the zenith (as `normalize_or(Y)` would).
+        let (d, r2, l2) = if l2 > 0.0 && l2.is_finite() {
+            (d, r2, l2)
+        } else {
+            (Vec3::Y, 0.0, 1.0)
+        };
+        let r = r2.sqrt();
+        let sin_theta = (r2 / l2).sqrt();
         let mut u = fastmath::atan2(d.x, -d.z) * (0.5 / PI);
         if u < 0.0 {
             u += 1.0;
@@ -257,7 +270,7 @@ impl EnvMap {
             u = 0.0;
         }
         // atan2 rather than acos(d.y): acos loses half the digits near the poles.
-        let v = (fastmath::atan2(sin_theta, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
+        let v = (fastmath::atan2(r, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
         (Vec2::new(u, v), sin_theta)
     }
 
@@ -326,7 +339,7 @@ impl EnvMap {
     #[inline]
     fn bilinear_finest(&self, uv: Vec2) -> Vec3 {
         let (w, h) = (self.size.x, self.size.y);
-        let half = 0.5 / h;
+        let half = 0.5 * self.inv_size.y;
         let v = uv.y.clamp(half, 1.0 - half);
         let x = uv.x * w - 0.5;
         let y = v * h - 0.5;
@@ -467,12 +480,13 @@ impl EnvMap {
     /// MIS weights.
     #[inline]
     fn in_cell(&self, column: usize, row: usize, offset: Vec2) -> Vec2 {
-        let size = self.size;
         let frac = offset.clamp(
             Vec2::splat(TEXEL_EDGE_MARGIN),
             Vec2::splat(1.0 - TEXEL_EDGE_MARGIN),
         );
-        ((Vec2::new(column as u32 as f32, row as u32 as f32) + frac) / size)
+        // A multiplication rather than a division: the sample's direction waits for this value.
+        // Its rounding (under an ulp of uv) is far inside the margin.
+        ((Vec2::new(column as u32 as f32, row as u32 as f32) + frac) * self.inv_size)
             .min(Vec2::splat(ONE_MINUS_EPSILON))
     }
 
