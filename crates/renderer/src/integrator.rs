@@ -288,7 +288,7 @@ fn infinite_radiance(
 /// (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns, b = ns x t), and a perturbed normal
 /// that would face away from `wo` is bent back until it is just visible, so normal-mapped surfaces
 /// never turn black or leak light at grazing angles.
-#[inline]
+#[inline(always)]
 fn shading_frame(
     scene: &RenderScene,
     hit: &SurfaceHit,
@@ -297,12 +297,26 @@ fn shading_frame(
     footprint: f32,
 ) -> Option<Frame> {
     let Some(tex) = material.normal_map else {
+        // The common case, inline in the path loop; normal maps take the call below.
         let ns = hit.ns;
         if ns.dot(wo) >= 0.0 {
             return Some(Frame::from_normal(ns));
         }
         return material.two_sided.then(|| Frame::from_normal(-ns));
     };
+    normal_mapped_frame(scene, hit, wo, material, tex, footprint)
+}
+
+/// [`shading_frame`] for a material with normal map `tex`.
+#[inline(never)]
+fn normal_mapped_frame(
+    scene: &RenderScene,
+    hit: &SurfaceHit,
+    wo: Vec3,
+    material: &crate::scene::Material,
+    tex: u32,
+    footprint: f32,
+) -> Option<Frame> {
     let front = hit.ng.dot(wo) >= 0.0;
     if !front && !material.two_sided {
         return None;
