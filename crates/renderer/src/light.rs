@@ -93,7 +93,7 @@ impl Light {
     /// Samples a connection from `p`. Returns None when the sample carries no energy.
     /// `uniform_env` samples environment maps uniformly over the sphere instead of by luminance
     /// (only for measuring what importance sampling gains).
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, p: Vec3, u: Vec2, uniform_env: bool) -> Option<LightSample> {
         match &self.kind {
             LightKind::Point {
