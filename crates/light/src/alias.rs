@@ -168,12 +168,7 @@ impl AliasTable {
     /// The chosen index and a fresh uniform number in [0, 1); `u` in [0, 1) (NaN reads as 0).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
-        let u = if u.is_nan() {
-            0.0
-        } else {
-            u.clamp(0.0, crate::distribution::ONE_MINUS_EPSILON)
-        };
-        pick(&self.slots, u)
+        pick(&self.slots, crate::distribution::clamp_unit(u))
     }
 
     /// Probability of [`Self::sample`] choosing `i` (0 outside the range).

@@ -10,6 +10,16 @@ use glam::Vec2;
 /// The largest f32 below 1, so that samples stay inside the half-open interval [0, 1).
 pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
+/// `u` clamped into [0, 1), where the samplers' searches and picks expect it (NaN reads as 0).
+#[inline]
+pub(crate) fn clamp_unit(u: f32) -> f32 {
+    if u.is_nan() {
+        0.0
+    } else {
+        u.clamp(0.0, ONE_MINUS_EPSILON)
+    }
+}
+
 /// A piecewise-constant density over [0, 1) with `len()` equal-width bins.
 ///
 /// Used for discrete choices (which light, which row) and continuous ones (where in a row), so both
@@ -121,7 +131,7 @@ impl Distribution1D {
         self.func.get(i).copied().unwrap_or(0.0)
     }
 
-    /// Finds the bin whose cdf interval contains `u` (in [0, 1), as [`Self::clamp_u`] returns),
+    /// Finds the bin whose cdf interval contains `u` (in [0, 1), as [`clamp_unit`] returns),
     /// skipping zero-width bins: the largest `i` in `[0, len() - 1]` with `cdf[i] <= u`. Since
     /// `cdf[len()] = 1 > u`, bin `i` has positive width. Uses the guide table to narrow the search
     /// to the bins that `u`'s guide cell spans; gives exactly [`Self::find_slow`]'s answer.
@@ -144,15 +154,6 @@ impl Distribution1D {
         self.cdf[..n].partition_point(|&c| c <= u).saturating_sub(1)
     }
 
-    #[inline]
-    fn clamp_u(u: f32) -> f32 {
-        if u.is_nan() {
-            0.0
-        } else {
-            u.clamp(0.0, ONE_MINUS_EPSILON)
-        }
-    }
-
     /// Density of bin `i` over [0, 1) (1 for an all-zero distribution, which samples uniformly).
     #[inline]
     fn bin_density(&self, i: usize) -> f32 {
@@ -162,7 +163,7 @@ impl Distribution1D {
     /// Continuous sample in [0,1): returns (x, pdf(x) density over [0,1), bin index).
     #[inline]
     pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
-        let u = Self::clamp_u(u);
+        let u = clamp_unit(u);
         let i = self.find(u);
         let x = warp_in(&self.cdf, |c| c, i, u);
         (x, self.bin_density(i), i)
@@ -171,7 +172,7 @@ impl Distribution1D {
     /// Discrete: (index, probability, u remapped to [0,1) within the chosen bin).
     #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
-        let u = Self::clamp_u(u);
+        let u = clamp_unit(u);
         let i = self.find(u);
         let lo = self.cdf[i];
         let width = self.cdf[i + 1] - lo;
@@ -344,7 +345,7 @@ impl Distribution2D {
         let table = &self.rows[row * stride..(row + 1) * stride];
         let guide = &self.guides[row * self.guide_len..(row + 1) * self.guide_len];
         // Exactly Distribution1D::sample_continuous on the row's conditional.
-        let ux = Distribution1D::clamp_u(u.x);
+        let ux = clamp_unit(u.x);
         let i = find_in(table, |e| e[0], guide, ux);
         let x = warp_in(table, |e| e[0], i, ux);
         (Vec2::new(x, v), table[i][1])
@@ -496,7 +497,7 @@ mod tests {
             us.extend((0..=g).map(|k| k as f32 / g as f32));
             us.extend([0.0, ONE_MINUS_EPSILON]);
             for u in us {
-                let u = Distribution1D::clamp_u(u);
+                let u = clamp_unit(u);
                 assert_eq!(d.find(u), d.find_slow(u), "u {u} weights {weights:?}");
             }
         }

@@ -21,7 +21,7 @@
 //! (docs/performance.md, rounds 6 and 7).
 
 use crate::alias::{self, AliasSlot};
-use crate::distribution::ONE_MINUS_EPSILON;
+use crate::distribution::{clamp_unit, ONE_MINUS_EPSILON};
 use crate::fastmath;
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
@@ -338,73 +338,30 @@ impl EnvMap {
     /// load per texel, and the cell density comes along in the same cache lines.
     #[inline]
     fn bilinear_finest(&self, uv: Vec2) -> Vec3 {
-        let (w, h) = (self.size.x, self.size.y);
         let half = 0.5 * self.inv_size.y;
-        let v = uv.y.clamp(half, 1.0 - half);
-        let x = uv.x * w - 0.5;
-        let y = v * h - 0.5;
-        if !(x >= -1.0 && x < w && y >= -1.0 && y < h) {
+        let Some(t) = BilinearTaps::new(uv, self.size, half, self.width, self.height) else {
             return self.lookup_level_clamped(0, uv);
-        }
-        let (i, fx) = floor_frac(x);
-        let (j, fy) = floor_frac(y);
-        let (w, h) = (self.width as i32, self.height as i32);
-        let wrap = |k: i32, n: i32| {
-            if k < 0 {
-                n - 1
-            } else if k >= n {
-                0
-            } else {
-                k
-            }
         };
-        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
-        let (r0, r1) = (
-            wrap(j, h) as usize * w as usize,
-            wrap(j + 1, h) as usize * w as usize,
-        );
         let px = &self.texels;
-        let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
-        let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
-        (top * (1.0 - fy) + bottom * fy).truncate()
+        let top = px[t.index[0]] * (1.0 - t.fx) + px[t.index[1]] * t.fx;
+        let bottom = px[t.index[2]] * (1.0 - t.fx) + px[t.index[3]] * t.fx;
+        (top * (1.0 - t.fy) + bottom * t.fy).truncate()
     }
 
     #[inline]
     fn lookup_level_clamped(&self, level: usize, uv: Vec2) -> Vec3 {
         let img = self.mip.level(level);
-        let (w, h) = (img.width as f32, img.height as f32);
-        let half = 0.5 / h;
-        let v = uv.y.clamp(half, 1.0 - half);
-        // MipMap::lookup_level's bilinear arithmetic, step for step (so the result is the same
-        // to the bit), specialised to this map: WrapMode::Repeat with coordinates that are at
-        // most one texel outside the image, so wrapping is a compare instead of a division, and
-        // floor is a truncation instead of a libm call.
-        let x = uv.x * w - 0.5;
-        let y = v * h - 0.5;
-        if !(x >= -1.0 && x < w && y >= -1.0 && y < h) {
+        let size = Vec2::new(img.width as f32, img.height as f32);
+        let half = 0.5 / size.y;
+        let (w, h) = (img.width as usize, img.height as usize);
+        let Some(t) = BilinearTaps::new(uv, size, half, w, h) else {
+            let v = uv.y.clamp(half, 1.0 - half);
             return self.mip.lookup_level(level, Vec2::new(uv.x, v));
-        }
-        let (i, fx) = floor_frac(x);
-        let (j, fy) = floor_frac(y);
-        let (w, h) = (img.width as i32, img.height as i32);
-        let wrap = |k: i32, n: i32| {
-            if k < 0 {
-                n - 1
-            } else if k >= n {
-                0
-            } else {
-                k
-            }
         };
-        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
-        let (r0, r1) = (
-            wrap(j, h) as usize * w as usize,
-            wrap(j + 1, h) as usize * w as usize,
-        );
         let px = &img.pixels;
-        let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
-        let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
-        top * (1.0 - fy) + bottom * fy
+        let top = px[t.index[0]] * (1.0 - t.fx) + px[t.index[1]] * t.fx;
+        let bottom = px[t.index[2]] * (1.0 - t.fx) + px[t.index[3]] * t.fx;
+        top * (1.0 - t.fy) + bottom * t.fy
     }
 
     /// Filter width in uv units (the MipMap's convention: texels = footprint x max(W, H)) for a
@@ -513,13 +470,48 @@ impl EnvMap {
     }
 }
 
-/// `u` clamped into [0, 1) for an alias-table pick (NaN reads as 0).
-#[inline]
-fn clamp_unit(u: f32) -> f32 {
-    if u.is_nan() {
-        0.0
-    } else {
-        u.clamp(0.0, ONE_MINUS_EPSILON)
+/// The four texels and two weights of a bilinear lookup in one level of the map.
+///
+/// `MipMap::lookup_level`'s bilinear arithmetic, step for step (so the result is the same to the
+/// bit), specialised to this map: u repeats, v is clamped to the first/last texel centre (`half`
+/// texel of the level, in v), and the coordinates are at most one texel outside the image, so
+/// wrapping is a compare instead of a division and floor is a truncation instead of a libm call.
+struct BilinearTaps {
+    /// Row-major indices of the top-left, top-right, bottom-left and bottom-right texels.
+    index: [usize; 4],
+    fx: f32,
+    fy: f32,
+}
+
+impl BilinearTaps {
+    /// `None` when `uv` is not in [0, 1] x [0, 1] (NaN or out of range): the generic path then.
+    #[inline(always)]
+    fn new(uv: Vec2, size: Vec2, half: f32, width: usize, height: usize) -> Option<Self> {
+        let v = uv.y.clamp(half, 1.0 - half);
+        let x = uv.x * size.x - 0.5;
+        let y = v * size.y - 0.5;
+        if !(x >= -1.0 && x < size.x && y >= -1.0 && y < size.y) {
+            return None;
+        }
+        let (i, fx) = floor_frac(x);
+        let (j, fy) = floor_frac(y);
+        let (w, h) = (width as i32, height as i32);
+        let wrap = |k: i32, n: i32| {
+            if k < 0 {
+                n - 1
+            } else if k >= n {
+                0
+            } else {
+                k
+            }
+        };
+        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
+        let (r0, r1) = (wrap(j, h) as usize * width, wrap(j + 1, h) as usize * width);
+        Some(Self {
+            index: [r0 + c0, r0 + c1, r1 + c0, r1 + c1],
+            fx,
+            fy,
+        })
     }
 }
 
