@@ -44,8 +44,10 @@ impl WatertightRay {
     #[inline]
     pub fn with_reciprocal(ray: &Ray, inv: Vec3) -> Self {
         let kz = largest_axis(ray.dir);
-        // The permutation moves axis kz to z, so the permuted 1/d_z is simply 1/d[kz].
-        Self::with_shear(ray, kz, permute(ray.dir, kz), inv[kz as usize])
+        // The permutation moves axis kz to z, so the permuted 1/d_z is simply 1/d[kz]. Read
+        // through an array: glam's `Index` is a `match`, a three-way branch on a random axis.
+        let sz = [inv.x, inv.y, inv.z, inv.z][kz as usize & 3];
+        Self::with_shear(ray, kz, permute(ray.dir, kz), sz)
     }
 
     #[inline(always)]

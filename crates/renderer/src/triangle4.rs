@@ -55,9 +55,7 @@ impl Triangle4 {
     #[inline(always)]
     pub fn occludes(&self, r: &Ray4, ray: &Ray, tmax: f32) -> bool {
         let Some(e) = self.edges(r) else {
-            return self
-                .intersect_scalar(&WatertightRay::new(ray), tmax)
-                .is_some();
+            return self.intersect_scalar(ray, tmax).is_some();
         };
         // The closest-hit conditions without its division: in a lane whose edge functions share
         // a sign, det is non-zero with that sign, and 0 < t_num / det < tmax reads
@@ -81,7 +79,7 @@ impl Triangle4 {
             one_sign,
         }) = self.edges(r)
         else {
-            return self.intersect_scalar(&WatertightRay::new(ray), tmax);
+            return self.intersect_scalar(ray, tmax);
         };
         let t = t_num / det;
         let hit = one_sign & t.cmpgt(Vec4::ZERO) & t.cmplt(Vec4::splat(tmax));
@@ -143,10 +141,13 @@ impl Triangle4 {
         })
     }
 
-    /// The scalar test on every used lane: exact agreement with the one-triangle path.
+    /// The scalar test on every used lane: exact agreement with the one-triangle path. Takes the
+    /// ray, not its precomputed constants: built here, they stay out of the callers' set-up
+    /// (inlined into a traversal, the compiler hoisted them into every query's prologue).
     #[cold]
     #[inline(never)]
-    fn intersect_scalar(&self, wr: &WatertightRay, tmax: f32) -> Option<(usize, f32, f32, f32)> {
+    fn intersect_scalar(&self, ray: &Ray, tmax: f32) -> Option<(usize, f32, f32, f32)> {
+        let wr = &WatertightRay::new(ray);
         let mut best: Option<(usize, f32, f32, f32)> = None;
         for lane in 0..4 {
             if self.prim[lane] == u32::MAX {
@@ -237,7 +238,7 @@ mod tests {
             let tmax = if case % 3 == 0 { 1.5 } else { f32::INFINITY };
             let wr = WatertightRay::new(&ray);
             let simd = block.intersect(&Ray4::new(&wr, ray.origin), &ray, tmax);
-            let scalar = block.intersect_scalar(&wr, tmax);
+            let scalar = block.intersect_scalar(&ray, tmax);
             let occludes = block.occludes(&Ray4::new(&wr, ray.origin), &ray, tmax);
             assert_eq!(occludes, simd.is_some(), "any-hit and closest-hit disagree");
             match (simd, scalar) {
