@@ -8,7 +8,7 @@
 //! contains "cbox". Each scene is measured with 4-wide and, on CPUs with AVX2, 8-wide BVH nodes.
 //! A plain `harness = false` bench: no extra dependency in the test build.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 use std::path::Path;
 use std::time::Instant;
 use torrey_renderer::geometry::{offset_origin, Ray};
@@ -123,7 +123,7 @@ fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
     for i in 0..hits.len() {
         let (p, n) = hits[i];
         let d = loop {
-            let v = Vec3::new(rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0);
+            let v = Vec3A::new(rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0);
             if v.length_squared() <= 1.0 && v.length_squared() > 1e-4 {
                 break (v.normalize() + n).normalize_or(n);
             }

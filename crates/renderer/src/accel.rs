@@ -52,7 +52,7 @@ impl Accel {
 mod tests {
     use super::*;
     use crate::geometry::{intersect_sphere, intersect_triangle};
-    use glam::Vec3;
+    use glam::Vec3A;
 
     fn intersect_one(g: &PrimGeom, ray: &Ray, tmax: f32) -> Option<f32> {
         match *g {
@@ -82,15 +82,15 @@ mod tests {
         let mut rnd = || rng.range(-1.0, 1.0);
         let mut geoms = Vec::new();
         for i in 0..400 {
-            let c = Vec3::new(rnd(), rnd(), rnd()) * 5.0;
+            let c = Vec3A::new(rnd(), rnd(), rnd()) * 5.0;
             if i % 5 == 0 {
                 geoms.push(PrimGeom::Sphere {
                     center: c,
                     radius: 0.2 + 0.1 * rnd(),
                 });
             } else {
-                let p1 = c + Vec3::new(rnd(), rnd(), rnd()) * 0.5;
-                let p2 = c + Vec3::new(rnd(), rnd(), rnd()) * 0.5;
+                let p1 = c + Vec3A::new(rnd(), rnd(), rnd()) * 0.5;
+                let p2 = c + Vec3A::new(rnd(), rnd(), rnd()) * 0.5;
                 geoms.push(PrimGeom::Triangle { p0: c, p1, p2 });
             }
         }
@@ -104,8 +104,8 @@ mod tests {
     fn check_against_brute_force(accel: &Accel, geoms: &[PrimGeom], rnd: &mut impl FnMut() -> f32) {
         let mut hits = 0;
         for _ in 0..4000 {
-            let o = Vec3::new(rnd(), rnd(), rnd()) * 8.0;
-            let d = Vec3::new(rnd(), rnd(), rnd()).normalize();
+            let o = Vec3A::new(rnd(), rnd(), rnd()) * 8.0;
+            let d = Vec3A::new(rnd(), rnd(), rnd()).normalize();
             let ray = Ray {
                 origin: o,
                 dir: d,
@@ -142,8 +142,8 @@ mod tests {
         for width in [BvhWidth::Four, BvhWidth::Eight] {
             let accel = Accel::build_with_width(&[], width);
             let ray = Ray {
-                origin: Vec3::ZERO,
-                dir: Vec3::Z,
+                origin: Vec3A::ZERO,
+                dir: Vec3A::Z,
                 tmax: f32::INFINITY,
             };
             assert!(accel.intersect(&ray).is_none());
@@ -157,11 +157,11 @@ mod tests {
     fn width_follows_the_request() {
         let geoms: Vec<PrimGeom> = (0..64)
             .map(|i| {
-                let c = Vec3::new(i as f32, 0.0, 0.0);
+                let c = Vec3A::new(i as f32, 0.0, 0.0);
                 PrimGeom::Triangle {
                     p0: c,
-                    p1: c + Vec3::X * 0.5,
-                    p2: c + Vec3::Y * 0.5,
+                    p1: c + Vec3A::X * 0.5,
+                    p2: c + Vec3A::Y * 0.5,
                 }
             })
             .collect();

@@ -13,7 +13,7 @@
 
 use crate::geometry::{intersect_sphere, Ray, WatertightRay};
 use crate::triangle4::{Ray4, Triangle4};
-use glam::{Vec3, Vec3A, Vec4};
+use glam::{Vec3A, Vec4};
 use obvhs::{aabb::Aabb, bvh2::Bvh2, BvhBuildParams};
 use std::mem::MaybeUninit;
 use std::time::Duration;
@@ -21,20 +21,20 @@ use std::time::Duration;
 /// Geometry of one BVH primitive, in world space.
 #[derive(Clone, Copy, Debug)]
 pub enum PrimGeom {
-    Triangle { p0: Vec3, p1: Vec3, p2: Vec3 },
-    Sphere { center: Vec3, radius: f32 },
+    Triangle { p0: Vec3A, p1: Vec3A, p2: Vec3A },
+    Sphere { center: Vec3A, radius: f32 },
 }
 
 impl PrimGeom {
     fn aabb(&self) -> Aabb {
         match *self {
             PrimGeom::Triangle { p0, p1, p2 } => Aabb {
-                min: Vec3A::from(p0.min(p1).min(p2)),
-                max: Vec3A::from(p0.max(p1).max(p2)),
+                min: p0.min(p1).min(p2),
+                max: p0.max(p1).max(p2),
             },
             PrimGeom::Sphere { center, radius } => Aabb {
-                min: Vec3A::from(center - Vec3::splat(radius)),
-                max: Vec3A::from(center + Vec3::splat(radius)),
+                min: (center - Vec3A::splat(radius)),
+                max: (center + Vec3A::splat(radius)),
             },
         }
     }
@@ -79,7 +79,7 @@ struct Leaf {
 
 #[derive(Clone, Copy, Debug)]
 struct SphereRef {
-    center: Vec3,
+    center: Vec3A,
     radius: f32,
     prim: u32,
 }
@@ -254,7 +254,7 @@ pub(crate) const EXIT_WIDENING: f32 = 1.0 + 3.0 * f32::EPSILON;
 /// direction.)
 #[inline(always)]
 fn reciprocal(ray: &Ray) -> Vec3A {
-    let d = Vec3A::from(ray.dir);
+    let d = ray.dir;
     let tiny = d.abs().cmplt(Vec3A::splat(1e-20));
     Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d)
 }
@@ -264,7 +264,7 @@ fn reciprocal(ray: &Ray) -> Vec3A {
 #[inline(always)]
 pub(crate) fn slab_setup(ray: &Ray, inv: Vec3A) -> (Vec3A, [usize; 3], [usize; 3]) {
     let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
-    (Vec3A::from(ray.origin) * inv, near, far)
+    (ray.origin * inv, near, far)
 }
 
 impl BoxRay {
@@ -623,7 +623,7 @@ impl Bvh {
 #[inline(always)]
 fn ray_constants<N: InnerNodes>(ray: &Ray) -> (N::RayConsts, Ray4) {
     let inv = reciprocal(ray);
-    let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv.into()), ray.origin);
+    let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv), ray.origin);
     (N::ray_consts(ray, inv), ray4)
 }
 

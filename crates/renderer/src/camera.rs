@@ -1,12 +1,12 @@
 //! Mitsuba 3's perspective pinhole camera. Camera space looks along +z with +x to the left and
 //! +y up, so image x grows towards camera -x; pixel (0, 0) is the top-left of the film.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3A};
 use torrey_parser::FovAxis;
 
 #[derive(Clone, Debug)]
 pub struct Camera {
-    origin: Vec3,
+    origin: Vec3A,
     /// Camera-to-world rotation/scale columns, for directions.
     to_world: Mat4,
     /// tan(fov_x / 2) and tan(fov_y / 2).
@@ -42,7 +42,7 @@ impl Camera {
             }
         };
         let tan_half = Vec2::new(tan_x, tan_x * h / w);
-        let origin = to_world.transform_point3(Vec3::ZERO);
+        let origin = to_world.transform_point3(glam::Vec3::ZERO).into();
         Self {
             origin,
             to_world,
@@ -64,22 +64,22 @@ impl Camera {
     /// The primary ray through film position `film` (in pixels, (0,0) = top-left corner).
     /// Returns the origin and the normalised world direction.
     #[inline]
-    pub fn generate_ray(&self, film: Vec2) -> (Vec3, Vec3) {
+    pub fn generate_ray(&self, film: Vec2) -> (Vec3A, Vec3A) {
         let sx = film.x / self.width as f32;
         let sy = film.y / self.height as f32;
-        let local = Vec3::new(
+        let local = Vec3A::new(
             (1.0 - 2.0 * sx) * self.tan_half.x,
             (1.0 - 2.0 * sy) * self.tan_half.y,
             1.0,
         );
-        let dir = self.to_world.transform_vector3(local).normalize();
+        let dir = self.to_world.transform_vector3a(local).normalize();
         (self.origin, dir)
     }
 
     /// The film position (pixels) a world direction from the camera origin projects to, if it is
     /// in front of the camera. Used by tests to check orientation.
-    pub fn project(&self, dir_world: Vec3) -> Option<Vec2> {
-        let local = self.to_world.inverse().transform_vector3(dir_world);
+    pub fn project(&self, dir_world: Vec3A) -> Option<Vec2> {
+        let local = self.to_world.inverse().transform_vector3a(dir_world);
         if local.z <= 0.0 {
             return None;
         }
@@ -94,7 +94,7 @@ impl Camera {
 
 /// Mitsuba's look-at frame: d = normalize(target - origin), left = normalize(cross(up, d)),
 /// up' = cross(d, left); the camera-to-world matrix has columns (left, up', d, origin).
-pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+pub fn look_at(origin: Vec3A, target: Vec3A, up: Vec3A) -> Mat4 {
     let d = (target - origin).normalize();
     let left = up.cross(d).normalize();
     let new_up = d.cross(left);
@@ -113,21 +113,21 @@ mod tests {
     #[test]
     fn world_x_is_on_the_right() {
         let cam = Camera::new(
-            look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y),
+            look_at(Vec3A::ZERO, -Vec3A::Z, Vec3A::Y),
             90.0,
             FovAxis::X,
             100,
             50,
         );
-        let p = cam.project(Vec3::new(0.5, 0.0, -1.0)).unwrap();
+        let p = cam.project(Vec3A::new(0.5, 0.0, -1.0)).unwrap();
         assert!(p.x > 50.0, "world +x should land right of centre, got {p}");
-        let p = cam.project(Vec3::new(0.0, 0.2, -1.0)).unwrap();
+        let p = cam.project(Vec3A::new(0.0, 0.2, -1.0)).unwrap();
         assert!(p.y < 25.0, "world +y should land above centre, got {p}");
     }
 
     #[test]
     fn fov_axes() {
-        let m = look_at(Vec3::ZERO, Vec3::Z, Vec3::Y);
+        let m = look_at(Vec3A::ZERO, Vec3A::Z, Vec3A::Y);
         // fov 90 along x: the right edge of the film at x = width is 45 degrees off-axis.
         let cam = Camera::new(m, 90.0, FovAxis::X, 200, 100);
         let (_, d) = cam.generate_ray(Vec2::new(200.0, 50.0));
@@ -160,9 +160,9 @@ mod tests {
     #[test]
     fn generate_and_project_round_trip() {
         let m = look_at(
-            Vec3::new(1.0, 2.0, 3.0),
-            Vec3::new(-1.0, 0.5, 0.0),
-            Vec3::new(0.1, 1.0, 0.0),
+            Vec3A::new(1.0, 2.0, 3.0),
+            Vec3A::new(-1.0, 0.5, 0.0),
+            Vec3A::new(0.1, 1.0, 0.0),
         );
         let cam = Camera::new(m, 39.3, FovAxis::Y, 64, 48);
         for &(x, y) in &[(0.5, 0.5), (10.25, 40.0), (63.0, 1.0)] {

@@ -1,13 +1,13 @@
 //! Ray-primitive intersection for the two primitive kinds the BVH holds: triangles (watertight
 //! test) and analytic spheres (Mitsuba's sphere: exact, never tessellated).
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 
 /// A ray with its valid parameter interval.
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
-    pub origin: Vec3,
-    pub dir: Vec3,
+    pub origin: Vec3A,
+    pub dir: Vec3A,
     pub tmax: f32,
 }
 
@@ -24,11 +24,11 @@ pub struct TriangleHit {
 /// per ray, then shared by every triangle the traversal visits.
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
-    origin: Vec3,
+    origin: Vec3A,
     /// The axis of the direction's largest component; the permutation (kz+1, kz+2, kz) mod 3 is
     /// cyclic, so it is one swizzle chosen by kz.
     kz: u8,
-    shear: Vec3,
+    shear: Vec3A,
 }
 
 impl WatertightRay {
@@ -42,7 +42,7 @@ impl WatertightRay {
     /// [`WatertightRay::new`] for a ray whose reciprocal direction `inv` is at hand (the box test
     /// computes it): 1/d along the largest axis is one of its lanes, so the division is shared.
     #[inline]
-    pub fn with_reciprocal(ray: &Ray, inv: Vec3) -> Self {
+    pub fn with_reciprocal(ray: &Ray, inv: Vec3A) -> Self {
         let kz = largest_axis(ray.dir);
         // The permutation moves axis kz to z, so the permuted 1/d_z is simply 1/d[kz]. Read
         // through an array: glam's `Index` is a `match`, a three-way branch on a random axis.
@@ -51,16 +51,16 @@ impl WatertightRay {
     }
 
     #[inline(always)]
-    fn with_shear(ray: &Ray, kz: u8, dp: Vec3, sz: f32) -> Self {
+    fn with_shear(ray: &Ray, kz: u8, dp: Vec3A, sz: f32) -> Self {
         Self {
             origin: ray.origin,
             kz,
-            shear: Vec3::new(-dp.x * sz, -dp.y * sz, sz),
+            shear: Vec3A::new(-dp.x * sz, -dp.y * sz, sz),
         }
     }
 
     #[inline(always)]
-    fn permute(&self, v: Vec3) -> Vec3 {
+    fn permute(&self, v: Vec3A) -> Vec3A {
         permute(v, self.kz)
     }
 
@@ -72,7 +72,7 @@ impl WatertightRay {
 
     /// The shear (sx, sy, sz) that maps the permuted direction to +z.
     #[inline(always)]
-    pub fn shear(&self) -> Vec3 {
+    pub fn shear(&self) -> Vec3A {
         self.shear
     }
 }
@@ -81,7 +81,7 @@ impl WatertightRay {
 /// tree (which mispredicts on random directions): bit 0 = |x| > |y|, bit 1 = |x| > |z|,
 /// bit 2 = |y| > |z|.
 #[inline(always)]
-fn largest_axis(d: Vec3) -> u8 {
+fn largest_axis(d: Vec3A) -> u8 {
     const LARGEST: [u8; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
     let ad = d.abs();
     LARGEST[(ad.x > ad.y) as usize | ((ad.x > ad.z) as usize) << 1 | ((ad.y > ad.z) as usize) << 2]
@@ -94,10 +94,10 @@ const PERMUTATION: [[usize; 3]; 4] = [[1, 2, 0], [2, 0, 1], [0, 1, 2], [0, 1, 2]
 /// Cyclic axis permutation that moves axis `kz` to z. Indexed loads rather than a `match`: kz is
 /// random from ray to ray, and a branch on it mispredicted about once per ray in profiles.
 #[inline(always)]
-fn permute(v: Vec3, kz: u8) -> Vec3 {
+fn permute(v: Vec3A, kz: u8) -> Vec3A {
     let [x, y, z] = PERMUTATION[kz as usize & 3];
     let a = v.to_array();
-    Vec3::new(a[x], a[y], a[z])
+    Vec3A::new(a[x], a[y], a[z])
 }
 
 /// Watertight ray/triangle intersection (Woop, Benthin and Wald 2013): edges shared by two
@@ -105,9 +105,9 @@ fn permute(v: Vec3, kz: u8) -> Vec3 {
 #[inline]
 pub fn intersect_triangle(
     ray: &Ray,
-    p0: Vec3,
-    p1: Vec3,
-    p2: Vec3,
+    p0: Vec3A,
+    p1: Vec3A,
+    p2: Vec3A,
     tmax: f32,
 ) -> Option<TriangleHit> {
     intersect_triangle_pre(&WatertightRay::new(ray), p0, p1, p2, tmax)
@@ -117,9 +117,9 @@ pub fn intersect_triangle(
 #[inline(always)]
 pub fn intersect_triangle_pre(
     wr: &WatertightRay,
-    p0: Vec3,
-    p1: Vec3,
-    p2: Vec3,
+    p0: Vec3A,
+    p1: Vec3A,
+    p2: Vec3A,
     tmax: f32,
 ) -> Option<TriangleHit> {
     let (sx, sy, sz) = (wr.shear.x, wr.shear.y, wr.shear.z);
@@ -176,7 +176,13 @@ pub fn intersect_triangle_pre(
 /// Ray/sphere intersection with the numerically stable quadratic (the discriminant computed from
 /// the ray's closest approach, as in Ray Tracing Gems ch. 7), returning the nearest t in (tmin, tmax).
 #[inline]
-pub fn intersect_sphere(ray: &Ray, center: Vec3, radius: f32, tmin: f32, tmax: f32) -> Option<f32> {
+pub fn intersect_sphere(
+    ray: &Ray,
+    center: Vec3A,
+    radius: f32,
+    tmin: f32,
+    tmax: f32,
+) -> Option<f32> {
     let f = ray.origin - center;
     let a = ray.dir.length_squared();
     let b = -f.dot(ray.dir);
@@ -211,7 +217,7 @@ pub fn intersect_sphere(ray: &Ray, center: Vec3, radius: f32, tmin: f32, tmax: f
 /// Sphere texture coordinates and tangents in Mitsuba's convention, from the hit point in the
 /// sphere's object frame scaled to the unit sphere (pole axis +z).
 /// Returns (uv, dp/du, dp/dv) with the derivatives in the same (unit-sphere, object) frame.
-pub fn sphere_uv(local: Vec3) -> (Vec2, Vec3, Vec3) {
+pub fn sphere_uv(local: Vec3A) -> (Vec2, Vec3A, Vec3A) {
     let (x, y, z) = (local.x, local.y, local.z.clamp(-1.0, 1.0));
     let mut phi = y.atan2(x);
     if phi < 0.0 {
@@ -222,10 +228,10 @@ pub fn sphere_uv(local: Vec3) -> (Vec2, Vec3, Vec3) {
         phi / (2.0 * std::f32::consts::PI),
         theta / std::f32::consts::PI,
     );
-    let dpdu = 2.0 * std::f32::consts::PI * Vec3::new(-y, x, 0.0);
+    let dpdu = 2.0 * std::f32::consts::PI * Vec3A::new(-y, x, 0.0);
     let (sin_phi, cos_phi) = phi.sin_cos();
     let rxy = (x * x + y * y).sqrt();
-    let dpdv = std::f32::consts::PI * Vec3::new(z * cos_phi, z * sin_phi, -rxy);
+    let dpdv = std::f32::consts::PI * Vec3A::new(z * cos_phi, z * sin_phi, -rxy);
     (uv, dpdu, dpdv)
 }
 
@@ -233,7 +239,7 @@ pub fn sphere_uv(local: Vec3) -> (Vec2, Vec3, Vec3) {
 /// by, with an offset proportional to the point's magnitude (pbrt's error-bound idea, simplified
 /// to a conservative relative epsilon), so that the new ray cannot re-hit its own surface.
 #[inline]
-pub fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+pub fn offset_origin(p: Vec3A, ng: Vec3A, dir: Vec3A) -> Vec3A {
     let scale = (p.abs().max_element() + 1.0) * 2e-5;
     let n = if ng.dot(dir) < 0.0 { -ng } else { ng };
     p + n * scale
@@ -243,7 +249,7 @@ pub fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
 mod tests {
     use super::*;
 
-    fn ray(o: Vec3, d: Vec3) -> Ray {
+    fn ray(o: Vec3A, d: Vec3A) -> Ray {
         Ray {
             origin: o,
             dir: d,
@@ -253,9 +259,9 @@ mod tests {
 
     #[test]
     fn triangle_hit_and_barycentrics() {
-        let (p0, p1, p2) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let (p0, p1, p2) = (Vec3A::ZERO, Vec3A::X, Vec3A::Y);
         let h = intersect_triangle(
-            &ray(Vec3::new(0.25, 0.5, 1.0), -Vec3::Z),
+            &ray(Vec3A::new(0.25, 0.5, 1.0), -Vec3A::Z),
             p0,
             p1,
             p2,
@@ -265,20 +271,26 @@ mod tests {
         assert!((h.t - 1.0).abs() < 1e-6);
         assert!((h.b1 - 0.25).abs() < 1e-6 && (h.b2 - 0.5).abs() < 1e-6);
         // Either orientation of the ray hits (no culling).
-        assert!(
-            intersect_triangle(&ray(Vec3::new(0.25, 0.25, -1.0), Vec3::Z), p0, p1, p2, 10.0)
-                .is_some()
-        );
+        assert!(intersect_triangle(
+            &ray(Vec3A::new(0.25, 0.25, -1.0), Vec3A::Z),
+            p0,
+            p1,
+            p2,
+            10.0
+        )
+        .is_some());
         // Outside and behind are misses; tmax is respected.
         assert!(
-            intersect_triangle(&ray(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z), p0, p1, p2, 10.0)
+            intersect_triangle(&ray(Vec3A::new(0.8, 0.8, 1.0), -Vec3A::Z), p0, p1, p2, 10.0)
                 .is_none()
         );
         assert!(
-            intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), Vec3::Z), p0, p1, p2, 10.0).is_none()
+            intersect_triangle(&ray(Vec3A::new(0.2, 0.2, 1.0), Vec3A::Z), p0, p1, p2, 10.0)
+                .is_none()
         );
         assert!(
-            intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z), p0, p1, p2, 0.5).is_none()
+            intersect_triangle(&ray(Vec3A::new(0.2, 0.2, 1.0), -Vec3A::Z), p0, p1, p2, 0.5)
+                .is_none()
         );
     }
 
@@ -286,15 +298,15 @@ mod tests {
     fn shared_edge_is_watertight() {
         // Two triangles sharing the diagonal of a unit square; rays aimed exactly at the diagonal
         // must hit at least one of them.
-        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
+        let (a, b, c, d) = (Vec3A::ZERO, Vec3A::X, Vec3A::new(1.0, 1.0, 0.0), Vec3A::Y);
         let mut misses = 0;
         for i in 0..1000 {
             let s = (i as f32 + 0.5) / 1000.0;
             let r = ray(
-                Vec3::new(s, s, 3.7),
-                Vec3::new(0.0001 * s, -0.0003, -1.0).normalize(),
+                Vec3A::new(s, s, 3.7),
+                Vec3A::new(0.0001 * s, -0.0003, -1.0).normalize(),
             );
-            let target = Vec3::new(s, s, 0.0);
+            let target = Vec3A::new(s, s, 0.0);
             let r = Ray {
                 dir: (target - r.origin).normalize(),
                 ..r
@@ -310,39 +322,41 @@ mod tests {
 
     #[test]
     fn sphere_hits_from_outside_and_inside() {
-        let c = Vec3::new(0.0, 0.0, -5.0);
-        let t = intersect_sphere(&ray(Vec3::ZERO, -Vec3::Z), c, 1.0, 0.0, f32::INFINITY).unwrap();
+        let c = Vec3A::new(0.0, 0.0, -5.0);
+        let t = intersect_sphere(&ray(Vec3A::ZERO, -Vec3A::Z), c, 1.0, 0.0, f32::INFINITY).unwrap();
         assert!((t - 4.0).abs() < 1e-5);
-        let t = intersect_sphere(&ray(c, Vec3::X), c, 2.0, 0.0, f32::INFINITY).unwrap();
+        let t = intersect_sphere(&ray(c, Vec3A::X), c, 2.0, 0.0, f32::INFINITY).unwrap();
         assert!((t - 2.0).abs() < 1e-5);
-        assert!(intersect_sphere(&ray(Vec3::ZERO, Vec3::Z), c, 1.0, 0.0, f32::INFINITY).is_none());
+        assert!(
+            intersect_sphere(&ray(Vec3A::ZERO, Vec3A::Z), c, 1.0, 0.0, f32::INFINITY).is_none()
+        );
         // A far, small sphere is still hit accurately (stable discriminant).
-        let far = Vec3::new(0.0, 0.0, -1e4);
+        let far = Vec3A::new(0.0, 0.0, -1e4);
         let t =
-            intersect_sphere(&ray(Vec3::ZERO, -Vec3::Z), far, 0.01, 0.0, f32::INFINITY).unwrap();
+            intersect_sphere(&ray(Vec3A::ZERO, -Vec3A::Z), far, 0.01, 0.0, f32::INFINITY).unwrap();
         assert!((t - (1e4 - 0.01)).abs() < 0.01);
     }
 
     #[test]
     fn sphere_uv_follows_mitsuba() {
         // +x on the equator: phi = 0, theta = pi/2.
-        let (uv, dpdu, dpdv) = sphere_uv(Vec3::X);
+        let (uv, dpdu, dpdv) = sphere_uv(Vec3A::X);
         assert!((uv - Vec2::new(0.0, 0.5)).length() < 1e-6);
-        assert!((dpdu - Vec3::new(0.0, 2.0 * std::f32::consts::PI, 0.0)).length() < 1e-5);
-        assert!((dpdv - Vec3::new(0.0, 0.0, -std::f32::consts::PI)).length() < 1e-5);
+        assert!((dpdu - Vec3A::new(0.0, 2.0 * std::f32::consts::PI, 0.0)).length() < 1e-5);
+        assert!((dpdv - Vec3A::new(0.0, 0.0, -std::f32::consts::PI)).length() < 1e-5);
         // +y: phi = pi/2 → u = 0.25; north pole: v = 0.
-        assert!((sphere_uv(Vec3::Y).0.x - 0.25).abs() < 1e-6);
-        assert!(sphere_uv(Vec3::Z).0.y.abs() < 1e-6);
+        assert!((sphere_uv(Vec3A::Y).0.x - 0.25).abs() < 1e-6);
+        assert!(sphere_uv(Vec3A::Z).0.y.abs() < 1e-6);
         // -y wraps to u = 0.75, not -0.25.
-        assert!((sphere_uv(-Vec3::Y).0.x - 0.75).abs() < 1e-6);
+        assert!((sphere_uv(-Vec3A::Y).0.x - 0.75).abs() < 1e-6);
     }
 
     #[test]
     fn offset_moves_to_the_side_of_the_direction() {
-        let p = Vec3::new(100.0, 0.0, 0.0);
-        let o = offset_origin(p, Vec3::Z, Vec3::new(0.0, 1.0, 1.0));
+        let p = Vec3A::new(100.0, 0.0, 0.0);
+        let o = offset_origin(p, Vec3A::Z, Vec3A::new(0.0, 1.0, 1.0));
         assert!(o.z > 0.0);
-        let o = offset_origin(p, Vec3::Z, Vec3::new(0.0, 1.0, -1.0));
+        let o = offset_origin(p, Vec3A::Z, Vec3A::new(0.0, 1.0, -1.0));
         assert!(o.z < 0.0);
     }
 }

@@ -14,7 +14,7 @@
 use crate::geometry::{offset_origin, Ray};
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::{RenderScene, SurfaceHit};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 use torrey_texture::RayCone;
 
 /// A source of uniform numbers in [0, 1).
@@ -63,20 +63,20 @@ pub struct RayCount {
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
 pub fn radiance(
     scene: &RenderScene,
-    origin: Vec3,
-    dir: Vec3,
+    origin: Vec3A,
+    dir: Vec3A,
     cone: RayCone,
     settings: PathSettings,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
-) -> Vec3 {
+) -> Vec3A {
     let max_depth = if settings.max_depth < 0 {
         u32::MAX
     } else {
         settings.max_depth as u32
     };
     if max_depth == 0 {
-        return Vec3::ZERO;
+        return Vec3A::ZERO;
     }
     let light_count = scene.lights.len();
     let light_select_pdf = if light_count > 0 {
@@ -85,8 +85,8 @@ pub fn radiance(
         0.0
     };
 
-    let mut result = Vec3::ZERO;
-    let mut throughput = Vec3::ONE;
+    let mut result = Vec3A::ZERO;
+    let mut throughput = Vec3A::ONE;
     let mut ray = Ray {
         origin,
         dir,
@@ -167,7 +167,12 @@ pub fn radiance(
         cone = cone.at_distance(hit.t);
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
-            cone.uv_footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
+            cone.uv_footprint(
+                ray.dir.into(),
+                hit.ng.into(),
+                hit.dpdu.into(),
+                hit.dpdv.into(),
+            )
         } else {
             0.0
         };
@@ -257,14 +262,14 @@ pub fn radiance(
 /// environment maps (0: finest level).
 fn infinite_radiance(
     scene: &RenderScene,
-    throughput: Vec3,
-    dir: Vec3,
+    throughput: Vec3A,
+    dir: Vec3A,
     spread: f32,
     prev_bsdf_pdf: Option<f32>,
     light_select_pdf: f32,
     strategy: EnvStrategy,
-) -> Vec3 {
-    let mut sum = Vec3::ZERO;
+) -> Vec3A {
+    let mut sum = Vec3A::ZERO;
     for &li in &scene.infinite_lights {
         let light = &scene.lights[li as usize];
         sum += match prev_bsdf_pdf {
@@ -292,7 +297,7 @@ fn infinite_radiance(
 fn shading_frame(
     scene: &RenderScene,
     hit: &SurfaceHit,
-    wo: Vec3,
+    wo: Vec3A,
     material: &crate::scene::Material,
     footprint: f32,
 ) -> Option<Frame> {
@@ -312,7 +317,7 @@ fn shading_frame(
 fn normal_mapped_frame(
     scene: &RenderScene,
     hit: &SurfaceHit,
-    wo: Vec3,
+    wo: Vec3A,
     material: &crate::scene::Material,
     tex: u32,
     footprint: f32,
@@ -322,7 +327,7 @@ fn normal_mapped_frame(
         return None;
     }
     let rgb = scene.textures[tex as usize].eval(hit.uv, footprint);
-    let local = (rgb * 2.0 - Vec3::ONE).normalize_or(Vec3::Z);
+    let local = (rgb * 2.0 - Vec3A::ONE).normalize_or(Vec3A::Z);
     let ns = hit.ns;
     let t = (hit.dpdu - ns * ns.dot(hit.dpdu)).normalize_or(crate::scene::orthonormal_basis(ns).0);
     let b = ns.cross(t);

@@ -3,7 +3,7 @@
 //! Lights are chosen uniformly, as Mitsuba 3 does, so the pdfs here include the 1/N factor only
 //! where the integrator multiplies it in.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 use torrey_light::{
     sample_sphere_solid_angle, sample_triangle_uniform, sphere_solid_angle_pdf, Distribution1D,
     EnvMap,
@@ -13,11 +13,11 @@ use torrey_light::{
 /// instead of following primitive, index and vertex lists.
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterTriangle {
-    pub p0: Vec3,
-    pub e1: Vec3,
-    pub e2: Vec3,
+    pub p0: Vec3A,
+    pub e1: Vec3A,
+    pub e2: Vec3A,
     /// The unit face normal (before `flip_normals`).
-    pub normal: Vec3,
+    pub normal: Vec3A,
 }
 
 /// Geometry an area light samples from.
@@ -29,25 +29,25 @@ pub enum AreaShape {
         geometry: Vec<EmitterTriangle>,
     },
     Sphere {
-        center: Vec3,
+        center: Vec3A,
         radius: f32,
     },
 }
 
 pub enum LightKind {
     Point {
-        position: Vec3,
-        intensity: Vec3,
+        position: Vec3A,
+        intensity: Vec3A,
     },
     /// One-sided diffuse emitter on a shape: radiance along the (possibly flipped) normal only.
     Area {
         shape: u32,
-        radiance: Vec3,
+        radiance: Vec3A,
         area: AreaShape,
         flip_normals: bool,
     },
     Constant {
-        radiance: Vec3,
+        radiance: Vec3A,
     },
     Env(Box<EnvMap>),
 }
@@ -60,11 +60,11 @@ pub struct Light {
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
     /// Unit direction from the shading point towards the light.
-    pub wi: Vec3,
+    pub wi: Vec3A,
     /// Distance to the sampled point (infinite for lights at infinity).
     pub dist: f32,
     /// Emitted radiance (or intensity / r² for point lights) arriving along -wi.
-    pub radiance: Vec3,
+    pub radiance: Vec3A,
     /// Solid-angle pdf of this light's sampling (not including light selection).
     pub pdf: f32,
     /// Point lights cannot be hit by BSDF samples: no MIS.
@@ -77,9 +77,9 @@ pub struct LightSample {
 fn sample_env(env: &EnvMap, u: Vec2) -> Option<LightSample> {
     let s = env.sample(u)?;
     Some(LightSample {
-        wi: s.direction,
+        wi: s.direction.into(),
         dist: f32::INFINITY,
-        radiance: s.radiance,
+        radiance: s.radiance.into(),
         pdf: s.pdf,
         is_delta: false,
     })
@@ -94,7 +94,7 @@ impl Light {
     /// `uniform_env` samples environment maps uniformly over the sphere instead of by luminance
     /// (only for measuring what importance sampling gains).
     #[inline(always)]
-    pub fn sample(&self, p: Vec3, u: Vec2, uniform_env: bool) -> Option<LightSample> {
+    pub fn sample(&self, p: Vec3A, u: Vec2, uniform_env: bool) -> Option<LightSample> {
         match &self.kind {
             LightKind::Point {
                 position,
@@ -153,12 +153,12 @@ impl Light {
                     })
                 }
                 AreaShape::Sphere { center, radius } => {
-                    let s = sample_sphere_solid_angle(*center, *radius, p, u)?;
-                    let mut n = s.normal;
+                    let s = sample_sphere_solid_angle((*center).into(), *radius, p.into(), u)?;
+                    let mut n: Vec3A = s.normal.into();
                     if *flip_normals {
                         n = -n;
                     }
-                    let d = s.point - p;
+                    let d = Vec3A::from(s.point) - p;
                     let dist = d.length();
                     if dist == 0.0 || s.pdf.is_nan() || s.pdf <= 0.0 {
                         return None;
@@ -191,7 +191,7 @@ impl Light {
                 Some(LightSample {
                     wi,
                     dist: f32::INFINITY,
-                    radiance: env.eval(wi, 0.0),
+                    radiance: env.eval(wi.into(), 0.0).into(),
                     pdf: crate::sampling::uniform_sphere_pdf(),
                     is_delta: false,
                 })
@@ -203,7 +203,7 @@ impl Light {
     /// Solid-angle pdf that [`Light::sample`] from `p` produces direction `wi` hitting this
     /// (area) light at distance `dist` where the light's normal is `n_light`.
     #[inline]
-    pub fn pdf_area_hit(&self, p: Vec3, wi: Vec3, dist: f32, n_light: Vec3) -> f32 {
+    pub fn pdf_area_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A) -> f32 {
         match &self.kind {
             LightKind::Area {
                 area: AreaShape::Mesh { total_area, .. },
@@ -219,7 +219,7 @@ impl Light {
             LightKind::Area {
                 area: AreaShape::Sphere { center, radius },
                 ..
-            } => sphere_solid_angle_pdf(*center, *radius, p, wi),
+            } => sphere_solid_angle_pdf((*center).into(), *radius, p.into(), wi.into()),
             _ => 0.0,
         }
     }
@@ -227,22 +227,25 @@ impl Light {
     /// Radiance from an infinite light along a ray leaving the scene in direction `dir`, and the pdf
     /// its own sampling gives that direction.
     #[inline]
-    pub fn eval_infinite(&self, dir: Vec3, spread: f32) -> (Vec3, f32) {
+    pub fn eval_infinite(&self, dir: Vec3A, spread: f32) -> (Vec3A, f32) {
         match &self.kind {
             LightKind::Constant { radiance } => (*radiance, crate::sampling::uniform_sphere_pdf()),
-            LightKind::Env(env) => env.eval_pdf(dir, spread),
-            _ => (Vec3::ZERO, 0.0),
+            LightKind::Env(env) => {
+                let (l, p) = env.eval_pdf(dir.into(), spread);
+                (l.into(), p)
+            }
+            _ => (Vec3A::ZERO, 0.0),
         }
     }
 
     /// [`Light::eval_infinite`]'s radiance alone, for rays whose MIS weight is 1 (camera rays and
     /// rays after a delta bounce): an environment map then skips its density lookup.
     #[inline]
-    pub fn radiance_infinite(&self, dir: Vec3, spread: f32) -> Vec3 {
+    pub fn radiance_infinite(&self, dir: Vec3A, spread: f32) -> Vec3A {
         match &self.kind {
             LightKind::Constant { radiance } => *radiance,
-            LightKind::Env(env) => env.eval(dir, spread),
-            _ => Vec3::ZERO,
+            LightKind::Env(env) => env.eval(dir.into(), spread).into(),
+            _ => Vec3A::ZERO,
         }
     }
 }

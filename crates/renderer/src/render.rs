@@ -5,7 +5,7 @@
 use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount, Sampler};
 use crate::sampler::{PcgSampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -42,7 +42,7 @@ pub struct RenderOutput {
 }
 
 /// A tile's origin and its pixels' (mean, variance of the mean), row by row.
-type RenderedTile = ((u32, u32), Vec<(Vec3, Vec3)>);
+type RenderedTile = ((u32, u32), Vec<(Vec3A, Vec3A)>);
 
 /// Renders the scene. `progress(done, total)` is called after each tile from worker threads.
 pub fn render(
@@ -115,16 +115,16 @@ pub fn render(
         })
         .collect();
 
-    let mut image = Image::filled(width, height, Vec3::ZERO);
-    let mut variance = Image::filled(width, height, Vec3::ZERO);
+    let mut image = Image::filled(width, height, glam::Vec3::ZERO);
+    let mut variance = Image::filled(width, height, glam::Vec3::ZERO);
     for ((x0, y0), pixels) in rendered {
         let x1 = (x0 + ts).min(width);
         let tile_w = (x1 - x0) as usize;
         for (i, (m, v)) in pixels.into_iter().enumerate() {
             let x = x0 as usize + i % tile_w;
             let y = y0 as usize + i / tile_w;
-            image.pixels[y * width as usize + x] = m;
-            variance.pixels[y * width as usize + x] = v;
+            image.pixels[y * width as usize + x] = m.into();
+            variance.pixels[y * width as usize + x] = v.into();
         }
     }
     let elapsed = start.elapsed();
@@ -154,10 +154,10 @@ fn render_pixel<S: Sampler>(
     path: PathSettings,
     sampler: &mut S,
     rays: &mut RayCount,
-) -> (Vec3, Vec3, u64) {
+) -> (Vec3A, Vec3A, u64) {
     // Welford's running mean and variance per channel.
-    let mut mean = Vec3::ZERO;
-    let mut m2 = Vec3::ZERO;
+    let mut mean = Vec3A::ZERO;
+    let mut m2 = Vec3A::ZERO;
     let mut bad = 0;
     for s in 0..spp {
         sampler.start_sample(s);
@@ -168,7 +168,7 @@ fn render_pixel<S: Sampler>(
         let mut l = radiance(scene, o, d, cone, path, sampler, rays);
         if !l.is_finite() {
             bad += 1;
-            l = Vec3::ZERO;
+            l = Vec3A::ZERO;
         }
         let n = (s + 1) as f32;
         let delta = l - mean;
@@ -178,7 +178,7 @@ fn render_pixel<S: Sampler>(
     let var_of_mean = if spp > 1 {
         m2 / ((spp - 1) as f32 * spp as f32)
     } else {
-        Vec3::ZERO
+        Vec3A::ZERO
     };
     (mean, var_of_mean, bad)
 }

@@ -8,7 +8,7 @@
 // Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI, TAU};
 use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth, swap_if};
 
@@ -32,10 +32,10 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
 
 /// Cosine-weighted direction on the +z hemisphere (Malley's method): the importance-sampling
 /// density for diffuse reflection, pdf = cos θ / π ([`cosine_hemisphere_pdf`]).
-pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3A {
     let d = square_to_concentric_disk(u);
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
+    Vec3A::new(d.x, d.y, z)
 }
 
 /// Solid-angle density of [`square_to_cosine_hemisphere`]; zero below the horizon.
@@ -49,11 +49,11 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 
 /// Uniformly distributed direction on the unit sphere, for isotropic sampling (point-light
 /// emission, test quadrature); pdf = 1 / 4π ([`uniform_sphere_pdf`]).
-pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3A {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let (sin, cos) = sin_cos_2pi(u.y);
-    Vec3::new(r * cos, r * sin, z)
+    Vec3A::new(r * cos, r * sin, z)
 }
 
 /// Solid-angle density of [`square_to_uniform_sphere`].
@@ -63,11 +63,11 @@ pub fn uniform_sphere_pdf() -> f32 {
 
 /// Uniformly distributed direction on the +z hemisphere; pdf = 1 / 2π
 /// ([`uniform_hemisphere_pdf`]). Handy as an unbiased fallback when no better density is known.
-pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
+pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3A {
     let z = u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let (sin, cos) = sin_cos_2pi(u.y);
-    Vec3::new(r * cos, r * sin, z)
+    Vec3A::new(r * cos, r * sin, z)
 }
 
 /// Solid-angle density of [`square_to_uniform_hemisphere`] (for directions with z >= 0).
@@ -78,11 +78,11 @@ pub fn uniform_hemisphere_pdf() -> f32 {
 /// Uniform direction inside the cone of directions within angle acos(`cos_theta_max`) of +z: the
 /// density used to sample a sphere light by the solid angle it subtends; pdf =
 /// 1 / (2π (1 − cos θmax)) ([`uniform_cone_pdf`]).
-pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
+pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3A {
     let z = 1.0 - u.x * (1.0 - cos_theta_max);
     let r = (1.0 - z * z).max(0.0).sqrt();
     let (sin, cos) = sin_cos_2pi(u.y);
-    Vec3::new(r * cos, r * sin, z)
+    Vec3A::new(r * cos, r * sin, z)
 }
 
 /// Solid-angle density of [`square_to_uniform_cone`] inside the cone (callers check membership).
@@ -101,14 +101,14 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 /// Direction on the +z hemisphere with density ∝ cos^exponent θ: the Phong lobe (around the
 /// mirror direction) and the Blinn half-vector distribution. pdf = (n + 1)/(2π) cos^n θ
 /// ([`cosine_power_pdf`]). Written so that large exponents keep their precision near the pole.
-pub fn square_to_cosine_power(u: Vec2, exponent: f32) -> Vec3 {
+pub fn square_to_cosine_power(u: Vec2, exponent: f32) -> Vec3A {
     // cos θ = u^(1/(n+1)); 1 − cos θ computed with expm1 so sin θ stays accurate for sharp lobes.
     let log_cos = u.x.ln() / (exponent + 1.0);
     let one_minus_cos = -log_cos.exp_m1();
     let cos_theta = 1.0 - one_minus_cos;
     let sin_theta = (one_minus_cos * (1.0 + cos_theta)).max(0.0).sqrt();
     let (sin, cos) = sin_cos_2pi(u.y);
-    Vec3::new(sin_theta * cos, sin_theta * sin, cos_theta)
+    Vec3A::new(sin_theta * cos, sin_theta * sin, cos_theta)
 }
 
 /// Solid-angle density of [`square_to_cosine_power`]; zero below the horizon.
@@ -124,28 +124,28 @@ pub fn cosine_power_pdf(cos_theta: f32, exponent: f32) -> f32 {
 /// tangent plane (local +x, +y). BSDFs work in this frame so they only ever see z = cos θ.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
-    pub s: Vec3,
-    pub t: Vec3,
-    pub n: Vec3,
+    pub s: Vec3A,
+    pub t: Vec3A,
+    pub n: Vec3A,
 }
 
 impl Frame {
     /// Builds a frame around a unit normal with Duff et al.'s branchless construction
     /// ("Building an Orthonormal Basis, Revisited", JCGT 2017): continuous except across the
     /// z = 0 plane, no normalisation, no precision loss near the poles.
-    pub fn from_normal(n: Vec3) -> Self {
+    pub fn from_normal(n: Vec3A) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
         let b = n.x * n.y * a;
-        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        let s = Vec3A::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3A::new(b, sign + n.y * n.y * a, -n.y);
         Frame { s, t, n }
     }
 
     /// Builds a frame whose `s` follows a tangent (e.g. dp/du) projected into the tangent plane
     /// (Gram-Schmidt), so anisotropic or normal-mapped shading keeps a texture-aligned frame.
     /// Falls back to [`Frame::from_normal`] when the tangent is (nearly) parallel to `n`.
-    pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Self {
+    pub fn from_normal_tangent(n: Vec3A, tangent: Vec3A) -> Self {
         let s = tangent - n * n.dot(tangent);
         let len2 = s.length_squared();
         if !(len2 > 1e-10 * tangent.length_squared()) || !len2.is_finite() {
@@ -160,12 +160,12 @@ impl Frame {
     }
 
     /// World direction to local coordinates (z = component along the normal).
-    pub fn to_local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    pub fn to_local(&self, v: Vec3A) -> Vec3A {
+        Vec3A::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 
     /// Local coordinates back to a world direction.
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
+    pub fn to_world(&self, v: Vec3A) -> Vec3A {
         self.s * v.x + self.t * v.y + self.n * v.z
     }
 }
@@ -243,7 +243,7 @@ pub(crate) mod testutil {
     /// in (z, φ) (finest around the equator): one jittered sample per stratum with `Some(seed)`,
     /// the stratum centre (a midpoint rule, far more accurate for smooth lobes) with `None`.
     pub fn stratified_sphere_integral(
-        mut f: impl FnMut(glam::Vec3) -> f64,
+        mut f: impl FnMut(glam::Vec3A) -> f64,
         nz: usize,
         np: usize,
         seed: Option<u64>,
@@ -284,12 +284,12 @@ mod tests {
     fn frame_is_orthonormal_and_round_trips() {
         let mut rng = Rng::new(1);
         let mut normals = vec![
-            Vec3::Z,
-            -Vec3::Z,
-            Vec3::X,
-            -Vec3::Y,
-            Vec3::new(0.0, 1e-7, -1.0).normalize(),
-            Vec3::new(1e-8, 0.0, 1.0).normalize(),
+            Vec3A::Z,
+            -Vec3A::Z,
+            Vec3A::X,
+            -Vec3A::Y,
+            Vec3A::new(0.0, 1e-7, -1.0).normalize(),
+            Vec3A::new(1e-8, 0.0, 1.0).normalize(),
         ];
         for _ in 0..1000 {
             normals.push(square_to_uniform_sphere(rng.vec2()));
@@ -300,7 +300,7 @@ mod tests {
             assert_orthonormal(&f);
             let v = square_to_uniform_sphere(rng.vec2());
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
-            assert!((f.to_local(n) - Vec3::Z).length() < 1e-5);
+            assert!((f.to_local(n) - Vec3A::Z).length() < 1e-5);
             let tangent = square_to_uniform_sphere(rng.vec2());
             let g = Frame::from_normal_tangent(n, tangent);
             assert_orthonormal(&g);
@@ -309,8 +309,8 @@ mod tests {
             assert!((g.s - projected).length() < 1e-4, "{g:?} {tangent}");
         }
         // Degenerate tangent falls back instead of producing NaNs.
-        assert_orthonormal(&Frame::from_normal_tangent(Vec3::Z, Vec3::Z * 2.0));
-        assert_orthonormal(&Frame::from_normal_tangent(Vec3::Z, Vec3::ZERO));
+        assert_orthonormal(&Frame::from_normal_tangent(Vec3A::Z, Vec3A::Z * 2.0));
+        assert_orthonormal(&Frame::from_normal_tangent(Vec3A::Z, Vec3A::ZERO));
     }
 
     #[test]
@@ -347,8 +347,8 @@ mod tests {
     /// Bins directions on a (cos θ, φ) grid, which has equal-area cells, and compares the
     /// counts with the pdf integrated over each cell.
     fn chi2_direction_warp(
-        warp: impl Fn(Vec2) -> Vec3,
-        pdf: impl Fn(Vec3) -> f64,
+        warp: impl Fn(Vec2) -> Vec3A,
+        pdf: impl Fn(Vec3A) -> f64,
         seed: u64,
     ) -> f64 {
         const NZ: usize = 20;
@@ -368,7 +368,7 @@ mod tests {
         let mut expected = vec![0.0; NZ * NP];
         let mut f = |z: f64, phi: f64| {
             let r = (1.0 - z * z).max(0.0).sqrt();
-            let w = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+            let w = Vec3A::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
             pdf(w)
         };
         for iz in 0..NZ {
@@ -444,7 +444,7 @@ mod tests {
     fn warp_pdfs_integrate_to_one() {
         // Lobes are turned to point along +x (the equator of the stratification) so that even the
         // exponent-1000 lobe spans many strata.
-        type Pdf = Box<dyn Fn(Vec3) -> f64>;
+        type Pdf = Box<dyn Fn(Vec3A) -> f64>;
         let checks: [(&str, Pdf); 5] = [
             ("cosine", Box::new(|w| cosine_hemisphere_pdf(w.x) as f64)),
             ("power 10", Box::new(|w| cosine_power_pdf(w.x, 10.0) as f64)),

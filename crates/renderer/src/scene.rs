@@ -7,7 +7,7 @@ use crate::camera::Camera;
 use crate::geometry::{sphere_uv, Ray};
 use crate::light::{AreaShape, EmitterTriangle, Light, LightKind};
 use crate::texture::{ColorSource, Texture};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3A};
 use torrey_light::{Distribution1D, EnvMap};
 use torrey_parser as desc;
 use torrey_texture::{BitmapTexture, MipMap};
@@ -47,7 +47,7 @@ pub enum ShapeKind {
     },
     /// World-space centre and radius, and the world-to-object rotation that fixes the uv poles.
     Sphere {
-        center: Vec3,
+        center: Vec3A,
         radius: f32,
         to_object: Mat3,
     },
@@ -71,30 +71,30 @@ pub struct PrimInfo {
 /// All triangles of the scene in world space, concatenated.
 #[derive(Default)]
 pub struct MeshData {
-    pub positions: Vec<Vec3>,
-    pub normals: Vec<Vec3>,
+    pub positions: Vec<Vec3A>,
+    pub normals: Vec<Vec3A>,
     pub uvs: Vec<Vec2>,
     pub indices: Vec<[u32; 3]>,
     /// Unit geometric normal of each triangle ((p1 − p0) × (p2 − p0), normalised), computed once
     /// at build instead of at every hit.
-    pub face_normals: Vec<Vec3>,
+    pub face_normals: Vec<Vec3A>,
 }
 
 /// The differential geometry at a ray hit.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
     pub t: f32,
-    pub p: Vec3,
+    pub p: Vec3A,
     /// Geometric normal (after `flipNormals`), not turned towards the ray.
-    pub ng: Vec3,
+    pub ng: Vec3A,
     /// Shading normal (interpolated vertex normal, or `ng`), not turned towards the ray.
-    pub ns: Vec3,
+    pub ns: Vec3A,
     /// Texture coordinates and their position derivatives; only computed when the material reads
     /// a texture (zero otherwise: nothing else uses them, and spheres pay two inverse
     /// trigonometric functions for them).
     pub uv: Vec2,
-    pub dpdu: Vec3,
-    pub dpdv: Vec3,
+    pub dpdu: Vec3A,
+    pub dpdv: Vec3A,
     pub shape: u32,
     pub prim: u32,
 }
@@ -153,7 +153,7 @@ impl RenderScene {
         let default_material = materials.len() as u32;
         materials.push(Material {
             model: BsdfModel::Diffuse,
-            reflectance: ColorSource::Constant(Vec3::splat(0.5)),
+            reflectance: ColorSource::Constant(Vec3A::splat(0.5)),
             two_sided: torrey_dialect,
             normal_map: None,
         });
@@ -196,7 +196,7 @@ impl RenderScene {
                         Mat3::IDENTITY
                     };
                     geoms.push(PrimGeom::Sphere {
-                        center: c,
+                        center: c.into(),
                         radius: r,
                     });
                     prims.push(PrimInfo {
@@ -204,7 +204,7 @@ impl RenderScene {
                         triangle: 0,
                     });
                     ShapeKind::Sphere {
-                        center: c,
+                        center: c.into(),
                         radius: r,
                         to_object: rot.transpose(),
                     }
@@ -250,7 +250,7 @@ impl RenderScene {
                     lights.push(Light {
                         kind: LightKind::Area {
                             shape: shape_id,
-                            radiance,
+                            radiance: radiance.into(),
                             area: area_shape,
                             flip_normals: shape.flip_normals,
                         },
@@ -274,13 +274,13 @@ impl RenderScene {
                     position,
                     intensity,
                 } => LightKind::Point {
-                    position: *position,
-                    intensity: *intensity,
+                    position: (*position).into(),
+                    intensity: (*intensity).into(),
                 },
                 // A black background emits nothing: keeping it would only waste light samples.
                 desc::Light::Constant { radiance } if radiance.max_element() <= 0.0 => continue,
                 desc::Light::Constant { radiance } => LightKind::Constant {
-                    radiance: *radiance,
+                    radiance: (*radiance).into(),
                 },
                 desc::Light::Envmap {
                     bitmap,
@@ -357,7 +357,7 @@ impl RenderScene {
                 };
                 // Without uvs Mitsuba uses the barycentrics as uv, so dp/du = e1, dp/dv = e2.
                 let (uv, dpdu, dpdv) = if !needs_uv {
-                    (Vec2::ZERO, Vec3::ZERO, Vec3::ZERO)
+                    (Vec2::ZERO, Vec3A::ZERO, Vec3A::ZERO)
                 } else if has_uvs {
                     let (t0, t1, t2) = (self.mesh.uvs[i0], self.mesh.uvs[i1], self.mesh.uvs[i2]);
                     let uv = b0 * t0 + hit.b1 * t1 + hit.b2 * t2;
@@ -393,7 +393,7 @@ impl RenderScene {
                 to_object,
             } => {
                 let p_ray = ray.origin + hit.t * ray.dir;
-                let n = (p_ray - center).normalize_or(Vec3::Z);
+                let n = (p_ray - center).normalize_or(Vec3A::Z);
                 // Re-project onto the surface: the ray's point carries the cancellation error.
                 let p = center + radius * n;
                 let (uv, dpdu, dpdv) = if needs_uv {
@@ -401,7 +401,7 @@ impl RenderScene {
                     let to_world = to_object.transpose();
                     (uv, to_world * dpdu_l * radius, to_world * dpdv_l * radius)
                 } else {
-                    (Vec2::ZERO, Vec3::ZERO, Vec3::ZERO)
+                    (Vec2::ZERO, Vec3A::ZERO, Vec3A::ZERO)
                 };
                 SurfaceHit {
                     t: hit.t,
@@ -425,29 +425,29 @@ impl RenderScene {
 
     /// True when nothing blocks the segment from `origin` along `dir` up to `tmax`.
     #[inline]
-    pub fn visible(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+    pub fn visible(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> bool {
         !self.accel.occluded(&Ray { origin, dir, tmax })
     }
 }
 
 /// Any orthonormal pair perpendicular to `n` (Duff et al.'s branchless construction).
-pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+pub fn orthonormal_basis(n: Vec3A) -> (Vec3A, Vec3A) {
     let sign = 1f32.copysign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+        Vec3A::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3A::new(b, sign + n.y * n.y * a, -n.y),
     )
 }
 
 /// Mitsuba's rectangle: [-1,1]^2 at z = 0, normal +z, uv = ((x+1)/2, (y+1)/2).
 fn rectangle_mesh() -> desc::TriangleMesh {
     let positions = vec![
-        Vec3::new(-1.0, -1.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(1.0, 1.0, 0.0),
-        Vec3::new(-1.0, 1.0, 0.0),
+        glam::Vec3::new(-1.0, -1.0, 0.0),
+        glam::Vec3::new(1.0, -1.0, 0.0),
+        glam::Vec3::new(1.0, 1.0, 0.0),
+        glam::Vec3::new(-1.0, 1.0, 0.0),
     ];
     let uvs = positions
         .iter()
@@ -455,7 +455,7 @@ fn rectangle_mesh() -> desc::TriangleMesh {
         .collect();
     desc::TriangleMesh {
         positions,
-        normals: vec![Vec3::Z; 4],
+        normals: vec![glam::Vec3::Z; 4],
         uvs,
         indices: vec![[0, 1, 2], [0, 2, 3]],
     }
@@ -474,19 +474,22 @@ fn add_mesh(
     let base = mesh.positions.len() as u32;
     let has_normals = m.normals.len() == m.positions.len() && !m.normals.is_empty();
     let has_uvs = m.uvs.len() == m.positions.len() && !m.uvs.is_empty();
-    mesh.positions
-        .extend(m.positions.iter().map(|&p| to_world.transform_point3(p)));
+    mesh.positions.extend(
+        m.positions
+            .iter()
+            .map(|&p| Vec3A::from(to_world.transform_point3(p))),
+    );
     // Normals transform with the inverse transpose.
     let normal_matrix = Mat3::from_mat4(to_world).inverse().transpose();
     if has_normals {
         mesh.normals.extend(
             m.normals
                 .iter()
-                .map(|&n| (normal_matrix * n).normalize_or(Vec3::Z)),
+                .map(|&n| Vec3A::from(normal_matrix * n).normalize_or(Vec3A::Z)),
         );
     } else {
         mesh.normals
-            .extend(std::iter::repeat_n(Vec3::Z, m.positions.len()));
+            .extend(std::iter::repeat_n(Vec3A::Z, m.positions.len()));
     }
     if has_uvs {
         mesh.uvs.extend(m.uvs.iter().copied());
@@ -508,7 +511,7 @@ fn add_mesh(
         });
         mesh.indices.push(idx);
         mesh.face_normals
-            .push((p1 - p0).cross(p2 - p0).normalize_or(Vec3::Z));
+            .push((p1 - p0).cross(p2 - p0).normalize_or(Vec3A::Z));
         geoms.push(PrimGeom::Triangle { p0, p1, p2 });
     }
     ShapeKind::Mesh {
@@ -519,7 +522,7 @@ fn add_mesh(
 
 fn build_material(b: &desc::Bsdf, torrey_dialect: bool) -> Material {
     let color = |c: &desc::ColorParam| match c {
-        desc::ColorParam::Constant(v) => ColorSource::Constant(*v),
+        desc::ColorParam::Constant(v) => ColorSource::Constant((*v).into()),
         desc::ColorParam::Texture(t) => ColorSource::Texture(*t as u32),
     };
     let (model, reflectance) = BsdfModel::from_kind(&b.kind);
@@ -569,8 +572,8 @@ fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Textur
             color1,
             to_uv,
         } => Texture::Checkerboard {
-            color0: *color0,
-            color1: *color1,
+            color0: (*color0).into(),
+            color1: (*color1).into(),
             to_uv: *to_uv,
         },
     })

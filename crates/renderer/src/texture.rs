@@ -1,14 +1,14 @@
 //! Colour sources as the renderer evaluates them at a hit: constants, bitmaps (mip-mapped, filtered
 //! by the ray cone's footprint) and Mitsuba's procedural checkerboard.
 
-use glam::{Affine2, Vec2, Vec3};
+use glam::{Affine2, Vec2, Vec3A};
 use torrey_texture::BitmapTexture;
 
 pub enum Texture {
     Bitmap(BitmapTexture),
     Checkerboard {
-        color0: Vec3,
-        color1: Vec3,
+        color0: Vec3A,
+        color1: Vec3A,
         to_uv: Affine2,
     },
 }
@@ -16,9 +16,9 @@ pub enum Texture {
 impl Texture {
     /// Value at `uv` for a filter `footprint` wide in the surface's uv units.
     #[inline]
-    pub fn eval(&self, uv: Vec2, footprint: f32) -> Vec3 {
+    pub fn eval(&self, uv: Vec2, footprint: f32) -> Vec3A {
         match self {
-            Texture::Bitmap(b) => b.eval(uv, footprint),
+            Texture::Bitmap(b) => b.eval(uv, footprint).into(),
             Texture::Checkerboard {
                 color0,
                 color1,
@@ -42,13 +42,13 @@ impl Texture {
 /// A colour parameter resolved for rendering: a constant or an index into the scene's textures.
 #[derive(Clone, Copy, Debug)]
 pub enum ColorSource {
-    Constant(Vec3),
+    Constant(Vec3A),
     Texture(u32),
 }
 
 impl ColorSource {
     #[inline]
-    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: f32) -> Vec3 {
+    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: f32) -> Vec3A {
         match *self {
             ColorSource::Constant(c) => c,
             ColorSource::Texture(i) => textures[i as usize].eval(uv, footprint),

@@ -6,7 +6,7 @@
 //! hold NaN vertices: every comparison on them is false, so they never report a hit.
 
 use crate::geometry::{intersect_triangle_pre, Ray, WatertightRay};
-use glam::{Vec3, Vec4};
+use glam::{Vec3A, Vec4};
 
 /// Up to four triangles in structure-of-arrays layout, with their primitive indices.
 #[derive(Clone, Copy, Debug)]
@@ -20,7 +20,7 @@ pub struct Triangle4 {
 
 impl Triangle4 {
     /// Packs up to four triangles `(p0, p1, p2, primitive index)`.
-    pub fn new(tris: &[(Vec3, Vec3, Vec3, u32)]) -> Self {
+    pub fn new(tris: &[(Vec3A, Vec3A, Vec3A, u32)]) -> Self {
         assert!(!tris.is_empty() && tris.len() <= 4, "1 to 4 triangles");
         let mut v = [[[f32::NAN; 4]; 3]; 3];
         let mut prim = [u32::MAX; 4];
@@ -39,9 +39,9 @@ impl Triangle4 {
     }
 
     /// The vertices of one lane.
-    fn lane(&self, lane: usize) -> (Vec3, Vec3, Vec3) {
+    fn lane(&self, lane: usize) -> (Vec3A, Vec3A, Vec3A) {
         let p = |vertex: usize| {
-            Vec3::new(
+            Vec3A::new(
                 self.v[vertex][0][lane],
                 self.v[vertex][1][lane],
                 self.v[vertex][2][lane],
@@ -185,7 +185,7 @@ pub struct Ray4 {
 
 impl Ray4 {
     #[inline(always)]
-    pub fn new(wr: &WatertightRay, origin: Vec3) -> Self {
+    pub fn new(wr: &WatertightRay, origin: Vec3A) -> Self {
         let axes = wr.axes();
         let shear = wr.shear();
         let origin = origin.to_array();
@@ -219,17 +219,17 @@ mod tests {
             let count = 1 + case % 4;
             let tris: Vec<_> = (0..count)
                 .map(|i| {
-                    let c = Vec3::new(rnd(), rnd(), rnd());
-                    let p1 = c + Vec3::new(rnd(), rnd(), rnd());
-                    let p2 = c + Vec3::new(rnd(), rnd(), rnd());
+                    let c = Vec3A::new(rnd(), rnd(), rnd());
+                    let p1 = c + Vec3A::new(rnd(), rnd(), rnd());
+                    let p2 = c + Vec3A::new(rnd(), rnd(), rnd());
                     (c, p1, p2, 10 + i as u32)
                 })
                 .collect();
             let block = Triangle4::new(&tris);
             // Aim near the first triangle's centroid so that hits are common.
-            let origin = Vec3::new(rnd(), rnd(), rnd()) * 3.0;
+            let origin = Vec3A::new(rnd(), rnd(), rnd()) * 3.0;
             let target =
-                (tris[0].0 + tris[0].1 + tris[0].2) / 3.0 + Vec3::new(rnd(), rnd(), rnd()) * 0.3;
+                (tris[0].0 + tris[0].1 + tris[0].2) / 3.0 + Vec3A::new(rnd(), rnd(), rnd()) * 0.3;
             let ray = Ray {
                 origin,
                 dir: (target - origin).normalize(),
@@ -260,12 +260,12 @@ mod tests {
     #[test]
     fn shared_vertex_is_hit() {
         let block = Triangle4::new(&[
-            (Vec3::ZERO, Vec3::X, Vec3::Y, 0),
-            (Vec3::ZERO, Vec3::Y, -Vec3::X, 1),
+            (Vec3A::ZERO, Vec3A::X, Vec3A::Y, 0),
+            (Vec3A::ZERO, Vec3A::Y, -Vec3A::X, 1),
         ]);
         let ray = Ray {
-            origin: Vec3::new(0.0, 0.0, 1.0),
-            dir: -Vec3::Z,
+            origin: Vec3A::new(0.0, 0.0, 1.0),
+            dir: -Vec3A::Z,
             tmax: f32::INFINITY,
         };
         let wr = WatertightRay::new(&ray);

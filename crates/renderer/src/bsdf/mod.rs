@@ -15,7 +15,7 @@ use crate::sampling::{
     cosine_hemisphere_pdf, cosine_power_pdf, square_to_cosine_hemisphere, square_to_cosine_power,
     Frame,
 };
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
 use torrey_parser::scene::{BsdfKind, ColorParam};
 
@@ -50,11 +50,11 @@ pub enum BsdfModel {
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
     /// The sampled direction (local frame), above the surface.
-    pub wi: Vec3,
+    pub wi: Vec3A,
     /// f·|cos θi| / pdf, including the probability of the lobe choice: the path throughput
     /// multiplier. For delta lobes it is the lobe's reflectance divided by its selection
     /// probability.
-    pub weight: Vec3,
+    pub weight: Vec3A,
     /// Solid-angle density of `wi` (non-delta lobes, times their selection probability, exactly
     /// what [`BsdfModel::pdf`] returns); `f32::INFINITY` for a delta lobe, so that
     /// [`crate::sampling::power_heuristic`] gives such samples MIS weight 1.
@@ -65,8 +65,8 @@ pub struct BsdfSample {
 
 /// Schlick's approximation of Fresnel reflectance, F0 + (1 − F0)(1 − cos θ)^5, the course's
 /// choice for every model (cos θ clamped to [0, 1]).
-pub fn schlick_fresnel(f0: Vec3, cos_theta: f32) -> Vec3 {
-    f0 + (Vec3::ONE - f0) * schlick_weight(cos_theta)
+pub fn schlick_fresnel(f0: Vec3A, cos_theta: f32) -> Vec3A {
+    f0 + (Vec3A::ONE - f0) * schlick_weight(cos_theta)
 }
 
 /// (1 − cos θ)^5, the angular part of [`schlick_fresnel`], shared with the scalar (plastic) form.
@@ -77,8 +77,8 @@ fn schlick_weight(cos_theta: f32) -> f32 {
 }
 
 /// Mirror reflection of a local direction about the shading normal (+z).
-fn reflect_z(w: Vec3) -> Vec3 {
-    Vec3::new(-w.x, -w.y, w.z)
+fn reflect_z(w: Vec3A) -> Vec3A {
+    Vec3A::new(-w.x, -w.y, w.z)
 }
 
 /// Walter et al.'s rational fit (EGSR 2007) of Smith's Beckmann G1, with the Blinn exponent
@@ -153,13 +153,13 @@ impl BsdfModel {
 
     /// f(wo, wi)·|cos θi| (non-delta parts only) — the course's ρ. Zero for mirror, and for
     /// either direction below the surface.
-    pub fn eval(&self, reflectance: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+    pub fn eval(&self, reflectance: Vec3A, wo: Vec3A, wi: Vec3A) -> Vec3A {
         if !(wo.z > 0.0 && wi.z > 0.0) {
-            return Vec3::ZERO;
+            return Vec3A::ZERO;
         }
         match *self {
             BsdfModel::Diffuse => reflectance * (FRAC_1_PI * wi.z),
-            BsdfModel::Mirror => Vec3::ZERO,
+            BsdfModel::Mirror => Vec3A::ZERO,
             BsdfModel::Plastic { eta } => {
                 let f = Self::plastic_fresnel(eta, wo.z);
                 reflectance * ((1.0 - f) * FRAC_1_PI * wi.z)
@@ -167,20 +167,20 @@ impl BsdfModel {
             BsdfModel::Phong { exponent } => {
                 let c = reflect_z(wo).dot(wi);
                 if c <= 0.0 {
-                    return Vec3::ZERO;
+                    return Vec3A::ZERO;
                 }
                 reflectance * ((exponent + 1.0) / TAU * c.powf(exponent))
             }
             BsdfModel::Blinn { exponent } => {
                 let Some(h) = (wo + wi).try_normalize() else {
-                    return Vec3::ZERO;
+                    return Vec3A::ZERO;
                 };
                 let fresnel = schlick_fresnel(reflectance, h.dot(wi));
                 fresnel * (blinn_norm(exponent) * h.z.powf(exponent))
             }
             BsdfModel::BlinnMicrofacet { exponent } => {
                 let Some(h) = (wo + wi).try_normalize() else {
-                    return Vec3::ZERO;
+                    return Vec3A::ZERO;
                 };
                 let d = (exponent + 2.0) / TAU * h.z.powf(exponent);
                 // wo·h = wi·h > 0 for two directions above the surface, so G1's ω·h test holds.
@@ -194,7 +194,7 @@ impl BsdfModel {
     /// Solid-angle pdf of [`BsdfModel::sample`] producing `wi` (non-delta parts, times their
     /// selection probability). Where sampling can propose directions below the surface (phong,
     /// blinn) and rejects them, this density integrates to the acceptance rate, below one.
-    pub fn pdf(&self, _reflectance: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    pub fn pdf(&self, _reflectance: Vec3A, wo: Vec3A, wi: Vec3A) -> f32 {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return 0.0;
         }
@@ -217,7 +217,13 @@ impl BsdfModel {
     /// Samples a direction: `u` picks the direction, `u_lobe` the lobe for multi-lobe models
     /// (plastic: specular with probability F). `None` when `wo` is below the surface or the
     /// proposed direction falls below it (phong and blinn lobes can reach under the horizon).
-    pub fn sample(&self, reflectance: Vec3, wo: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+    pub fn sample(
+        &self,
+        reflectance: Vec3A,
+        wo: Vec3A,
+        u: Vec2,
+        u_lobe: f32,
+    ) -> Option<BsdfSample> {
         if !(wo.z > 0.0) {
             return None;
         }
@@ -243,7 +249,7 @@ impl BsdfModel {
                     // Specular: value F (white), chosen with probability F.
                     Some(BsdfSample {
                         wi: reflect_z(wo),
-                        weight: Vec3::ONE,
+                        weight: Vec3A::ONE,
                         pdf: f32::INFINITY,
                         is_delta: true,
                     })
@@ -331,6 +337,6 @@ impl BsdfModel {
 
 /// Density of the half vector h ∝ (n·h)^n that blinn and blinn_microfacet sample, as the course
 /// prescribes (it reuses the Blinn-Phong sampler for the microfacet model): (n+1)/(2π) (n·h)^n.
-fn half_vector_pdf(h: Vec3, exponent: f32) -> f32 {
+fn half_vector_pdf(h: Vec3A, exponent: f32) -> f32 {
     cosine_power_pdf(h.z, exponent)
 }

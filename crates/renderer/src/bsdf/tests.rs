@@ -11,10 +11,10 @@ const ANGLES_DEG: [f32; 3] = [0.0, 45.0, 85.0];
 
 /// A viewing direction at `deg` from the normal, at an arbitrary azimuth so nothing lines up
 /// with the frame axes by accident.
-fn wo_at(deg: f32) -> Vec3 {
+fn wo_at(deg: f32) -> Vec3A {
     let t = deg.to_radians();
     let phi = 0.7f32;
-    Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
+    Vec3A::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
 }
 
 fn non_delta_models() -> Vec<BsdfModel> {
@@ -29,22 +29,22 @@ fn non_delta_models() -> Vec<BsdfModel> {
 
 /// Where the model's lobe is centred, and roughly how wide it is (radians): the chi-square
 /// grid and the quadrature are aligned with it so sharp lobes are resolved.
-fn lobe(model: BsdfModel, wo: Vec3) -> (Vec3, f64) {
+fn lobe(model: BsdfModel, wo: Vec3A) -> (Vec3A, f64) {
     match model {
         BsdfModel::Phong { exponent } => (reflect_z(wo), (2.0 / (exponent as f64 + 2.0)).sqrt()),
         BsdfModel::Blinn { exponent } | BsdfModel::BlinnMicrofacet { exponent } => {
             (reflect_z(wo), 2.0 * (2.0 / (exponent as f64 + 2.0)).sqrt())
         }
-        _ => (Vec3::Z, PI64),
+        _ => (Vec3A::Z, PI64),
     }
 }
 
 /// ∫ g(ω) dω over the sphere by stratified quadrature (stratum centres), turned so the lobe axis lies on the
 /// equator of the (z, φ) strata, where they are finest.
-fn lobe_quadrature(axis: Vec3, mut g: impl FnMut(Vec3) -> f64) -> f64 {
+fn lobe_quadrature(axis: Vec3A, mut g: impl FnMut(Vec3A) -> f64) -> f64 {
     let frame = Frame::from_normal(axis);
     stratified_sphere_integral(
-        |v| g(frame.to_world(Vec3::new(v.y, v.z, v.x))),
+        |v| g(frame.to_world(Vec3A::new(v.y, v.z, v.x))),
         768,
         768,
         None,
@@ -53,9 +53,9 @@ fn lobe_quadrature(axis: Vec3, mut g: impl FnMut(Vec3) -> f64) -> f64 {
 
 struct Samples {
     /// Non-delta sampled directions; `None` for rejected or delta samples.
-    dirs: Vec<Option<Vec3>>,
+    dirs: Vec<Option<Vec3A>>,
     /// Mean of the non-delta sample weights (rejected and delta samples count as zero).
-    mean_weight: Vec3,
+    mean_weight: Vec3A,
     /// Standard error of `mean_weight.x`.
     stderr_x: f64,
     /// Fraction of samples that were accepted non-delta samples.
@@ -64,7 +64,7 @@ struct Samples {
 
 /// Draws `n` samples and checks each one's bookkeeping on the way: weight = eval/pdf and the
 /// returned pdf equals pdf() for non-delta samples; directions above the surface and unit length.
-fn draw(model: BsdfModel, refl: Vec3, wo: Vec3, n: usize, seed: u64) -> Samples {
+fn draw(model: BsdfModel, refl: Vec3A, wo: Vec3A, n: usize, seed: u64) -> Samples {
     let mut rng = Rng::new(seed);
     let mut dirs = Vec::with_capacity(n);
     let (mut sum, mut sum2_x, mut accepted) = (glam::DVec3::ZERO, 0.0f64, 0usize);
@@ -110,7 +110,7 @@ fn draw(model: BsdfModel, refl: Vec3, wo: Vec3, n: usize, seed: u64) -> Samples 
     let var = (sum2_x / n as f64 - mean.x * mean.x).max(0.0);
     Samples {
         dirs,
-        mean_weight: mean.as_vec3(),
+        mean_weight: mean.as_vec3().into(),
         stderr_x: (var / n as f64).sqrt(),
         accepted: accepted as f64 / n as f64,
     }
@@ -121,9 +121,9 @@ fn draw(model: BsdfModel, refl: Vec3, wo: Vec3, n: usize, seed: u64) -> Samples 
 /// expected count is the pdf integrated over it. Rejected/delta samples form one extra cell whose
 /// expectation is the pdf's missing mass. Returns the p-value.
 fn chi2_lobe(
-    dirs: &[Option<Vec3>],
-    pdf: impl Fn(Vec3) -> f64,
-    axis: Vec3,
+    dirs: &[Option<Vec3A>],
+    pdf: impl Fn(Vec3A) -> f64,
+    axis: Vec3A,
     width: f64,
     what: &str,
 ) -> f64 {
@@ -161,7 +161,11 @@ fn chi2_lobe(
     }
     let to_world = |theta: f64, phi: f64| {
         let (st, ct) = theta.sin_cos();
-        frame.to_world(glam::DVec3::new(st * phi.cos(), st * phi.sin(), ct).as_vec3())
+        frame.to_world(
+            glam::DVec3::new(st * phi.cos(), st * phi.sin(), ct)
+                .as_vec3()
+                .into(),
+        )
     };
     let mut integrand = |theta: f64, phi: f64| pdf(to_world(theta, phi)) * theta.sin();
     // Cells cut by the horizon (where the pdf jumps to zero) get a much finer rule, so even a
@@ -204,7 +208,7 @@ fn chi2_lobe(
 #[test]
 fn sampling_matches_pdf_chi2_and_weights_match_eval_over_pdf() {
     let mut seed = 100;
-    let refl = Vec3::new(0.8, 0.5, 0.2);
+    let refl = Vec3A::new(0.8, 0.5, 0.2);
     for model in non_delta_models() {
         for deg in ANGLES_DEG {
             let wo = wo_at(deg);
@@ -232,11 +236,11 @@ fn chi2_catches_a_wrong_pdf() {
     let wo = wo_at(45.0);
     let truth = BsdfModel::Phong { exponent: 100.0 };
     let wrong = BsdfModel::Phong { exponent: 110.0 };
-    let s = draw(truth, Vec3::ONE, wo, 200_000, 7);
+    let s = draw(truth, Vec3A::ONE, wo, 200_000, 7);
     let (axis, width) = lobe(truth, wo);
     let p = chi2_lobe(
         &s.dirs,
-        |w| wrong.pdf(Vec3::ONE, wo, w) as f64,
+        |w| wrong.pdf(Vec3A::ONE, wo, w) as f64,
         axis,
         width,
         "wrong",
@@ -244,9 +248,9 @@ fn chi2_catches_a_wrong_pdf() {
     assert!(p < 1e-3, "p = {p}");
 
     let blinn = BsdfModel::Blinn { exponent: 10.0 };
-    let s = draw(blinn, Vec3::ONE, wo, 200_000, 8);
+    let s = draw(blinn, Vec3A::ONE, wo, 200_000, 8);
     let (axis, width) = lobe(blinn, wo);
-    let no_jacobian = |w: Vec3| {
+    let no_jacobian = |w: Vec3A| {
         if w.z <= 0.0 {
             return 0.0;
         }
@@ -265,10 +269,10 @@ fn pdf_integrates_to_the_acceptance_rate() {
             let wo = wo_at(deg);
             seed += 1;
             let (axis, _) = lobe(model, wo);
-            let integral = lobe_quadrature(axis, |w| model.pdf(Vec3::ONE, wo, w) as f64);
+            let integral = lobe_quadrature(axis, |w| model.pdf(Vec3A::ONE, wo, w) as f64);
             eprintln!("integral {model:?} at {deg}°: {integral:.5}");
             let n = 100_000;
-            let s = draw(model, Vec3::ONE, wo, n, seed + 1000);
+            let s = draw(model, Vec3A::ONE, wo, n, seed + 1000);
             let sigma = (s.accepted * (1.0 - s.accepted) / n as f64).sqrt();
             assert!(
                 (integral - s.accepted).abs() < 5.0 * sigma + 3e-3,
@@ -307,8 +311,8 @@ fn energy_is_conserved() {
             let wo = wo_at(deg);
             seed += 1;
             let (axis, _) = lobe(model, wo);
-            let albedo = lobe_quadrature(axis, |w| model.eval(Vec3::ONE, wo, w).x as f64);
-            let s = draw(model, Vec3::ONE, wo, 100_000, seed + 1000);
+            let albedo = lobe_quadrature(axis, |w| model.eval(Vec3A::ONE, wo, w).x as f64);
+            let s = draw(model, Vec3A::ONE, wo, 100_000, seed + 1000);
             // Importance-sampled estimate agrees with the quadrature.
             assert!(
                 (s.mean_weight.x as f64 - albedo).abs() < 5.0 * s.stderr_x + 3e-3,
@@ -348,8 +352,8 @@ fn energy_is_conserved() {
 
 #[test]
 fn closed_form_values() {
-    let r = Vec3::new(0.9, 0.5, 0.1);
-    let n = Vec3::Z;
+    let r = Vec3A::new(0.9, 0.5, 0.1);
+    let n = Vec3A::Z;
     // Diffuse: R cos/π.
     let wi = wo_at(60.0);
     let v = BsdfModel::Diffuse.eval(r, wo_at(30.0), wi);
@@ -360,7 +364,7 @@ fn closed_form_values() {
     let v = phong.eval(r, wo, reflect_z(wo));
     assert!((v - r * (11.0 / TAU)).abs().max_element() < 1e-5, "{v}");
     let (s20, c20) = 20f32.to_radians().sin_cos();
-    let off = Frame::from_normal(reflect_z(wo)).to_world(Vec3::new(0.0, s20, c20));
+    let off = Frame::from_normal(reflect_z(wo)).to_world(Vec3A::new(0.0, s20, c20));
     assert!(off.z > 0.0);
     let v = phong.eval(r, wo, off);
     assert!(
@@ -383,7 +387,7 @@ fn closed_form_values() {
     let wo = wo_at(30.0);
     let wi = reflect_z(wo);
     let v = BsdfModel::Blinn { exponent: 4.0 }.eval(r, wo, wi);
-    let f = r + (Vec3::ONE - r) * (1.0 - 30f32.to_radians().cos()).powi(5);
+    let f = r + (Vec3A::ONE - r) * (1.0 - 30f32.to_radians().cos()).powi(5);
     assert!((v - f * blinn_norm(4.0)).abs().max_element() < 1e-5, "{v}");
     // Plastic: (1 − F) R cos/π with F at the view angle.
     let v = BsdfModel::Plastic { eta: 1.5 }.eval(r, wo_at(0.0), wo_at(60.0));
@@ -395,11 +399,11 @@ fn closed_form_values() {
 
 #[test]
 fn schlick_fresnel_values() {
-    let f0 = Vec3::new(0.04, 0.5, 1.0);
+    let f0 = Vec3A::new(0.04, 0.5, 1.0);
     assert_eq!(schlick_fresnel(f0, 1.0), f0);
-    assert_eq!(schlick_fresnel(f0, 0.0), Vec3::ONE);
+    assert_eq!(schlick_fresnel(f0, 0.0), Vec3A::ONE);
     let f = schlick_fresnel(f0, 0.5);
-    assert!((f - (f0 + (Vec3::ONE - f0) / 32.0)).abs().max_element() < 1e-7);
+    assert!((f - (f0 + (Vec3A::ONE - f0) / 32.0)).abs().max_element() < 1e-7);
     // Plastic's F0 for η = 1.5 is 0.04.
     assert!((BsdfModel::plastic_fresnel(1.5, 1.0) - 0.04).abs() < 1e-7);
 }
@@ -458,7 +462,7 @@ fn reciprocity() {
             if a.z < 1e-3 || b.z < 1e-3 {
                 continue;
             }
-            let r = Vec3::new(0.3, 0.6, 0.9);
+            let r = Vec3A::new(0.3, 0.6, 0.9);
             // The course's phong and blinn ρ omit cos θi, so ρ itself (not ρ / cos θi) is the
             // symmetric quantity there.
             let (ca, cb) = match model {
@@ -477,36 +481,36 @@ fn reciprocity() {
 
 #[test]
 fn mirror_reflects_exactly_with_schlick_weight() {
-    let r = Vec3::new(0.95, 0.64, 0.54);
+    let r = Vec3A::new(0.95, 0.64, 0.54);
     for deg in [0.0, 30.0, 60.0, 85.0, 89.9] {
         let wo = wo_at(deg);
         let s = BsdfModel::Mirror
             .sample(r, wo, Vec2::new(0.3, 0.7), 0.5)
             .unwrap();
-        assert_eq!(s.wi, Vec3::new(-wo.x, -wo.y, wo.z));
-        assert!((s.wi.dot(Vec3::Z) - wo.z).abs() < 1e-7);
+        assert_eq!(s.wi, Vec3A::new(-wo.x, -wo.y, wo.z));
+        assert!((s.wi.dot(Vec3A::Z) - wo.z).abs() < 1e-7);
         let cos = wo.z;
-        let f = r + (Vec3::ONE - r) * (1.0 - cos).powi(5);
+        let f = r + (Vec3A::ONE - r) * (1.0 - cos).powi(5);
         assert!(
             (s.weight - f).abs().max_element() < 1e-6,
             "{} vs {f}",
             s.weight
         );
         assert!(s.is_delta && s.pdf.is_infinite());
-        assert_eq!(BsdfModel::Mirror.eval(r, wo, s.wi), Vec3::ZERO);
+        assert_eq!(BsdfModel::Mirror.eval(r, wo, s.wi), Vec3A::ZERO);
         assert_eq!(BsdfModel::Mirror.pdf(r, wo, s.wi), 0.0);
     }
     // Reflectance 1 reflects everything, at every angle.
     let s = BsdfModel::Mirror
-        .sample(Vec3::ONE, wo_at(50.0), Vec2::ZERO, 0.0)
+        .sample(Vec3A::ONE, wo_at(50.0), Vec2::ZERO, 0.0)
         .unwrap();
-    assert_eq!(s.weight, Vec3::ONE);
+    assert_eq!(s.weight, Vec3A::ONE);
     assert!(BsdfModel::Mirror.is_delta() && BsdfModel::Mirror.has_delta());
 }
 
 #[test]
 fn plastic_lobe_choice_matches_fresnel() {
-    let r = Vec3::new(0.2, 0.4, 0.8);
+    let r = Vec3A::new(0.2, 0.4, 0.8);
     let plastic = BsdfModel::Plastic { eta: 1.5 };
     let mut rng = Rng::new(9);
     for deg in [0.0, 60.0, 80.0, 88.0] {
@@ -520,7 +524,7 @@ fn plastic_lobe_choice_matches_fresnel() {
             if s.is_delta {
                 spec += 1;
                 assert_eq!(s.wi, reflect_z(wo));
-                assert_eq!(s.weight, Vec3::ONE);
+                assert_eq!(s.weight, Vec3A::ONE);
                 assert!(s.pdf.is_infinite());
             } else {
                 assert_eq!(s.weight, r);
@@ -546,22 +550,22 @@ fn plastic_lobe_choice_matches_fresnel() {
 
 #[test]
 fn below_the_surface_is_black() {
-    let r = Vec3::ONE;
+    let r = Vec3A::ONE;
     let up = wo_at(30.0);
-    let down = Vec3::new(up.x, up.y, -up.z);
+    let down = Vec3A::new(up.x, up.y, -up.z);
     for model in non_delta_models().into_iter().chain([BsdfModel::Mirror]) {
         for (wo, wi) in [
             (up, down),
             (down, up),
             (down, down),
-            (Vec3::X, up),
-            (up, Vec3::X),
+            (Vec3A::X, up),
+            (up, Vec3A::X),
         ] {
-            assert_eq!(model.eval(r, wo, wi), Vec3::ZERO, "{model:?}");
+            assert_eq!(model.eval(r, wo, wi), Vec3A::ZERO, "{model:?}");
             assert_eq!(model.pdf(r, wo, wi), 0.0, "{model:?}");
         }
         assert!(model.sample(r, down, Vec2::splat(0.5), 0.5).is_none());
-        assert!(model.sample(r, Vec3::X, Vec2::splat(0.5), 0.5).is_none());
+        assert!(model.sample(r, Vec3A::X, Vec2::splat(0.5), 0.5).is_none());
     }
 }
 
@@ -583,7 +587,7 @@ fn roughness_orders_lobes() {
 
 #[test]
 fn from_kind_maps_every_scene_bsdf() {
-    let c = ColorParam::Constant(Vec3::splat(0.5));
+    let c = ColorParam::Constant(glam::Vec3::splat(0.5));
     let cases = [
         (
             BsdfKind::Diffuse {
