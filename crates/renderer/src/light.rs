@@ -5,8 +5,7 @@
 
 use glam::{Vec2, Vec3A};
 use torrey_light::{
-    sample_sphere_solid_angle, sample_triangle_uniform, sphere_solid_angle_pdf, Distribution1D,
-    EnvMap,
+    sample_sphere_solid_angle, sample_triangle_uniform, sphere_solid_angle_pdf, AliasTable, EnvMap,
 };
 
 /// One triangle of a mesh emitter, stored with the light so that sampling it reads one record
@@ -22,10 +21,10 @@ pub struct EmitterTriangle {
 
 /// Geometry an area light samples from.
 pub enum AreaShape {
-    /// Triangles chosen by area.
+    /// Triangles chosen by area, from an alias table: one lookup instead of a cdf search.
     Mesh {
         total_area: f32,
-        triangles: Distribution1D,
+        triangles: AliasTable,
         geometry: Vec<EmitterTriangle>,
     },
     Sphere {
@@ -125,7 +124,7 @@ impl Light {
                     triangles,
                     geometry,
                 } => {
-                    let (index, _, u_rest) = triangles.sample_discrete(u.x);
+                    let (index, u_rest) = triangles.sample(u.x);
                     let tri = &geometry[index];
                     let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
                     let q = tri.p0 + b1 * tri.e1 + b2 * tri.e2;

@@ -8,7 +8,7 @@ use crate::geometry::{sphere_uv, Ray};
 use crate::light::{AreaShape, EmitterTriangle, Light, LightKind};
 use crate::texture::{ColorSource, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3A};
-use torrey_light::{Distribution1D, EnvMap};
+use torrey_light::{AliasTable, EnvMap};
 use torrey_parser as desc;
 use torrey_texture::{BitmapTexture, MipMap};
 
@@ -242,7 +242,7 @@ impl RenderScene {
                             let total: f32 = areas.iter().sum();
                             AreaShape::Mesh {
                                 total_area: total,
-                                triangles: Distribution1D::new(&areas),
+                                triangles: AliasTable::new(&areas),
                                 geometry: tris,
                             }
                         }
