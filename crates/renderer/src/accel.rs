@@ -12,7 +12,7 @@ pub struct Accel {
 }
 
 impl Accel {
-    /// Builds the BVH ([`BvhWidth::Auto`]: eight-wide on CPUs with AVX2). An empty scene gives
+    /// Builds the BVH ([`BvhWidth::Auto`]: eight-wide on CPUs with AVX2 and FMA). An empty scene gives
     /// an accelerator that every ray misses.
     pub fn build(geoms: &[PrimGeom]) -> Self {
         Self::build_with_width(geoms, BvhWidth::Auto)
@@ -151,7 +151,7 @@ mod tests {
         }
     }
 
-    /// Eight-wide nodes are built when asked for on a CPU with AVX2 (so that the test above
+    /// Eight-wide nodes are built when asked for on a CPU with AVX2 and FMA (so that the test above
     /// covers them on such machines), four-wide otherwise.
     #[test]
     fn width_follows_the_request() {

@@ -3,11 +3,11 @@
 //! obvhs builds a high-quality binary BVH (PLOC, reinsertion, SAH leaf collapsing); this module
 //! flattens it into nodes of four or eight children whose boxes are stored structure-of-arrays,
 //! so one ray is tested against all of a node's boxes with a handful of SIMD instructions, and
-//! into leaves whose triangles are precomputed [`Triangle4`] blocks. Eight-wide nodes (AVX2,
-//! [`crate::bvh8`]) are used when the CPU has AVX2: two thirds of the levels, each one 8-wide
-//! test, which measured 11-28% more rays per second than four-wide nodes on the project's
-//! scenes (`cargo bench --bench traversal`). Four-wide nodes (SSE,
-//! every x86-64 CPU and other targets through glam) are the fallback. obvhs's own CPU traversal
+//! into leaves whose triangles are precomputed [`Triangle4`] blocks. Eight-wide nodes (AVX2 and
+//! FMA, [`crate::bvh8`]) are used when the CPU has both: two thirds of the levels, each one
+//! 8-wide test, which measured 11-28% more rays per second than four-wide nodes on the project's
+//! scenes (`cargo bench --bench traversal`). Four-wide nodes (SSE, every x86-64 CPU and other
+//! targets through glam) are the fallback. obvhs's own CPU traversal
 //! of its compressed wide BVH decodes quantised GPU-oriented nodes for every visit; this layout
 //! does not.
 
@@ -492,10 +492,10 @@ const LARGE_SCENE: usize = 100_000;
 /// Which node width to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhWidth {
-    /// Eight when the CPU has AVX2, else four.
+    /// Eight when the CPU has AVX2 and FMA, else four.
     Auto,
     Four,
-    /// Eight-wide nodes; falls back to four on a CPU without AVX2.
+    /// Eight-wide nodes; falls back to four on a CPU without AVX2 and FMA.
     Eight,
 }
 

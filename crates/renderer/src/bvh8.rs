@@ -1,6 +1,6 @@
-//! Eight-wide BVH nodes tested with AVX2: one 256-bit slab test covers a node's eight child
-//! boxes. Selected at run time (`Bvh::build`) on CPUs with AVX2; the traversal loops are the
-//! generic ones of [`crate::bvh`], compiled here inside functions with AVX2 enabled.
+//! Eight-wide BVH nodes tested with AVX2 and FMA: one 256-bit slab test covers a node's eight
+//! child boxes. Selected at run time (`Bvh::build`) on CPUs with both; the traversal loops are
+//! the generic ones of [`crate::bvh`], compiled here inside functions with them enabled.
 
 use crate::bvh::{
     any_hit, closest_hit, slab_setup, ChildRef, ClosestHit, InnerNodes, Leaves, WideBuilder, EMPTY,
@@ -11,9 +11,10 @@ use glam::Vec3A;
 use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
 
-/// True when this CPU can run eight-wide nodes.
+/// True when this CPU can run eight-wide nodes (AVX2 and FMA, which every AVX2 CPU from
+/// Intel and AMD also has).
 pub fn available() -> bool {
-    is_x86_feature_detected!("avx2")
+    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
 }
 
 /// An eight-wide inner node: `bounds` rows `[min x, min y, min z, max x, max y, max z]`, lane i
@@ -25,7 +26,7 @@ pub(crate) struct Node8 {
     children: [ChildRef; 8],
 }
 
-/// Eight-wide nodes. Only built when [`available`] holds, which makes the AVX2 code in
+/// Eight-wide nodes. Only built when [`available`] holds, which makes the AVX2 and FMA code in
 /// [`InnerNodes::test`] sound to run.
 pub(crate) struct Nodes8(Vec<Node8>);
 
@@ -41,7 +42,7 @@ pub(crate) struct BoxRay8 {
 impl Nodes8 {
     /// Converts the BVH2 of `builder` below its root; returns the nodes and the root reference.
     pub(crate) fn build(builder: &mut WideBuilder) -> (Self, ChildRef) {
-        assert!(available(), "eight-wide nodes need AVX2");
+        assert!(available(), "eight-wide nodes need AVX2 and FMA");
         let mut nodes = Vec::new();
         let root = builder.add_inner::<8, Node8>(
             &mut nodes,
@@ -56,7 +57,7 @@ impl Nodes8 {
         (Self(nodes), root)
     }
 
-    /// [`closest_hit`] compiled with AVX2.
+    /// [`closest_hit`] compiled with AVX2 and FMA.
     #[inline]
     pub(crate) fn closest_hit(
         &self,
@@ -65,11 +66,11 @@ impl Nodes8 {
         ray: &Ray,
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
-        // SAFETY: `Nodes8` exists only on CPUs with AVX2 (checked in `build`).
+        // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA (checked in `build`).
         unsafe { closest_hit_avx2(self, leaves, root, ray, stack) }
     }
 
-    /// [`any_hit`] compiled with AVX2.
+    /// [`any_hit`] compiled with AVX2 and FMA.
     #[inline]
     pub(crate) fn any_hit(
         &self,
@@ -83,7 +84,7 @@ impl Nodes8 {
     }
 }
 
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn closest_hit_avx2(
     nodes: &Nodes8,
     leaves: &Leaves,
@@ -94,7 +95,7 @@ unsafe fn closest_hit_avx2(
     closest_hit(nodes, leaves, root, ray, stack)
 }
 
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn any_hit_avx2(
     nodes: &Nodes8,
     leaves: &Leaves,
@@ -123,17 +124,16 @@ impl InnerNodes for Nodes8 {
     fn test(&self, r: ChildRef, c: &BoxRay8, tmax: f32) -> ([f32; 8], u32) {
         debug_assert!((r as usize) < self.0.len());
         // SAFETY: inner references are indices into the nodes, written by the build only;
-        // the row indices are below 6 (`NEAR_FAR`); AVX2 is present (see `Nodes8`).
+        // the row indices are below 6 (`NEAR_FAR`); AVX2 and FMA are present (see `Nodes8`).
         unsafe {
             let b = &self.0.get_unchecked(r as usize).bounds;
-            // The four-wide test's arithmetic, lane for lane: product, then difference (no
-            // fused multiply-add), so both widths find the same boxes.
+            // Slab distances bound × 1/d − origin × 1/d as one fused multiply-subtract: one
+            // rounding instead of two, so the exit widening stays conservative, and six
+            // instructions fewer per node than the four-wide test's product and difference.
             let t = |row: usize, axis: usize| {
-                _mm256_sub_ps(
-                    _mm256_mul_ps(
-                        _mm256_load_ps(b.get_unchecked(row).as_ptr()),
-                        _mm256_set1_ps(c.inv[axis]),
-                    ),
+                _mm256_fmsub_ps(
+                    _mm256_load_ps(b.get_unchecked(row).as_ptr()),
+                    _mm256_set1_ps(c.inv[axis]),
                     _mm256_set1_ps(c.org_inv[axis]),
                 )
             };
