@@ -111,6 +111,15 @@ pub fn radiance(
         let (u_light, u_rr) = (light_rr.x, light_rr.y);
 
         let last_segment = depth + 1 >= max_depth;
+        // Next-event estimation's light, and the part of its sample that does not depend on the
+        // hit (a point on an emitting mesh), made before tracing for the same reason: the
+        // chain of dependent operations overlaps the traversal. Wasted when the ray escapes or
+        // hits a mirror.
+        let light_draw = (!last_segment && light_count > 0).then(|| {
+            // Through u32: float-to-usize conversion costs a dozen instructions, u32 one.
+            let index = ((u_light * light_count as f32) as u32 as usize).min(light_count - 1);
+            (index, scene.lights[index].draw(u_pos))
+        });
         let hit = if last_segment && !scene.has_area_lights {
             // Without area lights a hit on the last segment adds nothing: only whether the ray
             // escapes to the lights at infinity matters, which an any-hit query answers sooner.
@@ -195,12 +204,10 @@ pub fn radiance(
         let bsdf_sample = model.sample(reflectance, wo_local, u_dir, u_lobe);
 
         // Next-event estimation.
-        if !model.is_delta() && light_count > 0 {
-            // Through u32: float-to-usize conversion costs a dozen instructions, u32 one.
-            let index = ((u_light * light_count as f32) as u32 as usize).min(light_count - 1);
+        if let (false, Some((index, draw))) = (model.is_delta(), light_draw) {
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
-            if let Some(ls) = light.sample(hit.p, u_pos, uniform_env) {
+            if let Some(ls) = light.connect(draw, hit.p, uniform_env) {
                 let wi_local = frame.to_local(ls.wi);
                 let f = model.eval(reflectance, wo_local, wi_local);
                 if f.max_element() > 0.0 && ls.pdf > 0.0 {

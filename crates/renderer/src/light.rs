@@ -70,6 +70,15 @@ pub struct LightSample {
     pub is_delta: bool,
 }
 
+/// The shading-point-independent part of a light sample ([`Light::draw`]).
+#[derive(Clone, Copy, Debug)]
+pub enum LightDraw {
+    /// Nothing drawn yet: [`Light::connect`] samples with these random numbers.
+    Deferred(Vec2),
+    /// A point on an emitting triangle and the light's normal there (after `flipNormals`).
+    MeshPoint { q: Vec3A, n: Vec3A },
+}
+
 /// Importance-samples an environment map. Kept out of [`Light::sample`] (whose other arms are
 /// small) so that inlining the map's sampling does not bloat the area-light path.
 #[inline(never)]
@@ -94,6 +103,84 @@ impl Light {
     /// (only for measuring what importance sampling gains).
     #[inline(always)]
     pub fn sample(&self, p: Vec3A, u: Vec2, uniform_env: bool) -> Option<LightSample> {
+        self.connect(self.draw(u), p, uniform_env)
+    }
+
+    /// The part of [`Light::sample`] that does not depend on the shading point, for lights where
+    /// that part is worth drawing early: a point on an emitting mesh. The integrator draws it
+    /// before tracing the ray that finds the shading point, so that its chain of dependent
+    /// operations (alias pick, square root, interpolation) overlaps the traversal: cbox renders
+    /// 4% faster. Other lights defer everything to [`Light::connect`]: drawn early, a sample of
+    /// an environment map is wasted on every path that escapes, which cost envmap_sky 21%, and
+    /// one of a constant background cost textured_mesh 2%.
+    #[inline(always)]
+    pub fn draw(&self, u: Vec2) -> LightDraw {
+        match &self.kind {
+            LightKind::Area {
+                area:
+                    AreaShape::Mesh {
+                        triangles,
+                        geometry,
+                        ..
+                    },
+                flip_normals,
+                ..
+            } => {
+                let (index, u_rest) = triangles.sample(u.x);
+                let tri = &geometry[index];
+                let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
+                let q = tri.p0 + b1 * tri.e1 + b2 * tri.e2;
+                let n = if *flip_normals {
+                    -tri.normal
+                } else {
+                    tri.normal
+                };
+                LightDraw::MeshPoint { q, n }
+            }
+            _ => LightDraw::Deferred(u),
+        }
+    }
+
+    /// Finishes a sample that [`Light::draw`] started, as seen from `p` (`uniform_env`: as in
+    /// [`Light::sample`]). None when it carries no energy.
+    #[inline(always)]
+    pub fn connect(&self, draw: LightDraw, p: Vec3A, uniform_env: bool) -> Option<LightSample> {
+        match draw {
+            LightDraw::MeshPoint { q, n } => {
+                let LightKind::Area {
+                    radiance,
+                    area: AreaShape::Mesh { total_area, .. },
+                    ..
+                } = &self.kind
+                else {
+                    unreachable!("mesh points come from mesh lights");
+                };
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if dist == 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let cos_light = -n.dot(wi);
+                if cos_light <= 0.0 {
+                    return None; // back of a one-sided emitter
+                }
+                Some(LightSample {
+                    wi,
+                    dist,
+                    radiance: *radiance,
+                    pdf: dist2 / (cos_light * total_area),
+                    is_delta: false,
+                })
+            }
+            LightDraw::Deferred(u) => self.sample_deferred(p, u, uniform_env),
+        }
+    }
+
+    /// The lights that [`Light::draw`] leaves entirely to [`Light::connect`].
+    #[inline(always)]
+    fn sample_deferred(&self, p: Vec3A, u: Vec2, uniform_env: bool) -> Option<LightSample> {
         match &self.kind {
             LightKind::Point {
                 position,
@@ -115,66 +202,32 @@ impl Light {
             }
             LightKind::Area {
                 radiance,
-                area,
+                area: AreaShape::Sphere { center, radius },
                 flip_normals,
                 ..
-            } => match area {
-                AreaShape::Mesh {
-                    total_area,
-                    triangles,
-                    geometry,
-                } => {
-                    let (index, u_rest) = triangles.sample(u.x);
-                    let tri = &geometry[index];
-                    let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
-                    let q = tri.p0 + b1 * tri.e1 + b2 * tri.e2;
-                    let mut n = tri.normal;
-                    if *flip_normals {
-                        n = -n;
-                    }
-                    let d = q - p;
-                    let dist2 = d.length_squared();
-                    let dist = dist2.sqrt();
-                    if dist == 0.0 {
-                        return None;
-                    }
-                    let wi = d / dist;
-                    let cos_light = -n.dot(wi);
-                    if cos_light <= 0.0 {
-                        return None; // back of a one-sided emitter
-                    }
-                    Some(LightSample {
-                        wi,
-                        dist,
-                        radiance: *radiance,
-                        pdf: dist2 / (cos_light * total_area),
-                        is_delta: false,
-                    })
+            } => {
+                let s = sample_sphere_solid_angle((*center).into(), *radius, p.into(), u)?;
+                let mut n: Vec3A = s.normal.into();
+                if *flip_normals {
+                    n = -n;
                 }
-                AreaShape::Sphere { center, radius } => {
-                    let s = sample_sphere_solid_angle((*center).into(), *radius, p.into(), u)?;
-                    let mut n: Vec3A = s.normal.into();
-                    if *flip_normals {
-                        n = -n;
-                    }
-                    let d = Vec3A::from(s.point) - p;
-                    let dist = d.length();
-                    if dist == 0.0 || s.pdf.is_nan() || s.pdf <= 0.0 {
-                        return None;
-                    }
-                    let wi = d / dist;
-                    if n.dot(wi) >= 0.0 {
-                        return None;
-                    }
-                    Some(LightSample {
-                        wi,
-                        dist,
-                        radiance: *radiance,
-                        pdf: s.pdf,
-                        is_delta: false,
-                    })
+                let d = Vec3A::from(s.point) - p;
+                let dist = d.length();
+                if dist == 0.0 || s.pdf.is_nan() || s.pdf <= 0.0 {
+                    return None;
                 }
-            },
+                let wi = d / dist;
+                if n.dot(wi) >= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    dist,
+                    radiance: *radiance,
+                    pdf: s.pdf,
+                    is_delta: false,
+                })
+            }
             LightKind::Constant { radiance } => {
                 let wi = crate::sampling::square_to_uniform_sphere(u);
                 Some(LightSample {
@@ -196,6 +249,10 @@ impl Light {
                 })
             }
             LightKind::Env(env) => sample_env(env, u),
+            LightKind::Area {
+                area: AreaShape::Mesh { .. },
+                ..
+            } => unreachable!("mesh lights are drawn by `Light::draw`"),
         }
     }
 
