@@ -305,3 +305,89 @@ impl Light {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use torrey_testkit::{assert_chi_square, Rng};
+
+    /// A one-sided emitter facing +z made of two triangles in the z = 0 plane: areas 1 and 3.
+    fn two_triangle_light() -> Light {
+        let geometry = vec![
+            EmitterTriangle {
+                p0: Vec3A::ZERO,
+                e1: Vec3A::new(2.0, 0.0, 0.0),
+                e2: Vec3A::new(0.0, 1.0, 0.0),
+                normal: Vec3A::Z,
+            },
+            EmitterTriangle {
+                p0: Vec3A::new(3.0, 0.0, 0.0),
+                e1: Vec3A::new(3.0, 0.0, 0.0),
+                e2: Vec3A::new(0.0, 2.0, 0.0),
+                normal: Vec3A::Z,
+            },
+        ];
+        Light {
+            kind: LightKind::Area {
+                shape: 0,
+                radiance: Vec3A::ONE,
+                area: AreaShape::Mesh {
+                    total_area: 4.0,
+                    triangles: AliasTable::new(&[1.0, 3.0]),
+                    geometry,
+                },
+                flip_normals: false,
+            },
+        }
+    }
+
+    /// Points drawn before the shading point is known, then connected to it, are uniform over
+    /// the mesh's area (chi-square over unit strips in x), and the pdf they report is the one
+    /// MIS uses when a BSDF sample hits the light.
+    #[test]
+    fn mesh_light_points_are_uniform_by_area_and_match_the_hit_pdf() {
+        let light = two_triangle_light();
+        let p = Vec3A::new(1.5, 0.7, 2.0);
+        let mut rng = Rng::new(17);
+        // Strips x in [0,1], [1,2] (first triangle), [3,4], [4,5], [5,6] (second): their areas.
+        let expected_area = [0.75, 0.25, 5.0 / 3.0, 1.0, 1.0 / 3.0];
+        let mut counts = [0.0f64; 5];
+        let n = 50_000;
+        for _ in 0..n {
+            let u = rng.vec2();
+            let ls = light
+                .connect(light.draw(u), p, false)
+                .expect("the light faces p");
+            let q = p + ls.wi * ls.dist;
+            assert!(q.z.abs() < 1e-4, "{q}");
+            let strip = match q.x {
+                x if x < 1.0 => 0,
+                x if x < 2.0 => 1,
+                x if x < 4.0 => 2,
+                x if x < 5.0 => 3,
+                _ => 4,
+            };
+            counts[strip] += 1.0;
+            let hit_pdf = light.pdf_area_hit(p, ls.wi, ls.dist, Vec3A::Z);
+            assert!(
+                (ls.pdf - hit_pdf).abs() <= 1e-4 * hit_pdf,
+                "{} vs {hit_pdf}",
+                ls.pdf
+            );
+        }
+        let expected: Vec<f64> = expected_area.iter().map(|a| a / 4.0 * n as f64).collect();
+        assert_chi_square("mesh light strips", &counts, &expected);
+    }
+
+    /// Behind a one-sided emitter nothing is sampled.
+    #[test]
+    fn mesh_light_is_dark_from_behind() {
+        let light = two_triangle_light();
+        let mut rng = Rng::new(5);
+        for _ in 0..1000 {
+            let u = rng.vec2();
+            let below = Vec3A::new(2.0, 0.5, -1.0);
+            assert!(light.connect(light.draw(u), below, false).is_none());
+        }
+    }
+}
