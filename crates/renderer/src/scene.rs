@@ -43,6 +43,11 @@ impl Material {
 pub enum ShapeKind {
     Mesh {
         has_normals: bool,
+        /// Every triangle's three vertex normals are the same (flat-shaded faces, as in box
+        /// meshes with one normal per face): the shading normal is that normal, without the
+        /// interpolation and normalisation (a square root and a division on the path from a
+        /// hit to its shading).
+        flat_normals: bool,
         has_uvs: bool,
     },
     /// World-space centre and radius, and the world-to-object rotation that fixes the uv poles.
@@ -333,6 +338,7 @@ impl RenderScene {
         let mut sh = match shape.kind {
             ShapeKind::Mesh {
                 has_normals,
+                flat_normals,
                 has_uvs,
             } => {
                 let [i0, i1, i2] = self.mesh.indices[prim.triangle as usize];
@@ -347,7 +353,9 @@ impl RenderScene {
                 let e1 = p1 - p0;
                 let e2 = p2 - p0;
                 let ng = self.mesh.face_normals[prim.triangle as usize];
-                let ns = if has_normals {
+                let ns = if flat_normals {
+                    self.mesh.normals[i0]
+                } else if has_normals {
                     let n = b0 * self.mesh.normals[i0]
                         + hit.b1 * self.mesh.normals[i1]
                         + hit.b2 * self.mesh.normals[i2];
@@ -497,6 +505,11 @@ fn add_mesh(
         mesh.uvs
             .extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len()));
     }
+    let normal = |i: u32| mesh.normals[(i + base) as usize];
+    let flat_normals = has_normals
+        && m.indices
+            .iter()
+            .all(|t| normal(t[0]) == normal(t[1]) && normal(t[0]) == normal(t[2]));
     for tri in &m.indices {
         let idx = [tri[0] + base, tri[1] + base, tri[2] + base];
         let p0 = mesh.positions[idx[0] as usize];
@@ -516,6 +529,7 @@ fn add_mesh(
     }
     ShapeKind::Mesh {
         has_normals,
+        flat_normals,
         has_uvs,
     }
 }
@@ -577,4 +591,62 @@ fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Textur
             to_uv: *to_uv,
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn scene(shapes: &str) -> RenderScene {
+        let xml = format!(
+            r#"<scene version="0.6.0">
+                <sensor type="perspective"><film type="hdrfilm">
+                    <integer name="width" value="8"/><integer name="height" value="8"/>
+                </film></sensor>
+                {shapes}
+            </scene>"#
+        );
+        let desc = torrey_parser::parse_scene_str(&xml, Path::new("test.xml"), &[]).unwrap();
+        RenderScene::build(&desc, 8, 8).unwrap()
+    }
+
+    /// Rectangles (one normal for all four vertices) take the flat-normal path, and a hit's
+    /// shading normal there is exactly the vertex normal; a smooth mesh does not.
+    #[test]
+    fn flat_shaded_meshes_are_recognised() {
+        let s = scene(
+            r#"<shape type="rectangle"><transform name="toWorld">
+                   <rotate x="1" angle="-90"/><scale value="2"/>
+               </transform></shape>"#,
+        );
+        assert!(matches!(
+            s.shapes[0].kind,
+            ShapeKind::Mesh {
+                flat_normals: true,
+                ..
+            }
+        ));
+        let ray = Ray {
+            origin: Vec3A::new(0.3, 1.0, -0.2),
+            dir: -Vec3A::Y,
+            tmax: f32::INFINITY,
+        };
+        let hit = s.intersect(&ray).expect("the floor is below");
+        assert_eq!(hit.ns, s.mesh.normals[0]);
+        assert!((hit.ns - Vec3A::Y).length() < 1e-6, "{}", hit.ns);
+
+        // The project's torus has smooth vertex normals (tests run in the crate's directory).
+        let s = scene(
+            r#"<shape type="obj"><string name="filename" value="../../scenes/meshes/torus.obj"/></shape>"#,
+        );
+        assert!(matches!(
+            s.shapes[0].kind,
+            ShapeKind::Mesh {
+                has_normals: true,
+                flat_normals: false,
+                ..
+            }
+        ));
+    }
 }
