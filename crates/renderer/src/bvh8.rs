@@ -128,8 +128,8 @@ impl InnerNodes for Nodes8 {
         unsafe {
             let b = &self.0.get_unchecked(r as usize).bounds;
             // Slab distances bound × 1/d − origin × 1/d as one fused multiply-subtract: one
-            // rounding instead of two, so the exit widening stays conservative, and six
-            // instructions fewer per node than the four-wide test's product and difference.
+            // rounding instead of two, so the exit widening stays conservative, and one operation
+            // less on each node's dependent chain than the four-wide test's product and difference.
             let t = |row: usize, axis: usize| {
                 _mm256_fmsub_ps(
                     _mm256_load_ps(b.get_unchecked(row).as_ptr()),
