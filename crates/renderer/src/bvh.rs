@@ -33,8 +33,8 @@ impl PrimGeom {
                 max: p0.max(p1).max(p2),
             },
             PrimGeom::Sphere { center, radius } => Aabb {
-                min: (center - Vec3A::splat(radius)),
-                max: (center + Vec3A::splat(radius)),
+                min: center - Vec3A::splat(radius),
+                max: center + Vec3A::splat(radius),
             },
         }
     }

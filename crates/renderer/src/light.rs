@@ -79,7 +79,7 @@ pub enum LightDraw {
     MeshPoint { q: Vec3A, n: Vec3A },
 }
 
-/// Importance-samples an environment map. Kept out of [`Light::sample`] (whose other arms are
+/// Importance-samples an environment map. Kept out of [`Light::connect`] (whose other arms are
 /// small) so that inlining the map's sampling does not bloat the area-light path.
 #[inline(never)]
 fn sample_env(env: &EnvMap, u: Vec2) -> Option<LightSample> {
@@ -98,16 +98,9 @@ impl Light {
         matches!(self.kind, LightKind::Constant { .. } | LightKind::Env(_))
     }
 
-    /// Samples a connection from `p`. Returns None when the sample carries no energy.
-    /// `uniform_env` samples environment maps uniformly over the sphere instead of by luminance
-    /// (only for measuring what importance sampling gains).
-    #[inline(always)]
-    pub fn sample(&self, p: Vec3A, u: Vec2, uniform_env: bool) -> Option<LightSample> {
-        self.connect(self.draw(u), p, uniform_env)
-    }
-
-    /// The part of [`Light::sample`] that does not depend on the shading point, for lights where
-    /// that part is worth drawing early: a point on an emitting mesh. The integrator draws it
+    /// Next-event estimation samples a light in two steps, `connect(draw(u), p, uniform_env)`.
+    /// This first step is the part that does not depend on the shading point `p`, for lights
+    /// where that part is worth drawing early: a point on an emitting mesh. The integrator draws it
     /// before tracing the ray that finds the shading point, so that its chain of dependent
     /// operations (alias pick, square root, interpolation) overlaps the traversal: cbox renders
     /// 4% faster. Other lights defer everything to [`Light::connect`]: drawn early, a sample of
@@ -141,8 +134,9 @@ impl Light {
         }
     }
 
-    /// Finishes a sample that [`Light::draw`] started, as seen from `p` (`uniform_env`: as in
-    /// [`Light::sample`]). None when it carries no energy.
+    /// Finishes a sample that [`Light::draw`] started: a connection from `p`, None when it
+    /// carries no energy. `uniform_env` samples environment maps uniformly over the sphere
+    /// instead of by luminance (only for measuring what importance sampling gains).
     #[inline(always)]
     pub fn connect(&self, draw: LightDraw, p: Vec3A, uniform_env: bool) -> Option<LightSample> {
         match draw {
@@ -256,7 +250,7 @@ impl Light {
         }
     }
 
-    /// Solid-angle pdf that [`Light::sample`] from `p` produces direction `wi` hitting this
+    /// Solid-angle pdf that [`Light::connect`] from `p` produces direction `wi` hitting this
     /// (area) light at distance `dist` where the light's normal is `n_light`.
     #[inline]
     pub fn pdf_area_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A) -> f32 {
