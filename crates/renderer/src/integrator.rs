@@ -201,7 +201,7 @@ pub fn radiance(
         // used after it: it depends only on this hit, so its dependent chain of a division, a
         // polynomial and square roots overlaps the shadow ray's traversal instead of waiting
         // for it (4% faster renders, the same images).
-        let bsdf_sample = model.sample(reflectance, wo_local, u_dir, u_lobe);
+        let bsdf_sample = model.sample_inline_diffuse(reflectance, wo_local, u_dir, u_lobe);
 
         // Next-event estimation.
         if let (false, Some((index, draw))) = (model.is_delta(), light_draw) {

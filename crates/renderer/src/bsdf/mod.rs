@@ -217,6 +217,31 @@ impl BsdfModel {
     /// Samples a direction: `u` picks the direction, `u_lobe` the lobe for multi-lobe models
     /// (plastic: specular with probability F). `None` when `wo` is below the surface or the
     /// proposed direction falls below it (phong and blinn lobes can reach under the horizon).
+    /// [`BsdfModel::sample`] with the diffuse case inline: the common case in most scenes
+    /// skips the call into the full sampler (whose size keeps it out of line).
+    #[inline(always)]
+    pub fn sample_inline_diffuse(
+        &self,
+        reflectance: Vec3A,
+        wo: Vec3A,
+        u: Vec2,
+        u_lobe: f32,
+    ) -> Option<BsdfSample> {
+        if let BsdfModel::Diffuse = self {
+            if !(wo.z > 0.0) {
+                return None;
+            }
+            let wi = square_to_cosine_hemisphere(u);
+            return (wi.z > 0.0).then(|| BsdfSample {
+                wi,
+                weight: reflectance,
+                pdf: cosine_hemisphere_pdf(wi.z),
+                is_delta: false,
+            });
+        }
+        self.sample(reflectance, wo, u, u_lobe)
+    }
+
     pub fn sample(
         &self,
         reflectance: Vec3A,

@@ -636,3 +636,24 @@ fn from_kind_maps_every_scene_bsdf() {
         assert_eq!(refl, &c);
     }
 }
+
+/// The path loop's sampler with the diffuse case inline gives exactly what `sample` gives, for
+/// the diffuse model and for the others it passes on, above and below the surface.
+#[test]
+fn inline_diffuse_sampling_equals_sample() {
+    let mut rng = Rng::new(11);
+    let refl = Vec3A::new(0.2, 0.5, 0.8);
+    let mut models = non_delta_models();
+    models.push(BsdfModel::Mirror);
+    for model in models {
+        for deg in [0.0, 45.0, 85.0, 120.0] {
+            let wo = wo_at(deg);
+            for _ in 0..200 {
+                let (u, u_lobe) = (rng.vec2(), rng.f32());
+                let a = model.sample(refl, wo, u, u_lobe);
+                let b = model.sample_inline_diffuse(refl, wo, u, u_lobe);
+                assert_eq!(format!("{a:?}"), format!("{b:?}"), "{model:?} wo {wo}");
+            }
+        }
+    }
+}
