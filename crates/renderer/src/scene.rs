@@ -66,11 +66,17 @@ pub struct ShapeInfo {
     pub flip_normals: bool,
 }
 
-/// Which shape a BVH primitive belongs to, and for triangles its index into `Mesh::indices`.
+/// What a hit needs to know about a BVH primitive, one load away from the hit's primitive index:
+/// its shape and, for a triangle, its unit geometric normal and vertex indices into [`MeshData`].
+/// (Indices and normal in a separate per-triangle array would put one more dependent load
+/// between a hit and its shading.)
 #[derive(Clone, Copy, Debug)]
 pub struct PrimInfo {
+    /// (p1 − p0) × (p2 − p0), normalised; zero for a sphere.
+    pub ng: Vec3A,
+    /// Zero for a sphere.
+    pub indices: [u32; 3],
     pub shape: u32,
-    pub triangle: u32,
 }
 
 /// All triangles of the scene in world space, concatenated.
@@ -79,10 +85,8 @@ pub struct MeshData {
     pub positions: Vec<Vec3A>,
     pub normals: Vec<Vec3A>,
     pub uvs: Vec<Vec2>,
-    pub indices: Vec<[u32; 3]>,
-    /// Unit geometric normal of each triangle ((p1 − p0) × (p2 − p0), normalised), computed once
-    /// at build instead of at every hit.
-    pub face_normals: Vec<Vec3A>,
+    /// Triangles kept (degenerate ones are dropped); their indices are in [`PrimInfo`].
+    pub triangle_count: usize,
 }
 
 /// The differential geometry at a ray hit.
@@ -205,8 +209,9 @@ impl RenderScene {
                         radius: r,
                     });
                     prims.push(PrimInfo {
+                        ng: Vec3A::ZERO,
+                        indices: [0; 3],
                         shape: shape_id,
-                        triangle: 0,
                     });
                     ShapeKind::Sphere {
                         center: c.into(),
@@ -225,8 +230,8 @@ impl RenderScene {
                         ShapeKind::Mesh { .. } => {
                             let tris: Vec<EmitterTriangle> = (first_prim..first_prim + prim_count)
                                 .map(|p| {
-                                    let t = prims[p as usize].triangle as usize;
-                                    let [a, b, c] = mesh.indices[t];
+                                    let prim = &prims[p as usize];
+                                    let [a, b, c] = prim.indices;
                                     let (a, b, c) = (
                                         mesh.positions[a as usize],
                                         mesh.positions[b as usize],
@@ -236,7 +241,7 @@ impl RenderScene {
                                         p0: a,
                                         e1: b - a,
                                         e2: c - a,
-                                        normal: mesh.face_normals[t],
+                                        normal: prim.ng,
                                     }
                                 })
                                 .collect();
@@ -321,7 +326,7 @@ impl RenderScene {
     }
 
     pub fn triangle_count(&self) -> usize {
-        self.mesh.indices.len()
+        self.mesh.triangle_count
     }
 
     /// Closest surface along the ray, with its differential geometry.
@@ -332,7 +337,7 @@ impl RenderScene {
     }
 
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
-        let prim = self.prims[hit.prim as usize];
+        let prim = &self.prims[hit.prim as usize];
         let shape = &self.shapes[prim.shape as usize];
         let needs_uv = self.materials[shape.material as usize].is_textured();
         let mut sh = match shape.kind {
@@ -341,7 +346,7 @@ impl RenderScene {
                 flat_normals,
                 has_uvs,
             } => {
-                let [i0, i1, i2] = self.mesh.indices[prim.triangle as usize];
+                let [i0, i1, i2] = prim.indices;
                 let (i0, i1, i2) = (i0 as usize, i1 as usize, i2 as usize);
                 let (p0, p1, p2) = (
                     self.mesh.positions[i0],
@@ -352,7 +357,7 @@ impl RenderScene {
                 let p = b0 * p0 + hit.b1 * p1 + hit.b2 * p2;
                 let e1 = p1 - p0;
                 let e2 = p2 - p0;
-                let ng = self.mesh.face_normals[prim.triangle as usize];
+                let ng = prim.ng;
                 let ns = if flat_normals {
                     self.mesh.normals[i0]
                 } else if has_normals {
@@ -519,12 +524,11 @@ fn add_mesh(
             continue;
         }
         prims.push(PrimInfo {
+            ng: (p1 - p0).cross(p2 - p0).normalize_or(Vec3A::Z),
+            indices: idx,
             shape,
-            triangle: mesh.indices.len() as u32,
         });
-        mesh.indices.push(idx);
-        mesh.face_normals
-            .push((p1 - p0).cross(p2 - p0).normalize_or(Vec3A::Z));
+        mesh.triangle_count += 1;
         geoms.push(PrimGeom::Triangle { p0, p1, p2 });
     }
     ShapeKind::Mesh {
