@@ -68,6 +68,10 @@ struct RenderArgs {
     /// else 4 is used). Both find the same hits; this is for comparing their speed.
     #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
     bvh_width: BvhWidthArg,
+    /// Trace every camera ray alone instead of each pixel's in packets of eight (packets need
+    /// 8-wide nodes). The same hits; this is for comparing their speed.
+    #[arg(long)]
+    no_packets: bool,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -160,6 +164,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             SamplerArg::Independent => torrey_renderer::SamplerKind::Independent,
         },
         mipmapping: !args.no_mipmap,
+        packets: !args.no_packets,
     };
     let output = output_path(
         args.output.as_deref(),

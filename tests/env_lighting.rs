@@ -34,6 +34,7 @@ fn render(
         mipmapping: true,
         env_strategy: strategy,
         sampler: torrey_renderer::SamplerKind::Independent,
+        packets: true,
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
     assert_eq!(out.nonfinite_samples, 0);

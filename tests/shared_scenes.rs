@@ -70,6 +70,7 @@ fn every_shared_torrey_scene_renders() {
             // Independent samples: the per-pixel variance then estimates the error exactly.
             sampler: torrey_renderer::SamplerKind::Independent,
             mipmapping: true,
+            packets: true,
         };
         let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
         assert_eq!(out.nonfinite_samples, 0, "{name}: NaN or infinite samples");

@@ -60,6 +60,7 @@ pub fn render_scene_opts(
         // Independent samples: the per-pixel variance then estimates the error exactly.
         sampler: torrey_renderer::SamplerKind::Independent,
         mipmapping,
+        packets: true,
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
     Rendered {

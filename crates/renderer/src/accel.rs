@@ -5,6 +5,7 @@
 use crate::bvh::Bvh;
 pub use crate::bvh::{BvhWidth, ClosestHit, PrimGeom};
 use crate::geometry::Ray;
+pub use crate::packet::PACKET;
 
 pub struct Accel {
     bvh: Bvh,
@@ -39,6 +40,17 @@ impl Accel {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<ClosestHit> {
         self.bvh.intersect(ray)
+    }
+
+    /// Closest hits of rays from one origin, traced together; None when they cannot be
+    /// ([`Bvh::intersect_packet`]).
+    #[inline]
+    pub fn intersect_packet(
+        &self,
+        origin: glam::Vec3A,
+        dirs: &[glam::Vec3A; PACKET],
+    ) -> Option<[Option<ClosestHit>; PACKET]> {
+        self.bvh.intersect_packet(origin, dirs)
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax): stops at the first hit.
@@ -135,6 +147,113 @@ mod tests {
             }
         }
         assert!(hits > 50, "test rays should hit often, got {hits}");
+    }
+
+    /// Packets of eight rays from one origin find, lane by lane, exactly the hits single rays
+    /// find: same distance, primitive and barycentrics, bit for bit. The scene mixes a random
+    /// triangle cloud, spheres (leaves the packet tests ray by ray) and a grid, into whose shared
+    /// vertices some lanes point straight down, so that edge functions are exactly zero and the
+    /// lane takes the single-ray test's double-precision fallback. There several triangles meet at
+    /// the same distance, and only the distance is compared. Directions in different octants are
+    /// not packed.
+    #[test]
+    fn packets_find_the_hits_of_single_rays() {
+        if !crate::bvh8::available() {
+            return; // packets need eight-wide nodes
+        }
+        let mut rng = torrey_testkit::Rng::new(777);
+        let mut rnd = || rng.range(-1.0, 1.0);
+        let mut geoms = Vec::new();
+        for i in 0..600 {
+            let c = Vec3A::new(rnd() * 4.0, rnd() * 4.0, rnd() * 2.0 - 1.5);
+            if i % 7 == 0 {
+                geoms.push(PrimGeom::Sphere {
+                    center: c,
+                    radius: 0.15 + 0.05 * rnd(),
+                });
+            } else {
+                let p1 = c + Vec3A::new(rnd(), rnd(), rnd()) * 0.4;
+                let p2 = c + Vec3A::new(rnd(), rnd(), rnd()) * 0.4;
+                geoms.push(PrimGeom::Triangle { p0: c, p1, p2 });
+            }
+        }
+        // A 10 x 10 grid of unit squares at z = -4, two triangles each.
+        let grid = |x: i32, y: i32| Vec3A::new(x as f32, y as f32, -4.0);
+        for x in -5..5 {
+            for y in -5..5 {
+                let (a, b, c, d) = (
+                    grid(x, y),
+                    grid(x + 1, y),
+                    grid(x + 1, y + 1),
+                    grid(x, y + 1),
+                );
+                geoms.push(PrimGeom::Triangle {
+                    p0: a,
+                    p1: b,
+                    p2: c,
+                });
+                geoms.push(PrimGeom::Triangle {
+                    p0: a,
+                    p1: c,
+                    p2: d,
+                });
+            }
+        }
+        let accel = Accel::build_with_width(&geoms, BvhWidth::Eight);
+        let (mut packed, mut hits, mut vertex_hits) = (0, 0, 0);
+        for case in 0..3000 {
+            // Integer x and y, so that straight-down lanes meet grid vertices exactly.
+            let origin = Vec3A::new((rnd() * 3.0).round(), (rnd() * 3.0).round(), 4.0 + rnd());
+            let centre = Vec3A::new(rnd() * 0.3, rnd() * 0.3, -1.0).normalize();
+            let spread = if case % 2 == 0 { 0.002 } else { 0.05 };
+            let dirs: [Vec3A; PACKET] = std::array::from_fn(|k| {
+                if case % 3 == 0 && k < 2 {
+                    -Vec3A::Z
+                } else {
+                    (centre + Vec3A::new(rnd(), rnd(), rnd()) * spread).normalize()
+                }
+            });
+            let Some(packet) = accel.intersect_packet(origin, &dirs) else {
+                continue;
+            };
+            packed += 1;
+            for (k, (&dir, got)) in dirs.iter().zip(packet).enumerate() {
+                let ray = Ray {
+                    origin,
+                    dir,
+                    tmax: f32::INFINITY,
+                };
+                let want = accel.intersect(&ray);
+                let straight_down = dir == -Vec3A::Z;
+                match (got, want) {
+                    (None, None) => {}
+                    (Some(g), Some(w)) if straight_down => {
+                        vertex_hits += 1;
+                        assert_eq!(g.t.to_bits(), w.t.to_bits(), "case {case} lane {k}");
+                    }
+                    (Some(g), Some(w)) => {
+                        hits += 1;
+                        let bits =
+                            |h: ClosestHit| (h.t.to_bits(), h.prim, h.b1.to_bits(), h.b2.to_bits());
+                        assert_eq!(bits(g), bits(w), "case {case} lane {k}: {g:?} vs {w:?}");
+                    }
+                    other => {
+                        panic!("case {case} lane {k}: packet and single ray disagree: {other:?}")
+                    }
+                }
+            }
+        }
+        assert!(
+            packed > 1500 && hits > 5000 && vertex_hits > 300,
+            "{packed} {hits} {vertex_hits}"
+        );
+
+        // Two octants: not packed.
+        let mut dirs = [Vec3A::new(0.1, 0.1, -1.0).normalize(); PACKET];
+        dirs[3] = Vec3A::new(-0.1, 0.1, -1.0).normalize();
+        assert!(accel
+            .intersect_packet(Vec3A::new(0.0, 0.0, 5.0), &dirs)
+            .is_none());
     }
 
     #[test]

@@ -228,7 +228,7 @@ pub(crate) struct BoxRay {
 
 /// The bound rows (of a node's `bounds`) a ray enters and leaves each axis' slab through, by the
 /// octant of its direction (bit i set: negative along axis i, so it enters through the max bound).
-const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
+pub(crate) const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
     let mut table = [([0; 3], [0; 3]); 8];
     let mut octant = 0;
     while octant < 8 {
@@ -253,7 +253,7 @@ pub(crate) const EXIT_WIDENING: f32 = 1.0 + 3.0 * f32::EPSILON;
 /// largest component, all the watertight triangle test reads, is never replaced for a non-zero
 /// direction.)
 #[inline(always)]
-fn reciprocal(ray: &Ray) -> Vec3A {
+pub(crate) fn reciprocal(ray: &Ray) -> Vec3A {
     let d = ray.dir;
     let tiny = d.abs().cmplt(Vec3A::splat(1e-20));
     Vec3A::ONE / Vec3A::select(tiny, Vec3A::splat(1e-20).copysign(d), d)
@@ -302,7 +302,7 @@ impl BoxRay {
 
 /// The closest hit in (0, tmax) among the triangles of `blocks`.
 #[inline(always)]
-fn closest_in_blocks(
+pub(crate) fn closest_in_blocks(
     blocks: &[Triangle4],
     ray4: &Ray4,
     ray: &Ray,
@@ -366,7 +366,7 @@ impl Leaves {
     /// The triangle blocks of leaf `r` when its reference carries them (a leaf of triangles
     /// only); None for a leaf stored in `leaves`.
     #[inline(always)]
-    fn packed_blocks(&self, r: ChildRef) -> Option<&[Triangle4]> {
+    pub(crate) fn packed_blocks(&self, r: ChildRef) -> Option<&[Triangle4]> {
         let first = (r & LEAF_INDEX_MASK) as usize;
         let count = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
         if count == 0 {
@@ -381,7 +381,7 @@ impl Leaves {
     /// out of line: leaves with spheres are rare, and inlining the sphere test into the
     /// traversal loops costs every ray registers and set-up.
     #[inline(never)]
-    fn intersect_general(
+    pub(crate) fn intersect_general(
         &self,
         r: ChildRef,
         ray: &Ray,
@@ -603,6 +603,34 @@ impl Bvh {
         self.layout.any_hit(&self.leaves, self.root, ray, stack)
     }
 
+    /// Closest hits of rays from one origin ([`crate::packet`]), or None when they are not traced
+    /// as a packet (four-wide nodes, directions in different octants, a very deep tree): the
+    /// caller then traces them one by one.
+    #[inline]
+    pub fn intersect_packet(
+        &self,
+        origin: Vec3A,
+        dirs: &[Vec3A; crate::packet::PACKET],
+    ) -> Option<[Option<ClosestHit>; crate::packet::PACKET]> {
+        match &self.layout {
+            #[cfg(target_arch = "x86_64")]
+            Layout::Eight(nodes) if self.root != EMPTY => {
+                // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA.
+                unsafe {
+                    crate::packet::closest_hits(
+                        nodes,
+                        &self.leaves,
+                        self.root,
+                        self.stack_needed,
+                        origin,
+                        dirs,
+                    )
+                }
+            }
+            _ => None,
+        }
+    }
+
     /// [`Bvh::intersect`] for trees too deep for the fixed stack (never seen in practice).
     #[cold]
     #[inline(never)]
@@ -639,13 +667,46 @@ pub(crate) fn closest_hit<N: InnerNodes>(
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> Option<ClosestHit> {
     let (box_ray, ray4) = ray_constants::<N>(ray);
-    let mut tmax = ray.tmax;
     let mut best: Option<ClosestHit> = None;
+    nearest_first(
+        nodes,
+        root,
+        ray.tmax,
+        stack,
+        |node, tmax| nodes.test(node, &box_ray, tmax),
+        |leaf, tmax| match match leaves.packed_blocks(leaf) {
+            Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
+            None => leaves.intersect_general(leaf, ray, &ray4, tmax),
+        } {
+            Some(hit) => {
+                best = Some(hit);
+                hit.t
+            }
+            None => tmax,
+        },
+    );
+    best
+}
+
+/// The loop of a closest-hit traversal, for one ray or a packet: `test` gives an inner node's
+/// children's entry distances and the mask of those entered before `tmax`; `leaf` tests a leaf's
+/// primitives and returns the new `tmax` (the distance beyond which nothing is looked at).
+/// Visits the nearest entered child first and stacks the others far to near.
+#[inline(always)]
+pub(crate) fn nearest_first<N: InnerNodes>(
+    nodes: &N,
+    root: ChildRef,
+    tmax: f32,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+    mut test: impl FnMut(ChildRef, f32) -> ([f32; 8], u32),
+    mut leaf: impl FnMut(ChildRef, f32) -> f32,
+) {
+    let mut tmax = tmax;
     let mut top = 0usize;
     let mut current = root;
     loop {
         if current & LEAF == 0 {
-            let (near, mut mask) = nodes.test(current, &box_ray, tmax);
+            let (near, mut mask) = test(current, tmax);
             if mask != 0 {
                 let first = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -692,17 +753,13 @@ pub(crate) fn closest_hit<N: InnerNodes>(
                 current = unsafe { stack[top].assume_init() }.0;
                 continue;
             }
-        } else if let Some(hit) = match leaves.packed_blocks(current) {
-            Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
-            None => leaves.intersect_general(current, ray, &ray4, tmax),
-        } {
-            tmax = hit.t;
-            best = Some(hit);
+        } else {
+            tmax = leaf(current, tmax);
         }
         // Pop the nearest pending node that can still hold a closer hit.
         loop {
             if top == 0 {
-                return best;
+                return;
             }
             top -= 1;
             let (node, near) = unsafe { stack[top].assume_init() };

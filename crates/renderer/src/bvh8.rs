@@ -106,6 +106,62 @@ unsafe fn any_hit_avx2(
     any_hit(nodes, leaves, root, ray, stack)
 }
 
+impl Nodes8 {
+    /// [`InnerNodes::test`] for a packet of rays from one origin: the entry distance of each
+    /// child is bounded below, and its exit distance above, over all the packet's rays. Along
+    /// each axis (bound − origin) × 1/d is linear in 1/d, so over the packet's range of 1/d it
+    /// is extreme at the range's ends: two fused multiply-subtracts, then a minimum (entries) or
+    /// a maximum (exits). The mask holds every child that one of the rays enters before `tmax`
+    /// (the largest of the rays' limits), and possibly a few that none enters.
+    #[inline(always)]
+    pub(crate) fn test_packet(
+        &self,
+        r: ChildRef,
+        c: &crate::packet::PacketBox,
+        tmax: f32,
+    ) -> ([f32; 8], u32) {
+        debug_assert!((r as usize) < self.0.len());
+        // SAFETY: as in `InnerNodes::test`.
+        unsafe {
+            let b = &self.0.get_unchecked(r as usize).bounds;
+            let t = |row: usize, inv: f32, org_inv: f32| {
+                _mm256_fmsub_ps(
+                    _mm256_load_ps(b.get_unchecked(row).as_ptr()),
+                    _mm256_set1_ps(inv),
+                    _mm256_set1_ps(org_inv),
+                )
+            };
+            let entry = |axis: usize| {
+                let row = c.near[axis];
+                _mm256_min_ps(
+                    t(row, c.inv_min[axis], c.org_inv_min[axis]),
+                    t(row, c.inv_max[axis], c.org_inv_max[axis]),
+                )
+            };
+            let exit = |axis: usize| {
+                let row = c.far[axis];
+                _mm256_max_ps(
+                    t(row, c.inv_min[axis], c.org_inv_min[axis]),
+                    t(row, c.inv_max[axis], c.org_inv_max[axis]),
+                )
+            };
+            let near = _mm256_max_ps(
+                _mm256_max_ps(entry(0), entry(1)),
+                _mm256_max_ps(entry(2), _mm256_setzero_ps()),
+            );
+            let far = _mm256_min_ps(_mm256_min_ps(exit(0), exit(1)), exit(2));
+            let far = _mm256_min_ps(
+                _mm256_mul_ps(far, _mm256_set1_ps(EXIT_WIDENING)),
+                _mm256_set1_ps(tmax),
+            );
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+            let mut nears = [0.0f32; 8];
+            _mm256_storeu_ps(nears.as_mut_ptr(), near);
+            (nears, mask)
+        }
+    }
+}
+
 impl InnerNodes for Nodes8 {
     type RayConsts = BoxRay8;
 

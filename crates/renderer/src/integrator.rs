@@ -22,6 +22,12 @@ pub trait Sampler {
     /// Begins sample number `index` of the current pixel (sequences that depend on the sample
     /// index, like Sobol, restart their dimensions here; independent samplers ignore it).
     fn start_sample(&mut self, _index: u32) {}
+    /// Goes back to sample `index` after its first `requests` draws (`next_1d` and `next_2d`
+    /// calls each count one), when other samples were started in between: the camera rays of a
+    /// pixel's packet are drawn first, then each path is followed in turn. A stream of
+    /// independent numbers just continues; a low-discrepancy sampler returns to the sample's
+    /// next dimension.
+    fn resume_sample(&mut self, _index: u32, _requests: u32) {}
     fn next_1d(&mut self) -> f32;
     fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())
@@ -61,6 +67,9 @@ pub struct RayCount {
 }
 
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
+/// `first_hit`, when given, is the primary ray's closest hit, already traced (in a packet with
+/// the pixel's other samples).
+#[allow(clippy::too_many_arguments)]
 pub fn radiance(
     scene: &RenderScene,
     origin: Vec3A,
@@ -69,7 +78,9 @@ pub fn radiance(
     settings: PathSettings,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
+    first_hit: Option<Option<SurfaceHit>>,
 ) -> Vec3A {
+    let mut first_hit = first_hit;
     let max_depth = if settings.max_depth < 0 {
         u32::MAX
     } else {
@@ -120,7 +131,10 @@ pub fn radiance(
             let index = ((u_light * light_count as f32) as u32 as usize).min(light_count - 1);
             (index, scene.lights[index].draw(u_pos))
         });
-        let hit = if last_segment && !scene.has_area_lights {
+        let hit = if let Some(hit) = first_hit.take() {
+            rays.closest += 1;
+            hit
+        } else if last_segment && !scene.has_area_lights {
             // Without area lights a hit on the last segment adds nothing: only whether the ray
             // escapes to the lights at infinity matters, which an any-hit query answers sooner.
             rays.shadow += 1;

@@ -16,6 +16,7 @@ pub mod camera;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod packet;
 pub mod render;
 pub mod sampler;
 pub mod sampling;

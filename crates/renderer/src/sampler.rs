@@ -81,6 +81,12 @@ impl Sampler for SobolSampler {
     }
 
     #[inline]
+    fn resume_sample(&mut self, index: u32, requests: u32) {
+        self.start_sample(index);
+        self.dimension = requests;
+    }
+
+    #[inline]
     fn next_1d(&mut self) -> f32 {
         let seed = self.dimension_seed();
         let i = self.shuffled_index(seed);

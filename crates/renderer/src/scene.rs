@@ -1,7 +1,7 @@
 //! The scene as the integrator sees it: world-space geometry in one BVH, resolved materials and
 //! textures, and the light list. Built once from the parser's plain description.
 
-use crate::accel::{Accel, BvhWidth, ClosestHit, PrimGeom};
+use crate::accel::{Accel, BvhWidth, ClosestHit, PrimGeom, PACKET};
 use crate::bsdf::BsdfModel;
 use crate::camera::Camera;
 use crate::geometry::{sphere_uv, Ray};
@@ -336,6 +336,25 @@ impl RenderScene {
         Some(self.surface_hit(ray, &hit))
     }
 
+    /// Closest hits of rays from one origin (the samples of a pixel), traced as one packet; None
+    /// when they cannot be ([`crate::bvh::Bvh::intersect_packet`]). [`RenderScene::surface`]
+    /// turns a hit into its differential geometry.
+    #[inline]
+    pub fn intersect_packet(
+        &self,
+        origin: Vec3A,
+        dirs: &[Vec3A; PACKET],
+    ) -> Option<[Option<ClosestHit>; PACKET]> {
+        self.accel.intersect_packet(origin, dirs)
+    }
+
+    /// The differential geometry of `hit`, a closest hit along `ray`.
+    #[inline(never)]
+    pub fn surface(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
+        self.surface_hit(ray, hit)
+    }
+
+    #[inline(always)]
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = &self.prims[hit.prim as usize];
         let shape = &self.shapes[prim.shape as usize];

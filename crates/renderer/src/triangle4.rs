@@ -38,6 +38,12 @@ impl Triangle4 {
         }
     }
 
+    /// Coordinate `axis` of vertex `vertex` of the triangle in `lane` (NaN in unused lanes).
+    #[inline(always)]
+    pub(crate) fn coordinate(&self, vertex: usize, axis: usize, lane: usize) -> f32 {
+        self.v[vertex][axis].to_array()[lane]
+    }
+
     /// The vertices of one lane.
     fn lane(&self, lane: usize) -> (Vec3A, Vec3A, Vec3A) {
         let p = |vertex: usize| {
