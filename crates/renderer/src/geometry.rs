@@ -89,7 +89,7 @@ fn largest_axis(d: Vec3A) -> u8 {
 
 /// The source axes of the cyclic permutation (kz+1, kz+2, kz) mod 3 that moves axis kz to z, by
 /// kz (row 3 is padding, so that `kz & 3` needs no bounds check).
-const PERMUTATION: [[usize; 3]; 4] = [[1, 2, 0], [2, 0, 1], [0, 1, 2], [0, 1, 2]];
+pub(crate) const PERMUTATION: [[usize; 3]; 4] = [[1, 2, 0], [2, 0, 1], [0, 1, 2], [0, 1, 2]];
 
 /// Cyclic axis permutation that moves axis `kz` to z. Indexed loads rather than a `match`: kz is
 /// random from ray to ray, and a branch on it mispredicted about once per ray in profiles.

@@ -16,7 +16,7 @@
 use crate::{
     bvh::{nearest_first, reciprocal, ChildRef, ClosestHit, Leaves, NEAR_FAR},
     bvh8::Nodes8,
-    geometry::{Ray, WatertightRay},
+    geometry::{Ray, WatertightRay, PERMUTATION},
     triangle4::{Ray4, Triangle4},
 };
 #[cfg(target_arch = "x86_64")]
@@ -59,23 +59,53 @@ pub(crate) unsafe fn closest_hits(
     if stack_needed > STACK_SIZE {
         return None;
     }
-    let rays = dirs.map(|dir| Ray {
-        origin,
-        dir,
-        tmax: f32::INFINITY,
+    // The rays' set-up, eight lanes at a time, with the single-ray arithmetic
+    // (`bvh::reciprocal`, `WatertightRay::with_reciprocal`) in each lane.
+    let d: [__m256; 3] = std::array::from_fn(|axis| {
+        let c: [f32; PACKET] = std::array::from_fn(|k| dirs[k].to_array()[axis]);
+        _mm256_loadu_ps(c.as_ptr())
     });
-    let invs = rays.each_ref().map(reciprocal);
-    let watertight: [WatertightRay; PACKET] =
-        std::array::from_fn(|k| WatertightRay::with_reciprocal(&rays[k], invs[k]));
-    let octant = |inv: Vec3A| inv.cmplt(Vec3A::ZERO).bitmask() & 7;
-    let packet_octant = octant(invs[0]);
-    let axes = watertight[0].axes();
-    if (1..PACKET).any(|k| octant(invs[k]) != packet_octant || watertight[k].axes() != axes) {
-        return None;
+    let sign = _mm256_set1_ps(-0.0);
+    let tiny = _mm256_set1_ps(1e-20);
+    let inv = d.map(|d| {
+        let is_tiny = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(sign, d), tiny);
+        let replaced = _mm256_or_ps(tiny, _mm256_and_ps(d, sign));
+        _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_blendv_ps(d, replaced, is_tiny))
+    });
+    // One octant for all lanes.
+    let mut packet_octant = 0;
+    for (axis, &inv) in inv.iter().enumerate() {
+        match _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(inv, _mm256_setzero_ps())) {
+            0 => {}
+            0xff => packet_octant |= 1 << axis,
+            _ => return None,
+        }
     }
-    let inv_min = invs.iter().fold(invs[0], |m, &inv| m.min(inv));
-    let inv_max = invs.iter().fold(invs[0], |m, &inv| m.max(inv));
-    let (near, far) = NEAR_FAR[packet_octant as usize];
+    // One largest axis for all lanes (`geometry::largest_axis`: x when |x| > |y| and |x| > |z|,
+    // else y when |y| > |z| and not |x| > |y|, else z).
+    let a = d.map(|d| _mm256_andnot_ps(sign, d));
+    let greater = |i: usize, j: usize| _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(a[i], a[j]));
+    let (x_y, x_z, y_z) = (greater(0, 1), greater(0, 2), greater(1, 2));
+    let largest_x = x_y & x_z;
+    let largest_y = !x_y & y_z & 0xff;
+    let kz = match (largest_x, largest_y) {
+        (0xff, _) => 0,
+        (_, 0xff) => 1,
+        (0, 0) => 2,
+        _ => return None,
+    };
+    let axes = PERMUTATION[kz];
+    let shear_z = inv[kz];
+    let shear = [
+        _mm256_mul_ps(_mm256_xor_ps(d[axes[0]], sign), shear_z),
+        _mm256_mul_ps(_mm256_xor_ps(d[axes[1]], sign), shear_z),
+        shear_z,
+    ];
+    let inv_lanes = [lanes(inv[0]), lanes(inv[1]), lanes(inv[2])];
+    let inv_min = Vec3A::from_array(inv_lanes.map(|l| l.into_iter().fold(f32::INFINITY, f32::min)));
+    let inv_max =
+        Vec3A::from_array(inv_lanes.map(|l| l.into_iter().fold(f32::NEG_INFINITY, f32::max)));
+    let (near, far) = NEAR_FAR[packet_octant];
     let box_packet = PacketBox {
         inv_min: inv_min.to_array(),
         inv_max: inv_max.to_array(),
@@ -84,7 +114,12 @@ pub(crate) unsafe fn closest_hits(
         near,
         far,
     };
-    let triangle_packet = TrianglePacket::new(&watertight, origin);
+    let o = origin.to_array();
+    let triangle_packet = TrianglePacket {
+        axes,
+        origin: [o[axes[0]], o[axes[1]], o[axes[2]]],
+        shear,
+    };
     let mut hits = Hits::new();
     let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
     nearest_first(
@@ -97,15 +132,15 @@ pub(crate) unsafe fn closest_hits(
             match leaves.packed_blocks(leaf) {
                 Some(blocks) => {
                     for block in blocks {
-                        triangle_packet.intersect(block, &mut hits, &rays, &watertight);
+                        triangle_packet.intersect(block, &mut hits, origin, dirs);
                     }
                 }
                 None => {
                     // Leaves with spheres: each ray on its own.
-                    for k in 0..PACKET {
-                        let ray4 = Ray4::new(&watertight[k], origin);
+                    for (k, &dir) in dirs.iter().enumerate() {
+                        let (ray, ray4) = single_ray(origin, dir);
                         let tmax = hits.t_of(k);
-                        if let Some(h) = leaves.intersect_general(leaf, &rays[k], &ray4, tmax) {
+                        if let Some(h) = leaves.intersect_general(leaf, &ray, &ray4, tmax) {
                             hits.set(k, h.t, h.prim, h.b1, h.b2);
                         }
                     }
@@ -209,6 +244,22 @@ unsafe fn lanes(v: __m256) -> [f32; PACKET] {
     a
 }
 
+/// One lane's ray and its constants for the single-ray tests (the rare fallbacks).
+#[cfg(target_arch = "x86_64")]
+#[cold]
+fn single_ray(origin: Vec3A, dir: Vec3A) -> (Ray, Ray4) {
+    let ray = Ray {
+        origin,
+        dir,
+        tmax: f32::INFINITY,
+    };
+    let ray4 = Ray4::new(
+        &WatertightRay::with_reciprocal(&ray, reciprocal(&ray)),
+        origin,
+    );
+    (ray, ray4)
+}
+
 /// The packet's constants of the watertight triangle test: the shared axis permutation and
 /// origin, and each lane's shear.
 #[cfg(target_arch = "x86_64")]
@@ -220,21 +271,6 @@ struct TrianglePacket {
 
 #[cfg(target_arch = "x86_64")]
 impl TrianglePacket {
-    #[inline(always)]
-    unsafe fn new(watertight: &[WatertightRay; PACKET], origin: Vec3A) -> Self {
-        let axes = watertight[0].axes();
-        let shear = |i: usize| {
-            let s: [f32; PACKET] = std::array::from_fn(|k| watertight[k].shear()[i]);
-            _mm256_loadu_ps(s.as_ptr())
-        };
-        let o = origin.to_array();
-        Self {
-            axes,
-            origin: [o[axes[0]], o[axes[1]], o[axes[2]]],
-            shear: [shear(0), shear(1), shear(2)],
-        }
-    }
-
     /// Tests the block's triangles against every lane, keeping each lane's closest hit. The
     /// arithmetic is [`Triangle4`]'s, lane by lane: the relative vertex coordinates are scalars
     /// (the origin is shared), the shear a vector. Where an edge function is exactly zero for a
@@ -245,8 +281,8 @@ impl TrianglePacket {
         &self,
         block: &Triangle4,
         hits: &mut Hits,
-        rays: &[Ray; PACKET],
-        watertight: &[WatertightRay; PACKET],
+        origin: Vec3A,
+        dirs: &[Vec3A; PACKET],
     ) {
         let before = *hits;
         let [kx, ky, kz] = self.axes;
@@ -304,8 +340,8 @@ impl TrianglePacket {
             while fallback != 0 {
                 let k = fallback.trailing_zeros() as usize;
                 fallback &= fallback - 1;
-                let ray4 = Ray4::new(&watertight[k], rays[k].origin);
-                if let Some((lane, t, b1, b2)) = block.intersect(&ray4, &rays[k], hits.t_of(k)) {
+                let (ray, ray4) = single_ray(origin, dirs[k]);
+                if let Some((lane, t, b1, b2)) = block.intersect(&ray4, &ray, hits.t_of(k)) {
                     hits.set(k, t, block.prim[lane], b1, b2);
                 }
             }
