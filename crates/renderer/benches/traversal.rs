@@ -3,7 +3,9 @@
 //! For each project scene, traces camera rays, then from every primary hit a diffuse-like
 //! secondary ray (closest hit) and a shadow ray towards a random point of the scene's hit cloud
 //! (any hit), single-threaded, and prints millions of rays per second. The rays are generated
-//! once and replayed, so only the BVH queries are timed (not the surface reconstruction).
+//! once and replayed, so only the BVH queries are timed (not the surface reconstruction). The
+//! last two columns trace eight jittered camera rays per pixel, as a render's samples, one by
+//! one and in packets (`torrey_renderer::packet`; eight-wide nodes only).
 //! `cargo bench -p torrey-renderer --bench traversal -- cbox` runs only scenes whose file name
 //! contains "cbox". Each scene is measured with 4-wide and, on CPUs with AVX2, 8-wide BVH nodes.
 //! A plain `harness = false` bench: no extra dependency in the test build.
@@ -11,6 +13,7 @@
 use glam::{Vec2, Vec3A};
 use std::path::Path;
 use std::time::Instant;
+use torrey_renderer::accel::PACKET;
 use torrey_renderer::geometry::{offset_origin, Ray};
 use torrey_renderer::{BvhWidth, RenderScene};
 
@@ -34,8 +37,8 @@ fn main() {
         filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()))
     });
     println!(
-        "{:<34} {:>10} {:>12} {:>12} {:>12}",
-        "scene", "triangles", "primary", "secondary", "shadow"
+        "{:<34} {:>10} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "scene", "triangles", "primary", "secondary", "shadow", "camera x8", "packets"
     );
     for (path, bvh_width) in scenes
         .iter()
@@ -48,6 +51,41 @@ fn main() {
             continue; // no AVX2
         }
         let (primary, secondary, shadow) = make_rays(&scene);
+        let (origin, pixels) = camera_samples(&scene);
+        let singly = || {
+            let mut hits = 0usize;
+            for dirs in &pixels {
+                for &dir in dirs {
+                    let ray = Ray {
+                        origin,
+                        dir,
+                        tmax: f32::INFINITY,
+                    };
+                    hits += scene.accel.intersect(&ray).is_some() as usize;
+                }
+            }
+            hits
+        };
+        let packed = || {
+            let mut hits = 0usize;
+            for dirs in &pixels {
+                match scene.accel.intersect_packet(origin, dirs) {
+                    Some(packet) => hits += packet.iter().flatten().count(),
+                    None => {
+                        for &dir in dirs {
+                            let ray = Ray {
+                                origin,
+                                dir,
+                                tmax: f32::INFINITY,
+                            };
+                            hits += scene.accel.intersect(&ray).is_some() as usize;
+                        }
+                    }
+                }
+            }
+            hits
+        };
+        let samples = pixels.len() * PACKET;
         let closest = |rays: &[Ray]| {
             let mut hits = 0usize;
             for r in rays {
@@ -70,7 +108,7 @@ fn main() {
             format!("{:.1} Mray/s", count as f64 / best / 1e6)
         };
         println!(
-            "{:<34} {:>10} {:>12} {:>12} {:>12}",
+            "{:<34} {:>10} {:>12} {:>12} {:>12} {:>12} {:>12}",
             format!(
                 "{} ({}-wide)",
                 path.file_name().unwrap().to_string_lossy(),
@@ -80,6 +118,12 @@ fn main() {
             rate(primary.len(), &|| closest(&primary)),
             rate(secondary.len(), &|| closest(&secondary)),
             rate(shadow.len(), &|| any(&shadow)),
+            rate(samples, &singly),
+            if scene.accel.bvh_width() == 8 {
+                rate(samples, &packed)
+            } else {
+                "-".to_string()
+            },
         );
     }
 }
@@ -146,4 +190,30 @@ fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
         }
     }
     (primary, secondary, shadow)
+}
+
+/// Eight camera rays through random points of every pixel: the camera's origin and each
+/// pixel's directions.
+fn camera_samples(scene: &RenderScene) -> (Vec3A, Vec<[Vec3A; PACKET]>) {
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rnd = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut origin = Vec3A::ZERO;
+    let mut pixels = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            pixels.push(std::array::from_fn(|_| {
+                let film = Vec2::new(x as f32 + rnd(), y as f32 + rnd());
+                let (o, d) = scene.camera.generate_ray(film);
+                origin = o;
+                d
+            }));
+        }
+    }
+    (origin, pixels)
 }
