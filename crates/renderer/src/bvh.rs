@@ -302,7 +302,7 @@ impl BoxRay {
 
 /// The closest hit in (0, tmax) among the triangles of `blocks`.
 #[inline(always)]
-pub(crate) fn closest_in_blocks(
+fn closest_in_blocks(
     blocks: &[Triangle4],
     ray4: &Ray4,
     ray: &Ray,
@@ -674,15 +674,18 @@ pub(crate) fn closest_hit<N: InnerNodes>(
         ray.tmax,
         stack,
         |node, tmax| nodes.test(node, &box_ray, tmax),
-        |leaf, tmax| match match leaves.packed_blocks(leaf) {
-            Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
-            None => leaves.intersect_general(leaf, ray, &ray4, tmax),
-        } {
-            Some(hit) => {
-                best = Some(hit);
-                hit.t
+        |leaf, tmax| {
+            let hit = match leaves.packed_blocks(leaf) {
+                Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
+                None => leaves.intersect_general(leaf, ray, &ray4, tmax),
+            };
+            match hit {
+                Some(hit) => {
+                    best = Some(hit);
+                    hit.t
+                }
+                None => tmax,
             }
-            None => tmax,
         },
     );
     best

@@ -90,8 +90,7 @@ pub fn render(
                         SamplerKind::Independent => render_pixel(
                             scene,
                             (x, y),
-                            (spp, settings.packets),
-                            settings.filter,
+                            settings,
                             path,
                             &mut PcgSampler::new(settings.seed, pixel_index),
                             &mut rays,
@@ -99,8 +98,7 @@ pub fn render(
                         SamplerKind::Sobol => render_pixel(
                             scene,
                             (x, y),
-                            (spp, settings.packets),
-                            settings.filter,
+                            settings,
                             path,
                             &mut SobolSampler::new(settings.seed, pixel_index),
                             &mut rays,
@@ -154,8 +152,7 @@ pub fn render(
 fn render_pixel<S: Sampler>(
     scene: &RenderScene,
     (x, y): (u32, u32),
-    (spp, packets): (u32, bool),
-    filter: PixelFilter,
+    settings: &RenderSettings,
     path: PathSettings,
     sampler: &mut S,
     rays: &mut RayCount,
@@ -164,6 +161,8 @@ fn render_pixel<S: Sampler>(
     let mut mean = Vec3A::ZERO;
     let mut m2 = Vec3A::ZERO;
     let mut bad = 0;
+    let spp = settings.spp.max(1);
+    let filter = settings.filter;
     let cone = RayCone::from_pixel(scene.camera.pixel_spread);
     let camera_ray = |sampler: &mut S| {
         let offset = sample_filter(filter, sampler.next_2d());
@@ -189,7 +188,7 @@ fn render_pixel<S: Sampler>(
     let mut origin = Vec3A::ZERO;
     let mut dirs = [Vec3A::ZERO; PACKET];
     let mut packet: Option<[Option<ClosestHit>; PACKET]> = None;
-    let packed_samples = if packets {
+    let packed_samples = if settings.packets {
         spp - spp % PACKET as u32
     } else {
         0
