@@ -52,38 +52,27 @@ fn main() {
         }
         let (primary, secondary, shadow) = make_rays(&scene);
         let (origin, pixels) = camera_samples(&scene);
-        let singly = || {
-            let mut hits = 0usize;
-            for dirs in &pixels {
-                for &dir in dirs {
+        let one_by_one = |dirs: &[Vec3A; PACKET]| {
+            dirs.iter()
+                .filter(|&&dir| {
                     let ray = Ray {
                         origin,
                         dir,
                         tmax: f32::INFINITY,
                     };
-                    hits += scene.accel.intersect(&ray).is_some() as usize;
-                }
-            }
-            hits
+                    scene.accel.intersect(&ray).is_some()
+                })
+                .count()
         };
+        let singly = || pixels.iter().map(one_by_one).sum();
         let packed = || {
-            let mut hits = 0usize;
-            for dirs in &pixels {
-                match scene.accel.intersect_packet(origin, dirs) {
-                    Some(packet) => hits += packet.iter().flatten().count(),
-                    None => {
-                        for &dir in dirs {
-                            let ray = Ray {
-                                origin,
-                                dir,
-                                tmax: f32::INFINITY,
-                            };
-                            hits += scene.accel.intersect(&ray).is_some() as usize;
-                        }
-                    }
-                }
-            }
-            hits
+            pixels
+                .iter()
+                .map(|dirs| match scene.accel.intersect_packet(origin, dirs) {
+                    Some(packet) => packet.iter().flatten().count(),
+                    None => one_by_one(dirs),
+                })
+                .sum()
         };
         let samples = pixels.len() * PACKET;
         let closest = |rays: &[Ray]| {
@@ -132,13 +121,7 @@ fn main() {
 /// shadow segment to another primary hit point.
 fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
     let (w, h) = (scene.camera.width(), scene.camera.height());
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut rnd = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rnd = uniform(0x2545_f491_4f6c_dd1du64);
     let mut primary = Vec::new();
     let mut hits = Vec::new();
     for y in 0..h {
@@ -196,13 +179,7 @@ fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
 /// pixel's directions.
 fn camera_samples(scene: &RenderScene) -> (Vec3A, Vec<[Vec3A; PACKET]>) {
     let (w, h) = (scene.camera.width(), scene.camera.height());
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut rnd = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rnd = uniform(0x9e37_79b9_7f4a_7c15u64);
     let mut origin = Vec3A::ZERO;
     let mut pixels = Vec::new();
     for y in 0..h {
@@ -216,4 +193,14 @@ fn camera_samples(scene: &RenderScene) -> (Vec3A, Vec<[Vec3A; PACKET]>) {
         }
     }
     (origin, pixels)
+}
+
+/// Uniform numbers in [0, 1) from a xorshift generator started at `state`.
+fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    }
 }

@@ -150,14 +150,7 @@ impl Nodes8 {
                 _mm256_max_ps(entry(2), _mm256_setzero_ps()),
             );
             let far = _mm256_min_ps(_mm256_min_ps(exit(0), exit(1)), exit(2));
-            let far = _mm256_min_ps(
-                _mm256_mul_ps(far, _mm256_set1_ps(EXIT_WIDENING)),
-                _mm256_set1_ps(tmax),
-            );
-            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-            let mut nears = [0.0f32; 8];
-            _mm256_storeu_ps(nears.as_mut_ptr(), near);
-            (nears, mask)
+            entered(near, far, tmax)
         }
     }
 }
@@ -201,14 +194,7 @@ impl InnerNodes for Nodes8 {
                 _mm256_min_ps(t(c.far[0], 0), t(c.far[1], 1)),
                 t(c.far[2], 2),
             );
-            let far = _mm256_min_ps(
-                _mm256_mul_ps(far, _mm256_set1_ps(EXIT_WIDENING)),
-                _mm256_set1_ps(tmax),
-            );
-            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-            let mut nears = [0.0f32; 8];
-            _mm256_storeu_ps(nears.as_mut_ptr(), near);
-            (nears, mask)
+            entered(near, far, tmax)
         }
     }
 
@@ -217,4 +203,18 @@ impl InnerNodes for Nodes8 {
         // SAFETY: as in `test`.
         unsafe { &self.0.get_unchecked(r as usize).children }
     }
+}
+
+/// The end of both node tests: the children whose entry distance `near` is at most their exit
+/// distance `far`, widened by [`EXIT_WIDENING`] and limited by `tmax`, and the entry distances.
+#[inline(always)]
+unsafe fn entered(near: __m256, far: __m256, tmax: f32) -> ([f32; 8], u32) {
+    let far = _mm256_min_ps(
+        _mm256_mul_ps(far, _mm256_set1_ps(EXIT_WIDENING)),
+        _mm256_set1_ps(tmax),
+    );
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+    let mut nears = [0.0f32; 8];
+    _mm256_storeu_ps(nears.as_mut_ptr(), near);
+    (nears, mask)
 }

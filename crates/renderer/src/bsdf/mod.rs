@@ -214,9 +214,18 @@ impl BsdfModel {
         }
     }
 
-    /// Samples a direction: `u` picks the direction, `u_lobe` the lobe for multi-lobe models
-    /// (plastic: specular with probability F). `None` when `wo` is below the surface or the
-    /// proposed direction falls below it (phong and blinn lobes can reach under the horizon).
+    /// A cosine-weighted direction, for a diffuse surface seen from above.
+    #[inline(always)]
+    fn sample_diffuse(reflectance: Vec3A, u: Vec2) -> Option<BsdfSample> {
+        let wi = square_to_cosine_hemisphere(u);
+        (wi.z > 0.0).then(|| BsdfSample {
+            wi,
+            weight: reflectance,
+            pdf: cosine_hemisphere_pdf(wi.z),
+            is_delta: false,
+        })
+    }
+
     /// [`BsdfModel::sample`] with the diffuse case inline: the common case in most scenes
     /// skips the call into the full sampler (whose size keeps it out of line).
     #[inline(always)]
@@ -231,17 +240,14 @@ impl BsdfModel {
             if !(wo.z > 0.0) {
                 return None;
             }
-            let wi = square_to_cosine_hemisphere(u);
-            return (wi.z > 0.0).then(|| BsdfSample {
-                wi,
-                weight: reflectance,
-                pdf: cosine_hemisphere_pdf(wi.z),
-                is_delta: false,
-            });
+            return Self::sample_diffuse(reflectance, u);
         }
         self.sample(reflectance, wo, u, u_lobe)
     }
 
+    /// Samples a direction: `u` picks the direction, `u_lobe` the lobe for multi-lobe models
+    /// (plastic: specular with probability F). `None` when `wo` is below the surface or the
+    /// proposed direction falls below it (phong and blinn lobes can reach under the horizon).
     pub fn sample(
         &self,
         reflectance: Vec3A,
@@ -253,15 +259,7 @@ impl BsdfModel {
             return None;
         }
         match *self {
-            BsdfModel::Diffuse => {
-                let wi = square_to_cosine_hemisphere(u);
-                (wi.z > 0.0).then(|| BsdfSample {
-                    wi,
-                    weight: reflectance,
-                    pdf: cosine_hemisphere_pdf(wi.z),
-                    is_delta: false,
-                })
-            }
+            BsdfModel::Diffuse => Self::sample_diffuse(reflectance, u),
             BsdfModel::Mirror => Some(BsdfSample {
                 wi: reflect_z(wo),
                 weight: schlick_fresnel(reflectance, wo.z),
