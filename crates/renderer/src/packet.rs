@@ -189,8 +189,11 @@ impl Hits {
         lanes(self.t).into_iter().fold(0.0, f32::max)
     }
 
-    /// Lane `k` takes a hit found by a single-ray test (barycentrics already divided).
+    /// Lane `k` takes a hit found by a single-ray test (barycentrics already divided). Out of
+    /// line (rare), and compiled with AVX2 like its callers, so that its vectors never cross into
+    /// code without it.
     #[inline(never)]
+    #[target_feature(enable = "avx2,fma")]
     unsafe fn set(&mut self, k: usize, t: f32, prim: u32, b1: f32, b2: f32) {
         let with = |v: __m256, x: f32| {
             let mut a = lanes(v);
