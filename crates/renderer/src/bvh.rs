@@ -613,8 +613,9 @@ impl Bvh {
         dirs: &[Vec3A; crate::packet::PACKET],
     ) -> Option<[Option<ClosestHit>; crate::packet::PACKET]> {
         match &self.layout {
+            // Eight-wide nodes are only built under an inner root (never for an empty scene).
             #[cfg(target_arch = "x86_64")]
-            Layout::Eight(nodes) if self.root != EMPTY => {
+            Layout::Eight(nodes) => {
                 // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA.
                 unsafe {
                     crate::packet::closest_hits(

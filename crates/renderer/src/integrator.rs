@@ -78,9 +78,8 @@ pub fn radiance(
     settings: PathSettings,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
-    first_hit: Option<Option<SurfaceHit>>,
+    mut first_hit: Option<Option<SurfaceHit>>,
 ) -> Vec3A {
-    let mut first_hit = first_hit;
     let max_depth = if settings.max_depth < 0 {
         u32::MAX
     } else {

@@ -260,6 +260,7 @@ fn sample_tent(u: f32) -> f32 {
 mod tests {
     use super::*;
     use crate::sampler::PcgSampler;
+    use std::path::Path;
 
     #[test]
     fn tent_samples_match_the_tent() {
@@ -288,12 +289,6 @@ mod tests {
             .sum();
         assert!(chi2 < 24.3, "chi2 = {chi2}"); // 7 dof, 0.999 quantile
     }
-}
-
-#[cfg(test)]
-mod packet_tests {
-    use super::*;
-    use std::path::Path;
 
     /// Camera rays traced in packets give the image traced ray by ray, bit for bit, with the
     /// Sobol sampler (whose samples resume their dimensions): meshes, a sphere, an area light;
