@@ -226,7 +226,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.rays.closest,
         out.rays.shadow,
         out.first_tile.as_secs_f64(),
-        render_scene.accel.bvh_width(),
+        render_scene.accel().bvh_width(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

@@ -10,7 +10,7 @@
 //! probabilities the table reports are recomputed from the stored slots themselves, and sampling
 //! and pdf agree exactly, not just to a rounding.
 //!
-//! Compared with an inverse-cdf search ([`crate::Distribution1D`]) the mapping from `u` to an index
+//! Compared with an inverse-cdf search (a binary search over a cdf) the mapping from `u` to an index
 //! is not monotonic: a stratified `u` stays stratified over slots, but neighbouring `u` may pick
 //! far-apart cells. In exchange a 2D table over an environment map costs one dependent memory
 //! read per level instead of a guide read and a cdf read.
@@ -104,7 +104,7 @@ pub fn pick(slots: &[AliasSlot], u: f32) -> (usize, f32) {
     // u in [0, 1), so t >= 0 and truncation is floor. Keeping frac below 1 guarantees q > frac
     // for a full slot (q = 1), so the alias branch below never divides by 1 - q = 0.
     let k = (t as u32).min(n - 1);
-    let frac = (t - k as f32).min(crate::distribution::ONE_MINUS_EPSILON);
+    let frac = (t - k as f32).min(crate::unit::ONE_MINUS_EPSILON);
     let slot = slots[k as usize];
     let own = frac < slot.q;
     let index = std::hint::select_unpredictable(own, k, slot.alias) as usize;
@@ -116,7 +116,7 @@ pub fn pick(slots: &[AliasSlot], u: f32) -> (usize, f32) {
         glam::Vec4::new(slot.q, 1.0 - slot.q, 0.0, 0.0),
     );
     let (lo, width) = (v.x, v.y);
-    let rest = ((frac - lo) / width).clamp(0.0, crate::distribution::ONE_MINUS_EPSILON);
+    let rest = ((frac - lo) / width).clamp(0.0, crate::unit::ONE_MINUS_EPSILON);
     (index, rest)
 }
 
@@ -168,7 +168,7 @@ impl AliasTable {
     /// The chosen index and a fresh uniform number in [0, 1); `u` in [0, 1) (NaN reads as 0).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
-        pick(&self.slots, crate::distribution::clamp_unit(u))
+        pick(&self.slots, crate::unit::clamp_unit(u))
     }
 
     /// Probability of [`Self::sample`] choosing `i` (0 outside the range).
@@ -239,7 +239,7 @@ mod tests {
     fn pick_at_the_top_of_the_unit_interval() {
         // The largest u the samplers produce, on tables of awkward sizes with full slots (q = 1)
         // last: the rest of u must stay a number in [0, 1).
-        let top = crate::distribution::ONE_MINUS_EPSILON;
+        let top = crate::unit::ONE_MINUS_EPSILON;
         for n in [1usize, 3, 7, 1000, 4097, 65_537] {
             let weights: Vec<f32> = (0..n).map(|i| 1.0 + (i % 3) as f32).collect();
             let mut slots = Vec::new();

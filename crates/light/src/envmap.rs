@@ -18,11 +18,11 @@
 //! the cdf. Each finest-level texel is stored with its cell's density in one 16-byte record, so
 //! the bilinear lookup of a sampled or escaped direction brings its pdf along in the same cache
 //! lines. Environment-map work was about half of an envmap-lit render before this layout
-//! (docs/performance.md, rounds 6 and 7).
+//! (docs/performance.md, design decisions).
 
 use crate::alias::{self, AliasSlot};
-use crate::distribution::{clamp_unit, ONE_MINUS_EPSILON};
 use crate::fastmath;
+use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};

@@ -13,8 +13,8 @@
 use glam::{Vec2, Vec3A};
 use std::path::Path;
 use std::time::Instant;
-use torrey_renderer::accel::PACKET;
-use torrey_renderer::geometry::{offset_origin, Ray};
+use torrey_renderer::cameras::CameraSample;
+use torrey_renderer::ray::{offset_origin, Ray};
 use torrey_renderer::{BvhWidth, RenderScene};
 
 fn main() {
@@ -47,7 +47,7 @@ fn main() {
         let desc = torrey_parser::load_scene(path, &[]).expect("scene loads");
         let scene =
             RenderScene::build_with_width(&desc, 256, 256, bvh_width).expect("scene builds");
-        if bvh_width == BvhWidth::Eight && scene.accel.bvh_width() != 8 {
+        if bvh_width == BvhWidth::Eight && scene.accel().bvh_width() != 8 {
             continue; // no AVX2
         }
         let (primary, secondary, shadow) = make_rays(&scene);
@@ -60,7 +60,7 @@ fn main() {
                         dir,
                         tmax: f32::INFINITY,
                     };
-                    scene.accel.intersect(&ray).is_some()
+                    scene.accel().intersect(&ray).is_some()
                 })
                 .count()
         };
@@ -68,9 +68,13 @@ fn main() {
         let packed = || {
             pixels
                 .iter()
-                .map(|dirs| match scene.accel.intersect_packet(origin, dirs) {
-                    Some(packet) => packet.iter().flatten().count(),
-                    None => one_by_one(dirs),
+                .map(|dirs| {
+                    let mut hits = [None; PACKET];
+                    if scene.accel().intersect_packet(origin, dirs, &mut hits) {
+                        hits.iter().flatten().count()
+                    } else {
+                        one_by_one(dirs)
+                    }
                 })
                 .sum()
         };
@@ -78,7 +82,7 @@ fn main() {
         let closest = |rays: &[Ray]| {
             let mut hits = 0usize;
             for r in rays {
-                hits += scene.accel.intersect(r).is_some() as usize;
+                hits += scene.accel().intersect(r).is_some() as usize;
             }
             hits
         };
@@ -101,14 +105,14 @@ fn main() {
             format!(
                 "{} ({}-wide)",
                 path.file_name().unwrap().to_string_lossy(),
-                scene.accel.bvh_width()
+                scene.accel().bvh_width()
             ),
             scene.triangle_count(),
             rate(primary.len(), &|| closest(&primary)),
             rate(secondary.len(), &|| closest(&secondary)),
             rate(shadow.len(), &|| any(&shadow)),
             rate(samples, &singly),
-            if scene.accel.bvh_width() == 8 {
+            if scene.accel().bvh_width() == 8 {
                 rate(samples, &packed)
             } else {
                 "-".to_string()
@@ -120,15 +124,16 @@ fn main() {
 /// Primary rays through every pixel, and from each primary hit one random hemisphere ray and one
 /// shadow segment to another primary hit point.
 fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
-    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let (w, h) = (scene.camera().width(), scene.camera().height());
     let mut rnd = uniform(0x2545_f491_4f6c_dd1du64);
     let mut primary = Vec::new();
     let mut hits = Vec::new();
     for y in 0..h {
         for x in 0..w {
-            let (origin, dir) = scene
-                .camera
-                .generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let (origin, dir) = scene.camera().generate_ray(&CameraSample {
+                film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                lens: Vec2::ZERO,
+            });
             let ray = Ray {
                 origin,
                 dir,
@@ -178,7 +183,7 @@ fn make_rays(scene: &RenderScene) -> (Vec<Ray>, Vec<Ray>, Vec<Ray>) {
 /// Eight camera rays through random points of every pixel: the camera's origin and each
 /// pixel's directions.
 fn camera_samples(scene: &RenderScene) -> (Vec3A, Vec<[Vec3A; PACKET]>) {
-    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let (w, h) = (scene.camera().width(), scene.camera().height());
     let mut rnd = uniform(0x9e37_79b9_7f4a_7c15u64);
     let mut origin = Vec3A::ZERO;
     let mut pixels = Vec::new();
@@ -186,7 +191,10 @@ fn camera_samples(scene: &RenderScene) -> (Vec3A, Vec<[Vec3A; PACKET]>) {
         for x in 0..w {
             pixels.push(std::array::from_fn(|_| {
                 let film = Vec2::new(x as f32 + rnd(), y as f32 + rnd());
-                let (o, d) = scene.camera.generate_ray(film);
+                let (o, d) = scene.camera().generate_ray(&CameraSample {
+                    film,
+                    lens: Vec2::ZERO,
+                });
                 origin = o;
                 d
             }));
@@ -194,6 +202,9 @@ fn camera_samples(scene: &RenderScene) -> (Vec3A, Vec<[Vec3A; PACKET]>) {
     }
     (origin, pixels)
 }
+
+/// Camera rays per packet (the eight-wide AVX2 layout's).
+const PACKET: usize = 8;
 
 /// Uniform numbers in [0, 1) from a xorshift generator started at `state`.
 fn uniform(mut state: u64) -> impl FnMut() -> f32 {

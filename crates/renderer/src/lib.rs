@@ -1,5 +1,11 @@
-//! Geometry, BVH, camera, materials, path integrator and film: everything between a parsed scene
-//! description and a linear radiance image.
+//! Everything between a parsed scene description and a linear radiance image: shapes, the BVH,
+//! cameras, BSDFs, lights, textures, samplers, the path integrator and the render loop.
+//!
+//! The crate is organised by concept, one type per file: `shapes/` (mesh, sphere, triangle),
+//! `bsdfs/` (one file per model), `lights/` (one per kind), `cameras/`, `sampler/`,
+//! `integrator/`, `accel/` (BVH build, node layouts, traversal; ISA-specific kernels under
+//! `accel/x86_64/`), and `scene/`, which builds a [`RenderScene`] by calling each concept's own
+//! constructor. Hot-path dispatch is static: each concept is an enum with one-line arms.
 //!
 //! Three-component vectors are glam's `Vec3A` throughout (16 bytes, one SSE register), not
 //! `Vec3` (12 bytes, three scalar lanes): an add or multiply is then one instruction instead of
@@ -8,23 +14,19 @@
 //! the boundary.
 
 pub mod accel;
-pub mod bsdf;
-pub mod bvh;
-#[cfg(target_arch = "x86_64")]
-pub mod bvh8;
-pub mod camera;
-pub mod geometry;
+pub mod bsdfs;
+pub mod cameras;
 pub mod integrator;
-pub mod light;
-pub mod packet;
-pub mod render;
+pub mod lights;
+pub mod ray;
+mod render;
 pub mod sampler;
 pub mod sampling;
-pub mod scene;
-pub mod texture;
-pub mod triangle4;
+mod scene;
+pub mod shapes;
+pub mod textures;
 
-pub use accel::BvhWidth;
+pub use accel::{BvhWidth, Simd};
 pub use integrator::EnvStrategy;
 pub use render::{render, RenderOutput, RenderSettings};
 pub use sampler::SamplerKind;

@@ -2,10 +2,11 @@
 //! its samples from its own PCG stream (seeded by the render seed and the pixel index), so a
 //! render is deterministic for a given seed whatever the thread count or tile order.
 
-use crate::accel::{ClosestHit, PACKET};
-use crate::geometry::Ray;
-use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount, Sampler};
-use crate::sampler::{PcgSampler, SamplerKind, SobolSampler};
+use crate::accel::ClosestHit;
+use crate::cameras::CameraSample;
+use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount};
+use crate::ray::Ray;
+use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
@@ -46,6 +47,9 @@ pub struct RenderOutput {
     pub first_tile: Duration,
 }
 
+/// The most camera rays a packet holds (the widest any layout traces).
+const MAX_PACKET: usize = 16;
+
 /// A tile's origin and its pixels' (mean, variance of the mean), row by row.
 type RenderedTile = ((u32, u32), Vec<(Vec3A, Vec3A)>);
 
@@ -56,7 +60,7 @@ pub fn render(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> RenderOutput {
     let start = Instant::now();
-    let (width, height) = (scene.camera.width(), scene.camera.height());
+    let (width, height) = (scene.camera().width(), scene.camera().height());
     let ts = settings.tile_size.max(1);
     let tiles: Vec<(u32, u32)> = (0..height.div_ceil(ts))
         .flat_map(|ty| (0..width.div_ceil(ts)).map(move |tx| (tx * ts, ty * ts)))
@@ -163,11 +167,19 @@ fn render_pixel<S: Sampler>(
     let mut bad = 0;
     let spp = settings.spp.max(1);
     let filter = settings.filter;
-    let cone = RayCone::from_pixel(scene.camera.pixel_spread);
+    let camera = scene.camera();
+    let cone = RayCone::from_pixel(camera.pixel_spread());
+    // The camera's sampler draws: the film position, then its lens (if it has one).
+    let camera_requests = 1 + camera.lens_requests();
     let camera_ray = |sampler: &mut S| {
         let offset = sample_filter(filter, sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-        scene.camera.generate_ray(film)
+        let lens = if camera.lens_requests() > 0 {
+            sampler.next_2d()
+        } else {
+            Vec2::ZERO
+        };
+        camera.generate_ray(&CameraSample { film, lens })
     };
     let mut add = |s: u32, l: Vec3A| {
         let l = if l.is_finite() {
@@ -185,31 +197,41 @@ fn render_pixel<S: Sampler>(
     // packet's rays are drawn first, then their paths are followed one by one from the hits.
     // (Drawing a packet's camera rays first changes which of an independent stream's numbers
     // each path gets, not their distribution; low-discrepancy samples resume their dimensions.)
+    // Packets need a layout that traces them and a camera whose rays share their origin.
+    let lanes = if settings.packets && camera.rays_share_origin() {
+        scene.accel().packet_width().min(MAX_PACKET)
+    } else {
+        0
+    };
     let mut origin = Vec3A::ZERO;
-    let mut dirs = [Vec3A::ZERO; PACKET];
-    let mut packet: Option<[Option<ClosestHit>; PACKET]> = None;
-    let packed_samples = if settings.packets {
-        spp - spp % PACKET as u32
+    let mut dirs = [Vec3A::ZERO; MAX_PACKET];
+    let mut hits = [None; MAX_PACKET];
+    let mut packed = false;
+    let packed_samples = if lanes > 0 {
+        spp - spp % lanes as u32
     } else {
         0
     };
     for s in 0..spp {
-        let lane = s as usize % PACKET;
         let (o, d, first_hit) = if s < packed_samples {
+            let lane = s as usize % lanes;
             if lane == 0 {
-                for (k, dir) in dirs.iter_mut().enumerate() {
+                for (k, dir) in dirs[..lanes].iter_mut().enumerate() {
                     sampler.start_sample(s + k as u32);
                     (origin, *dir) = camera_ray(sampler);
                 }
-                packet = scene.intersect_packet(origin, &dirs);
+                packed = scene
+                    .accel()
+                    .intersect_packet(origin, &dirs[..lanes], &mut hits[..lanes]);
             }
-            sampler.resume_sample(s, 1);
+            sampler.resume_sample(s, camera_requests);
             let ray = Ray {
                 origin,
                 dir: dirs[lane],
                 tmax: f32::INFINITY,
             };
-            let first_hit = packet.map(|hits| hits[lane].map(|hit| scene.surface(&ray, &hit)));
+            let first_hit =
+                packed.then(|| hits[lane].map(|hit: ClosestHit| scene.surface(&ray, &hit)));
             (origin, dirs[lane], first_hit)
         } else {
             sampler.start_sample(s);

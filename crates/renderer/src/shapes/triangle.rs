@@ -1,15 +1,8 @@
-//! Ray-primitive intersection for the two primitive kinds the BVH holds: triangles (watertight
-//! test) and analytic spheres (Mitsuba's sphere: exact, never tessellated).
+//! Triangles: the watertight ray test (Woop, Benthin and Wald 2013), shared by the single-ray
+//! path and the BVH's four-wide blocks, and uniform sampling by area for emitting meshes.
 
+use crate::ray::Ray;
 use glam::{Vec2, Vec3A};
-
-/// A ray with its valid parameter interval.
-#[derive(Clone, Copy, Debug)]
-pub struct Ray {
-    pub origin: Vec3A,
-    pub dir: Vec3A,
-    pub tmax: f32,
-}
 
 /// Result of a triangle test: distance and the barycentrics of vertices 1 and 2.
 #[derive(Clone, Copy, Debug)]
@@ -173,81 +166,55 @@ pub fn intersect_triangle_pre(
     })
 }
 
-/// Ray/sphere intersection with the numerically stable quadratic (the discriminant computed from
-/// the ray's closest approach, as in Ray Tracing Gems ch. 7), returning the nearest t in (tmin, tmax).
+/// Uniformly samples a triangle by area: returns barycentrics (b1, b2) of the second and third
+/// vertex (b0 = 1 - b1 - b2). Uses Heitz's low-distortion square-to-triangle warp, which keeps
+/// stratified samples well spread.
 #[inline]
-pub fn intersect_sphere(
-    ray: &Ray,
-    center: Vec3A,
-    radius: f32,
-    tmin: f32,
-    tmax: f32,
-) -> Option<f32> {
-    let f = ray.origin - center;
-    let a = ray.dir.length_squared();
-    let b = -f.dot(ray.dir);
-    // Distance² from the centre to the line, computed without catastrophic cancellation.
-    let l = f + (b / a) * ray.dir;
-    let disc = radius * radius - l.length_squared();
-    if disc < 0.0 {
-        return None;
-    }
-    let c = f.length_squared() - radius * radius;
-    let q = b + b.signum() * (a * disc).sqrt();
-    let (t0, t1) = if q == 0.0 {
-        (0.0, 0.0)
-    } else {
-        let r0 = c / q;
-        let r1 = q / a;
-        if r0 < r1 {
-            (r0, r1)
-        } else {
-            (r1, r0)
-        }
-    };
-    if t0 > tmin && t0 < tmax {
-        Some(t0)
-    } else if t1 > tmin && t1 < tmax {
-        Some(t1)
-    } else {
-        None
-    }
-}
-
-/// Sphere texture coordinates and tangents in Mitsuba's convention, from the hit point in the
-/// sphere's object frame scaled to the unit sphere (pole axis +z).
-/// Returns (uv, dp/du, dp/dv) with the derivatives in the same (unit-sphere, object) frame.
-pub fn sphere_uv(local: Vec3A) -> (Vec2, Vec3A, Vec3A) {
-    let (x, y, z) = (local.x, local.y, local.z.clamp(-1.0, 1.0));
-    let mut phi = y.atan2(x);
-    if phi < 0.0 {
-        phi += 2.0 * std::f32::consts::PI;
-    }
-    let theta = z.acos();
-    let uv = Vec2::new(
-        phi / (2.0 * std::f32::consts::PI),
-        theta / std::f32::consts::PI,
-    );
-    let dpdu = 2.0 * std::f32::consts::PI * Vec3A::new(-y, x, 0.0);
-    let (sin_phi, cos_phi) = phi.sin_cos();
-    let rxy = (x * x + y * y).sqrt();
-    let dpdv = std::f32::consts::PI * Vec3A::new(z * cos_phi, z * sin_phi, -rxy);
-    (uv, dpdu, dpdv)
-}
-
-/// Moves a ray origin off a surface along the geometric normal, towards the side `dir` leaves
-/// by, with an offset proportional to the point's magnitude (pbrt's error-bound idea, simplified
-/// to a conservative relative epsilon), so that the new ray cannot re-hit its own surface.
-#[inline]
-pub fn offset_origin(p: Vec3A, ng: Vec3A, dir: Vec3A) -> Vec3A {
-    let scale = (p.abs().max_element() + 1.0) * 2e-5;
-    let n = if ng.dot(dir) < 0.0 { -ng } else { ng };
-    p + n * scale
+pub fn sample_triangle_uniform(u: Vec2) -> (f32, f32) {
+    // Heitz's two cases (u.x < u.y: b0 = u.x / 2, b1 = u.y - b0; else b1 = u.y / 2, b0 = u.x - b1)
+    // from min and max, without a branch that mispredicts half the time.
+    let half = 0.5 * u.x.min(u.y);
+    let rest = u.x.max(u.y) - half;
+    let (b0, b1) = torrey_light::fastmath::swap_if(u.x < u.y, rest, half);
+    let b2 = (1.0 - b0 - b1).max(0.0);
+    (b1, b2)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use torrey_testkit::{assert_chi_square, Rng};
+
+    #[test]
+    fn triangle_samples_are_uniform() {
+        // Reference triangle (0,0), (1,0), (0,1): the point is (b1, b2). Split it into n^2 equal
+        // sub-triangles on a grid; each should get 1/n^2 of the samples.
+        let n = 8usize;
+        let samples = 100_000;
+        let mut hist = vec![0.0f64; n * n * 2];
+        let mut rng = Rng::new(10);
+        for _ in 0..samples {
+            let (b1, b2) = sample_triangle_uniform(rng.vec2());
+            assert!(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 + 1e-6, "{b1} {b2}");
+            let (x, y) = (b1 * n as f32, b2 * n as f32);
+            let (i, j) = ((x as usize).min(n - 1), (y as usize).min(n - 1));
+            let upper = (x - i as f32) + (y - j as f32) > 1.0;
+            hist[(j * n + i) * 2 + upper as usize] += 1.0;
+        }
+        let expected: Vec<f64> = (0..n * n * 2)
+            .map(|k| {
+                let (cell, upper) = (k / 2, k % 2 == 1);
+                let (i, j) = (cell % n, cell / n);
+                let inside = if upper { i + j + 1 < n } else { i + j < n };
+                if inside {
+                    samples as f64 / (n * n) as f64
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        assert_chi_square("sample_triangle_uniform", &hist, &expected);
+    }
 
     fn ray(o: Vec3A, d: Vec3A) -> Ray {
         Ray {
@@ -318,45 +285,5 @@ mod tests {
             }
         }
         assert_eq!(misses, 0);
-    }
-
-    #[test]
-    fn sphere_hits_from_outside_and_inside() {
-        let c = Vec3A::new(0.0, 0.0, -5.0);
-        let t = intersect_sphere(&ray(Vec3A::ZERO, -Vec3A::Z), c, 1.0, 0.0, f32::INFINITY).unwrap();
-        assert!((t - 4.0).abs() < 1e-5);
-        let t = intersect_sphere(&ray(c, Vec3A::X), c, 2.0, 0.0, f32::INFINITY).unwrap();
-        assert!((t - 2.0).abs() < 1e-5);
-        assert!(
-            intersect_sphere(&ray(Vec3A::ZERO, Vec3A::Z), c, 1.0, 0.0, f32::INFINITY).is_none()
-        );
-        // A far, small sphere is still hit accurately (stable discriminant).
-        let far = Vec3A::new(0.0, 0.0, -1e4);
-        let t =
-            intersect_sphere(&ray(Vec3A::ZERO, -Vec3A::Z), far, 0.01, 0.0, f32::INFINITY).unwrap();
-        assert!((t - (1e4 - 0.01)).abs() < 0.01);
-    }
-
-    #[test]
-    fn sphere_uv_follows_mitsuba() {
-        // +x on the equator: phi = 0, theta = pi/2.
-        let (uv, dpdu, dpdv) = sphere_uv(Vec3A::X);
-        assert!((uv - Vec2::new(0.0, 0.5)).length() < 1e-6);
-        assert!((dpdu - Vec3A::new(0.0, 2.0 * std::f32::consts::PI, 0.0)).length() < 1e-5);
-        assert!((dpdv - Vec3A::new(0.0, 0.0, -std::f32::consts::PI)).length() < 1e-5);
-        // +y: phi = pi/2 → u = 0.25; north pole: v = 0.
-        assert!((sphere_uv(Vec3A::Y).0.x - 0.25).abs() < 1e-6);
-        assert!(sphere_uv(Vec3A::Z).0.y.abs() < 1e-6);
-        // -y wraps to u = 0.75, not -0.25.
-        assert!((sphere_uv(-Vec3A::Y).0.x - 0.75).abs() < 1e-6);
-    }
-
-    #[test]
-    fn offset_moves_to_the_side_of_the_direction() {
-        let p = Vec3A::new(100.0, 0.0, 0.0);
-        let o = offset_origin(p, Vec3A::Z, Vec3A::new(0.0, 1.0, 1.0));
-        assert!(o.z > 0.0);
-        let o = offset_origin(p, Vec3A::Z, Vec3A::new(0.0, 1.0, -1.0));
-        assert!(o.z < 0.0);
     }
 }

@@ -4,8 +4,9 @@
 use glam::{Mat4, Vec2, Vec3A};
 use torrey_parser::FovAxis;
 
+/// A pinhole camera: every ray starts at the camera's origin.
 #[derive(Clone, Debug)]
-pub struct Camera {
+pub struct PerspectiveCamera {
     origin: Vec3A,
     /// Camera-to-world rotation/scale columns, for directions.
     to_world: Mat4,
@@ -14,10 +15,10 @@ pub struct Camera {
     width: u32,
     height: u32,
     /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
-    pub pixel_spread: f32,
+    pixel_spread: f32,
 }
 
-impl Camera {
+impl PerspectiveCamera {
     pub fn new(to_world: Mat4, fov_degrees: f32, axis: FovAxis, width: u32, height: u32) -> Self {
         let (w, h) = (width as f32, height as f32);
         let t = (fov_degrees.to_radians() * 0.5).tan();
@@ -61,17 +62,34 @@ impl Camera {
         self.height
     }
 
+    /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
+    pub fn pixel_spread(&self) -> f32 {
+        self.pixel_spread
+    }
+
+    /// The direction through film position `film` in camera space (on the z = 1 plane, not
+    /// normalised), shared with [`super::ThinLensCamera`].
+    #[inline(always)]
+    pub(crate) fn local_direction(&self, film: Vec2) -> Vec3A {
+        let sx = film.x / self.width as f32;
+        let sy = film.y / self.height as f32;
+        Vec3A::new(
+            (1.0 - 2.0 * sx) * self.tan_half.x,
+            (1.0 - 2.0 * sy) * self.tan_half.y,
+            1.0,
+        )
+    }
+
+    /// The camera-to-world transform.
+    pub(crate) fn to_world(&self) -> Mat4 {
+        self.to_world
+    }
+
     /// The primary ray through film position `film` (in pixels, (0,0) = top-left corner).
     /// Returns the origin and the normalised world direction.
     #[inline]
     pub fn generate_ray(&self, film: Vec2) -> (Vec3A, Vec3A) {
-        let sx = film.x / self.width as f32;
-        let sy = film.y / self.height as f32;
-        let local = Vec3A::new(
-            (1.0 - 2.0 * sx) * self.tan_half.x,
-            (1.0 - 2.0 * sy) * self.tan_half.y,
-            1.0,
-        );
+        let local = self.local_direction(film);
         let dir = self.to_world.transform_vector3a(local).normalize();
         (self.origin, dir)
     }
@@ -94,7 +112,8 @@ impl Camera {
 
 /// Mitsuba's look-at frame: d = normalize(target - origin), left = normalize(cross(up, d)),
 /// up' = cross(d, left); the camera-to-world matrix has columns (left, up', d, origin).
-pub fn look_at(origin: Vec3A, target: Vec3A, up: Vec3A) -> Mat4 {
+#[cfg(test)]
+pub(crate) fn look_at(origin: Vec3A, target: Vec3A, up: Vec3A) -> Mat4 {
     let d = (target - origin).normalize();
     let left = up.cross(d).normalize();
     let new_up = d.cross(left);
@@ -112,7 +131,7 @@ mod tests {
 
     #[test]
     fn world_x_is_on_the_right() {
-        let cam = Camera::new(
+        let cam = PerspectiveCamera::new(
             look_at(Vec3A::ZERO, -Vec3A::Z, Vec3A::Y),
             90.0,
             FovAxis::X,
@@ -129,30 +148,30 @@ mod tests {
     fn fov_axes() {
         let m = look_at(Vec3A::ZERO, Vec3A::Z, Vec3A::Y);
         // fov 90 along x: the right edge of the film at x = width is 45 degrees off-axis.
-        let cam = Camera::new(m, 90.0, FovAxis::X, 200, 100);
+        let cam = PerspectiveCamera::new(m, 90.0, FovAxis::X, 200, 100);
         let (_, d) = cam.generate_ray(Vec2::new(200.0, 50.0));
         assert!((d.x.abs() - d.z).abs() < 1e-6);
         // fov 90 along y: the top edge is 45 degrees off-axis.
-        let cam = Camera::new(m, 90.0, FovAxis::Y, 200, 100);
+        let cam = PerspectiveCamera::new(m, 90.0, FovAxis::Y, 200, 100);
         let (_, d) = cam.generate_ray(Vec2::new(100.0, 0.0));
         assert!((d.y - d.z).abs() < 1e-6);
         // smaller = y for a landscape film, larger = x.
-        let a = Camera::new(m, 60.0, FovAxis::Smaller, 200, 100)
+        let a = PerspectiveCamera::new(m, 60.0, FovAxis::Smaller, 200, 100)
             .generate_ray(Vec2::new(100.0, 0.0))
             .1;
-        let b = Camera::new(m, 60.0, FovAxis::Y, 200, 100)
+        let b = PerspectiveCamera::new(m, 60.0, FovAxis::Y, 200, 100)
             .generate_ray(Vec2::new(100.0, 0.0))
             .1;
         assert!((a - b).length() < 1e-6);
-        let a = Camera::new(m, 60.0, FovAxis::Larger, 200, 100)
+        let a = PerspectiveCamera::new(m, 60.0, FovAxis::Larger, 200, 100)
             .generate_ray(Vec2::new(0.0, 50.0))
             .1;
-        let b = Camera::new(m, 60.0, FovAxis::X, 200, 100)
+        let b = PerspectiveCamera::new(m, 60.0, FovAxis::X, 200, 100)
             .generate_ray(Vec2::new(0.0, 50.0))
             .1;
         assert!((a - b).length() < 1e-6);
         // diagonal: the corner ray is fov/2 off-axis.
-        let cam = Camera::new(m, 90.0, FovAxis::Diagonal, 300, 400);
+        let cam = PerspectiveCamera::new(m, 90.0, FovAxis::Diagonal, 300, 400);
         let (_, d) = cam.generate_ray(Vec2::new(0.0, 0.0));
         assert!((d.z - (45f32).to_radians().cos()).abs() < 1e-5);
     }
@@ -164,7 +183,7 @@ mod tests {
             Vec3A::new(-1.0, 0.5, 0.0),
             Vec3A::new(0.1, 1.0, 0.0),
         );
-        let cam = Camera::new(m, 39.3, FovAxis::Y, 64, 48);
+        let cam = PerspectiveCamera::new(m, 39.3, FovAxis::Y, 64, 48);
         for &(x, y) in &[(0.5, 0.5), (10.25, 40.0), (63.0, 1.0)] {
             let (_, d) = cam.generate_ray(Vec2::new(x, y));
             let p = cam.project(d).unwrap();

@@ -1,26 +1,176 @@
-//! Sampling helpers for area lights: pure geometry, shared by the renderer's next-event estimation
-//! and by its MIS weights (every sampler has a matching pdf).
+//! Mitsuba's sphere, analytic (never tessellated): ray intersection, uv and its derivatives,
+//! the surface at a hit, and sampling by the solid angle it subtends (with the matching pdf) for
+//! spheres that emit.
 
-use glam::{Vec2, Vec3};
+use super::{PrimInfo, SurfaceHit};
+use crate::accel::{ClosestHit, PrimGeom};
+use crate::ray::Ray;
+use crate::sampling::Frame;
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
 use std::f32::consts::PI;
+
+/// A sphere in world space, and the world-to-object rotation that fixes its uv poles.
+#[derive(Clone, Copy, Debug)]
+pub struct Sphere {
+    pub center: Vec3A,
+    pub radius: f32,
+    pub to_object: Mat3,
+}
+
+impl Sphere {
+    /// Mitsuba's sphere: `to_world` × translate(`center`) × scale(`radius`); the scale of
+    /// `to_world` must be uniform.
+    pub fn new(center: Vec3, radius: f32, to_world: Mat4) -> Self {
+        let c = to_world.transform_point3(center);
+        let linear = Mat3::from_mat4(to_world);
+        let scale = linear.x_axis.length();
+        let r = radius * scale;
+        let rot = if scale > 0.0 {
+            linear * (1.0 / scale)
+        } else {
+            Mat3::IDENTITY
+        };
+        Self {
+            center: c.into(),
+            radius: r,
+            to_object: rot.transpose(),
+        }
+    }
+
+    /// The sphere as a BVH primitive.
+    pub fn prim_geom(&self) -> PrimGeom {
+        PrimGeom::Sphere {
+            center: self.center,
+            radius: self.radius,
+        }
+    }
+
+    /// The surface at `hit` along `ray`: the hit re-projected onto the sphere, its normal, and
+    /// when `needs_uv` Mitsuba's uv and its derivatives.
+    #[inline(always)]
+    pub fn surface(
+        &self,
+        ray: &Ray,
+        prim: &PrimInfo,
+        hit: &ClosestHit,
+        needs_uv: bool,
+    ) -> SurfaceHit {
+        let Sphere {
+            center,
+            radius,
+            to_object,
+        } = *self;
+        let p_ray = ray.origin + hit.t * ray.dir;
+        let n = (p_ray - center).normalize_or(Vec3A::Z);
+        // Re-project onto the surface: the ray's point carries the cancellation error.
+        let p = center + radius * n;
+        let (uv, dpdu, dpdv) = if needs_uv {
+            let (uv, dpdu_l, dpdv_l) = sphere_uv(to_object * n);
+            let to_world = to_object.transpose();
+            (uv, to_world * dpdu_l * radius, to_world * dpdv_l * radius)
+        } else {
+            (Vec2::ZERO, Vec3A::ZERO, Vec3A::ZERO)
+        };
+        SurfaceHit {
+            t: hit.t,
+            p,
+            ng: n,
+            ns: n,
+            uv,
+            dpdu,
+            dpdv,
+            shape: prim.shape,
+            prim: hit.prim,
+        }
+    }
+}
+
+/// Ray/sphere intersection with the numerically stable quadratic (the discriminant computed from
+/// the ray's closest approach, as in Ray Tracing Gems ch. 7), returning the nearest t in (tmin, tmax).
+#[inline]
+pub fn intersect_sphere(
+    ray: &Ray,
+    center: Vec3A,
+    radius: f32,
+    tmin: f32,
+    tmax: f32,
+) -> Option<f32> {
+    let f = ray.origin - center;
+    let a = ray.dir.length_squared();
+    let b = -f.dot(ray.dir);
+    // Distance² from the centre to the line, computed without catastrophic cancellation.
+    let l = f + (b / a) * ray.dir;
+    let disc = radius * radius - l.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let c = f.length_squared() - radius * radius;
+    let q = b + b.signum() * (a * disc).sqrt();
+    let (t0, t1) = if q == 0.0 {
+        (0.0, 0.0)
+    } else {
+        let r0 = c / q;
+        let r1 = q / a;
+        if r0 < r1 {
+            (r0, r1)
+        } else {
+            (r1, r0)
+        }
+    };
+    if t0 > tmin && t0 < tmax {
+        Some(t0)
+    } else if t1 > tmin && t1 < tmax {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+/// Sphere texture coordinates and tangents in Mitsuba's convention, from the hit point in the
+/// sphere's object frame scaled to the unit sphere (pole axis +z).
+/// Returns (uv, dp/du, dp/dv) with the derivatives in the same (unit-sphere, object) frame.
+pub fn sphere_uv(local: Vec3A) -> (Vec2, Vec3A, Vec3A) {
+    let (x, y, z) = (local.x, local.y, local.z.clamp(-1.0, 1.0));
+    let mut phi = y.atan2(x);
+    if phi < 0.0 {
+        phi += 2.0 * std::f32::consts::PI;
+    }
+    let theta = z.acos();
+    let uv = Vec2::new(
+        phi / (2.0 * std::f32::consts::PI),
+        theta / std::f32::consts::PI,
+    );
+    let dpdu = 2.0 * std::f32::consts::PI * Vec3A::new(-y, x, 0.0);
+    let (sin_phi, cos_phi) = phi.sin_cos();
+    let rxy = (x * x + y * y).sqrt();
+    let dpdv = std::f32::consts::PI * Vec3A::new(z * cos_phi, z * sin_phi, -rxy);
+    (uv, dpdu, dpdv)
+}
+
+impl Sphere {
+    /// A point on the sphere sampled by the solid angle it subtends from `reference`
+    /// ([`sample_sphere_solid_angle`]).
+    #[inline(always)]
+    pub fn sample_solid_angle(&self, reference: Vec3A, u: Vec2) -> Option<SphereSample> {
+        sample_sphere_solid_angle(self.center.into(), self.radius, reference.into(), u)
+    }
+
+    /// The solid-angle density at `reference` of [`Sphere::sample_solid_angle`] producing
+    /// `direction`.
+    #[inline(always)]
+    pub fn solid_angle_pdf(&self, reference: Vec3A, direction: Vec3A) -> f32 {
+        sphere_solid_angle_pdf(
+            self.center.into(),
+            self.radius,
+            reference.into(),
+            direction.into(),
+        )
+    }
+}
 
 /// Below this sin^2 of the cone half-angle (about 1.5 degrees) the cone is sampled with a Taylor
 /// expansion, because `1 - cos(theta_max)` loses all precision in f32 for tiny or distant spheres.
 const SMALL_CONE_SIN2: f32 = 0.000_685_23;
-
-/// Uniformly samples a triangle by area: returns barycentrics (b1, b2) of the second and third
-/// vertex (b0 = 1 - b1 - b2). Uses Heitz's low-distortion square-to-triangle warp, which keeps
-/// stratified samples well spread.
-#[inline]
-pub fn sample_triangle_uniform(u: Vec2) -> (f32, f32) {
-    // Heitz's two cases (u.x < u.y: b0 = u.x / 2, b1 = u.y - b0; else b1 = u.y / 2, b0 = u.x - b1)
-    // from min and max, without a branch that mispredicts half the time.
-    let half = 0.5 * u.x.min(u.y);
-    let rest = u.x.max(u.y) - half;
-    let (b0, b1) = crate::fastmath::swap_if(u.x < u.y, rest, half);
-    let b2 = (1.0 - b0 - b1).max(0.0);
-    (b1, b2)
-}
 
 /// A point sampled on a sphere light, with the density needed for MIS.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,18 +181,6 @@ pub struct SphereSample {
     pub normal: Vec3,
     /// Density over solid angle as seen from the reference point.
     pub pdf: f32,
-}
-
-/// Builds two unit vectors orthogonal to unit `n` (Duff et al.'s branchless basis).
-#[inline]
-fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
 }
 
 /// `1 - cos(theta_max)` of the cone subtended by a sphere, accurate for tiny cones.
@@ -117,7 +255,8 @@ pub fn sample_sphere_solid_angle(
         sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
     let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
-    let (t1, t2) = orthonormal_basis(w);
+    let frame = Frame::from_normal(w.into());
+    let (t1, t2) = (Vec3::from(frame.s), Vec3::from(frame.t));
     let normal = (-w * cos_alpha + (t1 * phi.cos() + t2 * phi.sin()) * sin_alpha).normalize();
     let point = center + radius * normal;
     let pdf = 1.0 / (2.0 * PI * one_minus_cos_max);
@@ -171,35 +310,43 @@ mod tests {
     use super::*;
     use torrey_testkit::{assert_chi_square, Rng};
 
-    #[test]
-    fn triangle_samples_are_uniform() {
-        // Reference triangle (0,0), (1,0), (0,1): the point is (b1, b2). Split it into n^2 equal
-        // sub-triangles on a grid; each should get 1/n^2 of the samples.
-        let n = 8usize;
-        let samples = 100_000;
-        let mut hist = vec![0.0f64; n * n * 2];
-        let mut rng = Rng::new(10);
-        for _ in 0..samples {
-            let (b1, b2) = sample_triangle_uniform(rng.vec2());
-            assert!(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 + 1e-6, "{b1} {b2}");
-            let (x, y) = (b1 * n as f32, b2 * n as f32);
-            let (i, j) = ((x as usize).min(n - 1), (y as usize).min(n - 1));
-            let upper = (x - i as f32) + (y - j as f32) > 1.0;
-            hist[(j * n + i) * 2 + upper as usize] += 1.0;
+    fn ray(o: Vec3A, d: Vec3A) -> Ray {
+        Ray {
+            origin: o,
+            dir: d,
+            tmax: f32::INFINITY,
         }
-        let expected: Vec<f64> = (0..n * n * 2)
-            .map(|k| {
-                let (cell, upper) = (k / 2, k % 2 == 1);
-                let (i, j) = (cell % n, cell / n);
-                let inside = if upper { i + j + 1 < n } else { i + j < n };
-                if inside {
-                    samples as f64 / (n * n) as f64
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        assert_chi_square("sample_triangle_uniform", &hist, &expected);
+    }
+
+    #[test]
+    fn sphere_hits_from_outside_and_inside() {
+        let c = Vec3A::new(0.0, 0.0, -5.0);
+        let t = intersect_sphere(&ray(Vec3A::ZERO, -Vec3A::Z), c, 1.0, 0.0, f32::INFINITY).unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        let t = intersect_sphere(&ray(c, Vec3A::X), c, 2.0, 0.0, f32::INFINITY).unwrap();
+        assert!((t - 2.0).abs() < 1e-5);
+        assert!(
+            intersect_sphere(&ray(Vec3A::ZERO, Vec3A::Z), c, 1.0, 0.0, f32::INFINITY).is_none()
+        );
+        // A far, small sphere is still hit accurately (stable discriminant).
+        let far = Vec3A::new(0.0, 0.0, -1e4);
+        let t =
+            intersect_sphere(&ray(Vec3A::ZERO, -Vec3A::Z), far, 0.01, 0.0, f32::INFINITY).unwrap();
+        assert!((t - (1e4 - 0.01)).abs() < 0.01);
+    }
+
+    #[test]
+    fn sphere_uv_follows_mitsuba() {
+        // +x on the equator: phi = 0, theta = pi/2.
+        let (uv, dpdu, dpdv) = sphere_uv(Vec3A::X);
+        assert!((uv - Vec2::new(0.0, 0.5)).length() < 1e-6);
+        assert!((dpdu - Vec3A::new(0.0, 2.0 * std::f32::consts::PI, 0.0)).length() < 1e-5);
+        assert!((dpdv - Vec3A::new(0.0, 0.0, -std::f32::consts::PI)).length() < 1e-5);
+        // +y: phi = pi/2 → u = 0.25; north pole: v = 0.
+        assert!((sphere_uv(Vec3A::Y).0.x - 0.25).abs() < 1e-6);
+        assert!(sphere_uv(Vec3A::Z).0.y.abs() < 1e-6);
+        // -y wraps to u = 0.75, not -0.25.
+        assert!((sphere_uv(-Vec3A::Y).0.x - 0.75).abs() < 1e-6);
     }
 
     /// Nearest positive intersection of a ray with a sphere (in f64, as an independent check).

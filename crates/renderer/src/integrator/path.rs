@@ -11,60 +11,15 @@
 //! cone only along purely specular chains; after a rough bounce they are read at full resolution so
 //! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
 
-use crate::geometry::{offset_origin, Ray};
-use crate::sampling::{power_heuristic, Frame};
-use crate::scene::{RenderScene, SurfaceHit};
-use glam::{Vec2, Vec3A};
+use super::{EnvStrategy, PathSettings, RayCount};
+use crate::ray::{offset_origin, Ray};
+use crate::sampler::Sampler;
+use crate::sampling::power_heuristic;
+use crate::scene::RenderScene;
+use crate::shapes::SurfaceHit;
+use crate::textures::TextureQuery;
+use glam::Vec3A;
 use torrey_texture::RayCone;
-
-/// A source of uniform numbers in [0, 1).
-pub trait Sampler {
-    /// Begins sample number `index` of the current pixel (sequences that depend on the sample
-    /// index, like Sobol, restart their dimensions here; independent samplers ignore it).
-    fn start_sample(&mut self, _index: u32) {}
-    /// Goes back to sample `index` after its first `requests` draws (`next_1d` and `next_2d`
-    /// calls each count one), when other samples were started in between: the camera rays of a
-    /// pixel's packet are drawn first, then each path is followed in turn. A stream of
-    /// independent numbers just continues; a low-discrepancy sampler returns to the sample's
-    /// next dimension.
-    fn resume_sample(&mut self, _index: u32, _requests: u32) {}
-    fn next_1d(&mut self) -> f32;
-    fn next_2d(&mut self) -> Vec2 {
-        Vec2::new(self.next_1d(), self.next_1d())
-    }
-}
-
-#[derive(Clone, Copy, Debug)]
-pub struct PathSettings {
-    pub max_depth: i32,
-    pub rr_depth: i32,
-    /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
-    /// as Mitsuba does; used to measure what mip-mapping changes.
-    pub mipmapping: bool,
-    /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
-    pub env_strategy: EnvStrategy,
-}
-
-/// Strategies for lights at infinity, kept selectable so their noise can be compared (issue: env
-/// sampling (a) uniform, (b) luminance-importance, (c) importance + MIS). (a) and (b) count the
-/// environment only through light samples: BSDF-sampled rays that escape add nothing after the
-/// first rough bounce, which keeps each estimator unbiased on its own.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum EnvStrategy {
-    Uniform,
-    Importance,
-    #[default]
-    ImportanceMis,
-}
-
-/// Rays traced, by query kind, for the rays-per-second report.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RayCount {
-    /// Closest-hit queries (camera rays and path continuations).
-    pub closest: u64,
-    /// Any-hit queries: shadow rays, and last path segments in scenes without area lights.
-    pub shadow: u64,
-}
 
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
 /// `first_hit`, when given, is the primary ray's closest hit, already traced (in a packet with
@@ -168,7 +123,8 @@ pub fn radiance(
         if let Some(li) = shape.area_light {
             if hit.ng.dot(wo) > 0.0 {
                 let light = &scene.lights[li as usize];
-                if let crate::light::LightKind::Area { radiance, .. } = light.kind {
+                if let crate::lights::Light::Area(area) = light {
+                    let radiance = area.radiance;
                     let w = if prev_delta {
                         1.0
                     } else {
@@ -198,31 +154,32 @@ pub fn radiance(
         } else {
             0.0
         };
-        let Some(frame) = shading_frame(scene, &hit, wo, material, footprint) else {
+        let Some(frame) = material.shading_frame(&scene.textures, &hit, wo, footprint) else {
             break; // the back of a one-sided bsdf is black
         };
         let wo_local = frame.to_local(wo);
         if wo_local.z <= 0.0 {
             break;
         }
-        let reflectance = material
-            .reflectance
-            .eval(&scene.textures, hit.uv, footprint);
-        let model = material.model;
+        let bsdf = material.bsdf(&TextureQuery {
+            textures: &scene.textures,
+            uv: hit.uv,
+            footprint,
+        });
 
         // The BSDF sample that continues the path, drawn before next-event estimation although
         // used after it: it depends only on this hit, so its dependent chain of a division, a
         // polynomial and square roots overlaps the shadow ray's traversal instead of waiting
         // for it (4% faster renders, the same images).
-        let bsdf_sample = model.sample_inline_diffuse(reflectance, wo_local, u_dir, u_lobe);
+        let bsdf_sample = bsdf.sample(wo_local, u_dir, u_lobe);
 
         // Next-event estimation.
-        if let (false, Some((index, draw))) = (model.is_delta(), light_draw) {
+        if let (true, Some((index, draw))) = (bsdf.flags(wo_local).has_smooth(), light_draw) {
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
             if let Some(ls) = light.connect(draw, hit.p, uniform_env) {
                 let wi_local = frame.to_local(ls.wi);
-                let f = model.eval(reflectance, wo_local, wi_local);
+                let f = bsdf.eval(wo_local, wi_local);
                 if f.max_element() > 0.0 && ls.pdf > 0.0 {
                     let origin = offset_origin(hit.p, hit.ng, ls.wi);
                     let tmax = if ls.dist.is_finite() {
@@ -239,7 +196,7 @@ pub fn radiance(
                         {
                             1.0
                         } else {
-                            power_heuristic(light_pdf, model.pdf(reflectance, wo_local, wi_local))
+                            power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
                         };
                         result += throughput * f * ls.radiance * (w / light_pdf);
                     }
@@ -256,12 +213,12 @@ pub fn radiance(
         }
         throughput *= bs.weight;
         let wi = frame.to_world(bs.wi);
-        if !bs.is_delta {
-            cone.spread += model.roughness();
+        if !bs.is_delta() {
+            cone.spread += bsdf.roughness(wo_local);
             specular_chain = false;
         }
         prev_bsdf_pdf = bs.pdf;
-        prev_delta = bs.is_delta;
+        prev_delta = bs.is_delta();
         prev_p = hit.p;
         ray = Ray {
             origin: offset_origin(hit.p, hit.ng, wi),
@@ -309,62 +266,4 @@ fn infinite_radiance(
         };
     }
     throughput * sum
-}
-
-/// The local shading frame at a hit, its normal on the side `wo` leaves from; None when that is
-/// the back of a one-sided material.
-///
-/// Without a normal map the side is decided by the shading normal, as Mitsuba's `twosided` does.
-/// With one, the side is decided by the geometric normal, the map perturbs the normal on that side
-/// (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns, b = ns x t), and a perturbed normal
-/// that would face away from `wo` is bent back until it is just visible, so normal-mapped surfaces
-/// never turn black or leak light at grazing angles.
-#[inline(always)]
-fn shading_frame(
-    scene: &RenderScene,
-    hit: &SurfaceHit,
-    wo: Vec3A,
-    material: &crate::scene::Material,
-    footprint: f32,
-) -> Option<Frame> {
-    let Some(tex) = material.normal_map else {
-        // The common case, inline in the path loop; normal maps take the call below.
-        let ns = hit.ns;
-        if ns.dot(wo) >= 0.0 {
-            return Some(Frame::from_normal(ns));
-        }
-        return material.two_sided.then(|| Frame::from_normal(-ns));
-    };
-    normal_mapped_frame(scene, hit, wo, material, tex, footprint)
-}
-
-/// [`shading_frame`] for a material with normal map `tex`.
-#[inline(never)]
-fn normal_mapped_frame(
-    scene: &RenderScene,
-    hit: &SurfaceHit,
-    wo: Vec3A,
-    material: &crate::scene::Material,
-    tex: u32,
-    footprint: f32,
-) -> Option<Frame> {
-    let front = hit.ng.dot(wo) >= 0.0;
-    if !front && !material.two_sided {
-        return None;
-    }
-    let rgb = scene.textures[tex as usize].eval(hit.uv, footprint);
-    let local = (rgb * 2.0 - Vec3A::ONE).normalize_or(Vec3A::Z);
-    let ns = hit.ns;
-    let t = (hit.dpdu - ns * ns.dot(hit.dpdu)).normalize_or(crate::scene::orthonormal_basis(ns).0);
-    let b = ns.cross(t);
-    let mut n = (t * local.x + b * local.y + ns * local.z).normalize_or(ns);
-    if !front {
-        n = -n;
-    }
-    const MIN_COS: f32 = 0.01;
-    let cos = n.dot(wo);
-    if cos < MIN_COS {
-        n = (n + wo * (MIN_COS - cos)).normalize_or(n);
-    }
-    Some(Frame::from_normal(n))
 }

@@ -1,26 +1,27 @@
 //! Four triangles tested against one ray at once: the watertight test of
-//! [`crate::geometry::intersect_triangle_pre`] (Woop, Benthin and Wald 2013) on 4-wide SIMD lanes.
+//! [`crate::shapes::triangle::intersect_triangle_pre`] (Woop, Benthin and Wald 2013) on 4-wide SIMD lanes.
 //!
 //! The vertices are stored structure-of-arrays, one `Vec4` per vertex and axis, so the per-ray
 //! axis permutation of the watertight test is just a choice of which array to read. Unused lanes
 //! hold NaN vertices: every comparison on them is false, so they never report a hit.
 
-use crate::geometry::{intersect_triangle_pre, Ray, WatertightRay};
+use crate::ray::Ray;
+use crate::shapes::triangle::{intersect_triangle_pre, WatertightRay};
 use glam::{Vec3A, Vec4};
 
 /// Up to four triangles in structure-of-arrays layout, with their primitive indices.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub struct Triangle4 {
+pub(crate) struct Triangle4 {
     /// `v[vertex][axis]`: lane i holds triangle i's vertex coordinate.
     v: [[Vec4; 3]; 3],
     /// The primitive index of each lane (meaningless for unused lanes).
-    pub prim: [u32; 4],
+    pub(crate) prim: [u32; 4],
 }
 
 impl Triangle4 {
     /// Packs up to four triangles `(p0, p1, p2, primitive index)`.
-    pub fn new(tris: &[(Vec3A, Vec3A, Vec3A, u32)]) -> Self {
+    pub(crate) fn new(tris: &[(Vec3A, Vec3A, Vec3A, u32)]) -> Self {
         assert!(!tris.is_empty() && tris.len() <= 4, "1 to 4 triangles");
         let mut v = [[[f32::NAN; 4]; 3]; 3];
         let mut prim = [u32::MAX; 4];
@@ -59,7 +60,7 @@ impl Triangle4 {
     /// Whether the ray hits any of the four with t in (0, tmax): what an any-hit query needs,
     /// without the closest lane's distance and barycentrics.
     #[inline(always)]
-    pub fn occludes(&self, r: &Ray4, ray: &Ray, tmax: f32) -> bool {
+    pub(crate) fn occludes(&self, r: &Ray4, ray: &Ray, tmax: f32) -> bool {
         let Some(e) = self.edges(r) else {
             return self.intersect_scalar(ray, tmax).is_some();
         };
@@ -76,7 +77,12 @@ impl Triangle4 {
     /// The closest hit among the four with t in (0, tmax): (lane, t, b1, b2), where b1 and b2
     /// weight vertices 1 and 2.
     #[inline(always)]
-    pub fn intersect(&self, r: &Ray4, ray: &Ray, tmax: f32) -> Option<(usize, f32, f32, f32)> {
+    pub(crate) fn intersect(
+        &self,
+        r: &Ray4,
+        ray: &Ray,
+        tmax: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
         let Some(EdgeTest {
             v,
             w,
@@ -183,7 +189,7 @@ struct EdgeTest {
 /// Per-ray constants of the 4-wide watertight test: the permuted axes, the shear and the
 /// origin splatted to all lanes.
 #[derive(Clone, Copy, Debug)]
-pub struct Ray4 {
+pub(crate) struct Ray4 {
     axes: [usize; 3],
     shear: [Vec4; 3],
     origin: [Vec4; 3],
@@ -191,7 +197,7 @@ pub struct Ray4 {
 
 impl Ray4 {
     #[inline(always)]
-    pub fn new(wr: &WatertightRay, origin: Vec3A) -> Self {
+    pub(crate) fn new(wr: &WatertightRay, origin: Vec3A) -> Self {
         let axes = wr.axes();
         let shear = wr.shear();
         let origin = origin.to_array();

@@ -2,26 +2,24 @@
 //!
 //! The samples of a pixel leave the camera's origin in nearly the same direction, so they visit
 //! nearly the same nodes. A packet tests each inner node once for all of them
-//! ([`crate::bvh8::Nodes8::test_packet`]: the slab distances bounded over the packet, which accepts
+//! ([`Nodes8::test_packet`]: the slab distances bounded over the packet, which accepts
 //! every child box one of the rays enters), and each triangle once for all of them: the rays share
 //! their origin, so the watertight test's vertex coordinates relative to it are shared too, and
 //! only the shear differs from lane to lane. Every lane computes exactly the operations of the
-//! single-ray test ([`crate::triangle4`]) in the same order, and falls back to it where that test
+//! single-ray test ([`Triangle4`]) in the same order, and falls back to it where that test
 //! does (an edge function exactly zero), and each ray keeps its own closest distance: every ray
 //! finds the hit it finds alone, bit for bit. Only which of two triangles at exactly the same
 //! distance wins can differ, as between node widths. Rays whose directions differ in octant or
 //! in largest axis (a pixel straddling a plane) are not packed: the caller traces them one by one.
 
-#[cfg(target_arch = "x86_64")]
-use crate::{
-    bvh::{nearest_first, reciprocal, ChildRef, ClosestHit, Leaves, NEAR_FAR},
-    bvh8::Nodes8,
-    geometry::{Ray, WatertightRay, PERMUTATION},
-    triangle4::{Ray4, Triangle4},
-};
-#[cfg(target_arch = "x86_64")]
+use super::Nodes8;
+use crate::accel::leaves::Leaves;
+use crate::accel::traversal::{nearest_first, reciprocal, ChildRef, NEAR_FAR, STACK_SIZE};
+use crate::accel::triangle4::{Ray4, Triangle4};
+use crate::accel::ClosestHit;
+use crate::ray::Ray;
+use crate::shapes::triangle::{WatertightRay, PERMUTATION};
 use glam::Vec3A;
-#[cfg(target_arch = "x86_64")]
 use std::{arch::x86_64::*, mem::MaybeUninit};
 
 /// Rays per packet (one AVX2 register's lanes; packets need eight-wide nodes, which need AVX2).
@@ -29,7 +27,6 @@ pub const PACKET: usize = 8;
 
 /// Per-packet constants of the interval box test: per axis the range of the rays' reciprocal
 /// directions and origin × each end, and the bound rows the packet's octant enters and leaves by.
-#[cfg(target_arch = "x86_64")]
 pub(crate) struct PacketBox {
     pub(crate) inv_min: [f32; 3],
     pub(crate) inv_max: [f32; 3],
@@ -39,26 +36,22 @@ pub(crate) struct PacketBox {
     pub(crate) far: [usize; 3],
 }
 
-/// Stack entries of a packet traversal; a deeper tree is not traced in packets.
-#[cfg(target_arch = "x86_64")]
-const STACK_SIZE: usize = 128;
-
-/// The closest hits, in (0, ∞), of the rays from `origin` along the unit directions `dirs`, or
-/// None when they cannot be traced as one packet (directions in different octants or with
-/// different largest axes, or a tree deeper than the fixed stack).
-#[cfg(target_arch = "x86_64")]
+/// The closest hits, in (0, ∞), of the rays from `origin` along the unit directions `dirs`,
+/// written to `out`; false when they cannot be traced as one packet (directions in different
+/// octants or with different largest axes).
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA, `root` must be an inner node of `nodes` (or a leaf of
+/// `leaves`), and the tree's stack need must fit [`STACK_SIZE`].
 #[target_feature(enable = "avx2,fma")]
 pub(crate) unsafe fn closest_hits(
     nodes: &Nodes8,
     leaves: &Leaves,
     root: ChildRef,
-    stack_needed: usize,
     origin: Vec3A,
     dirs: &[Vec3A; PACKET],
-) -> Option<[Option<ClosestHit>; PACKET]> {
-    if stack_needed > STACK_SIZE {
-        return None;
-    }
+    out: &mut [Option<ClosestHit>; PACKET],
+) -> bool {
     // The rays' set-up, eight lanes at a time, with the single-ray arithmetic
     // (`bvh::reciprocal`, `WatertightRay::with_reciprocal`) in each lane.
     let d: [__m256; 3] = std::array::from_fn(|axis| {
@@ -78,7 +71,7 @@ pub(crate) unsafe fn closest_hits(
         match _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(inv, _mm256_setzero_ps())) {
             0 => {}
             0xff => packet_octant |= 1 << axis,
-            _ => return None,
+            _ => return false,
         }
     }
     // One largest axis for all lanes (`geometry::largest_axis`: x when |x| > |y| and |x| > |z|,
@@ -92,7 +85,7 @@ pub(crate) unsafe fn closest_hits(
         (0xff, _) => 0,
         (_, 0xff) => 1,
         (0, 0) => 2,
-        _ => return None,
+        _ => return false,
     };
     let axes = PERMUTATION[kz];
     let shear_z = inv[kz];
@@ -150,13 +143,13 @@ pub(crate) unsafe fn closest_hits(
             hits.t_max()
         },
     );
-    Some(hits.finish())
+    *out = hits.finish();
+    true
 }
 
 /// The closest hit of each lane's ray so far: distance, the watertight test's determinant and
 /// the two edge functions that become the barycentrics (divided once, at the end), primitive
 /// (`u32::MAX`: none yet).
-#[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 struct Hits {
     t: __m256,
@@ -166,7 +159,6 @@ struct Hits {
     prim: __m256i,
 }
 
-#[cfg(target_arch = "x86_64")]
 impl Hits {
     #[inline(always)]
     unsafe fn new() -> Self {
@@ -239,7 +231,6 @@ impl Hits {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn lanes(v: __m256) -> [f32; PACKET] {
     let mut a = [0.0; PACKET];
@@ -248,7 +239,6 @@ unsafe fn lanes(v: __m256) -> [f32; PACKET] {
 }
 
 /// One lane's ray and its constants for the single-ray tests (the rare fallbacks).
-#[cfg(target_arch = "x86_64")]
 #[cold]
 fn single_ray(origin: Vec3A, dir: Vec3A) -> (Ray, Ray4) {
     let ray = Ray {
@@ -265,14 +255,12 @@ fn single_ray(origin: Vec3A, dir: Vec3A) -> (Ray, Ray4) {
 
 /// The packet's constants of the watertight triangle test: the shared axis permutation and
 /// origin, and each lane's shear.
-#[cfg(target_arch = "x86_64")]
 struct TrianglePacket {
     axes: [usize; 3],
     origin: [f32; 3],
     shear: [__m256; 3],
 }
 
-#[cfg(target_arch = "x86_64")]
 impl TrianglePacket {
     /// Tests the block's triangles against every lane, keeping each lane's closest hit. The
     /// arithmetic is [`Triangle4`]'s, lane by lane: the relative vertex coordinates are scalars

@@ -1,21 +1,11 @@
 //! Eight-wide BVH nodes tested with AVX2 and FMA: one 256-bit slab test covers a node's eight
-//! child boxes. Selected at run time (`Bvh::build`) on CPUs with both; the traversal loops are
-//! the generic ones of [`crate::bvh`], compiled here inside functions with them enabled.
+//! child boxes, for one ray ([`InnerNodes::test`]) or a packet ([`Nodes8::test_packet`]).
 
-use crate::bvh::{
-    any_hit, closest_hit, slab_setup, ChildRef, ClosestHit, InnerNodes, Leaves, WideBuilder, EMPTY,
-    EXIT_WIDENING,
-};
-use crate::geometry::Ray;
+use crate::accel::build::WideBuilder;
+use crate::accel::traversal::{slab_setup, ChildRef, InnerNodes, EXIT_WIDENING};
+use crate::ray::Ray;
 use glam::Vec3A;
 use std::arch::x86_64::*;
-use std::mem::MaybeUninit;
-
-/// True when this CPU can run eight-wide nodes (AVX2 and FMA, which every AVX2 CPU from
-/// Intel and AMD also has).
-pub fn available() -> bool {
-    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
-}
 
 /// An eight-wide inner node: `bounds` rows `[min x, min y, min z, max x, max y, max z]`, lane i
 /// for child i (unused lanes hold an inverted box).
@@ -26,7 +16,7 @@ pub(crate) struct Node8 {
     children: [ChildRef; 8],
 }
 
-/// Eight-wide nodes. Only built when [`available`] holds, which makes the AVX2 and FMA code in
+/// Eight-wide nodes. Only built when [`super::available`] holds, which makes the AVX2 and FMA code in
 /// [`InnerNodes::test`] sound to run.
 pub(crate) struct Nodes8(Vec<Node8>);
 
@@ -42,68 +32,17 @@ pub(crate) struct BoxRay8 {
 impl Nodes8 {
     /// Converts the BVH2 of `builder` below its root; returns the nodes and the root reference.
     pub(crate) fn build(builder: &mut WideBuilder) -> (Self, ChildRef) {
-        assert!(available(), "eight-wide nodes need AVX2 and FMA");
+        assert!(super::available(), "eight-wide nodes need AVX2 and FMA");
         let mut nodes = Vec::new();
         let root = builder.add_inner::<8, Node8>(
             &mut nodes,
             0,
             1,
-            &|bounds| Node8 {
-                bounds,
-                children: [EMPTY; 8],
-            },
+            &|bounds, children| Node8 { bounds, children },
             &|node, lane, child| node.children[lane] = child,
         );
         (Self(nodes), root)
     }
-
-    /// [`closest_hit`] compiled with AVX2 and FMA.
-    #[inline]
-    pub(crate) fn closest_hit(
-        &self,
-        leaves: &Leaves,
-        root: ChildRef,
-        ray: &Ray,
-        stack: &mut [MaybeUninit<(ChildRef, f32)>],
-    ) -> Option<ClosestHit> {
-        // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA (checked in `build`).
-        unsafe { closest_hit_avx2(self, leaves, root, ray, stack) }
-    }
-
-    /// [`any_hit`] compiled with AVX2 and FMA.
-    #[inline]
-    pub(crate) fn any_hit(
-        &self,
-        leaves: &Leaves,
-        root: ChildRef,
-        ray: &Ray,
-        stack: &mut [MaybeUninit<(ChildRef, f32)>],
-    ) -> bool {
-        // SAFETY: as in `closest_hit`.
-        unsafe { any_hit_avx2(self, leaves, root, ray, stack) }
-    }
-}
-
-#[target_feature(enable = "avx2,fma")]
-unsafe fn closest_hit_avx2(
-    nodes: &Nodes8,
-    leaves: &Leaves,
-    root: ChildRef,
-    ray: &Ray,
-    stack: &mut [MaybeUninit<(ChildRef, f32)>],
-) -> Option<ClosestHit> {
-    closest_hit(nodes, leaves, root, ray, stack)
-}
-
-#[target_feature(enable = "avx2,fma")]
-unsafe fn any_hit_avx2(
-    nodes: &Nodes8,
-    leaves: &Leaves,
-    root: ChildRef,
-    ray: &Ray,
-    stack: &mut [MaybeUninit<(ChildRef, f32)>],
-) -> bool {
-    any_hit(nodes, leaves, root, ray, stack)
 }
 
 impl Nodes8 {
@@ -117,7 +56,7 @@ impl Nodes8 {
     pub(crate) fn test_packet(
         &self,
         r: ChildRef,
-        c: &crate::packet::PacketBox,
+        c: &super::packet::PacketBox,
         tmax: f32,
     ) -> ([f32; 8], u32) {
         debug_assert!((r as usize) < self.0.len());
@@ -156,7 +95,9 @@ impl Nodes8 {
 }
 
 impl InnerNodes for Nodes8 {
+    const WIDTH: usize = 8;
     type RayConsts = BoxRay8;
+    type Distances = [f32; 8];
 
     #[inline(always)]
     fn ray_consts(ray: &Ray, inv: Vec3A) -> BoxRay8 {
@@ -200,6 +141,7 @@ impl InnerNodes for Nodes8 {
 
     #[inline(always)]
     fn children(&self, r: ChildRef) -> &[ChildRef] {
+        debug_assert!((r as usize) < self.0.len());
         // SAFETY: as in `test`.
         unsafe { &self.0.get_unchecked(r as usize).children }
     }

@@ -2,9 +2,68 @@
 //! between sampling and pdf, sample weights against eval/pdf, energy conservation, and the
 //! closed-form values of each model.
 
+use super::blinn::blinn_norm;
+use super::blinn_microfacet::smith_g1_walter;
 use super::*;
 use crate::sampling::testutil::{chi2_test, gauss_2d, stratified_sphere_integral, Rng};
+use crate::sampling::{cosine_power_pdf, Frame};
+use std::f32::consts::{PI, TAU};
 use std::f64::consts::PI as PI64;
+
+/// The models by their parameters, with the reflectance given per call (as the statistical
+/// tests vary it): each call builds the per-hit [`Bsdf`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BsdfModel {
+    Diffuse,
+    Mirror,
+    Plastic { eta: f32 },
+    Phong { exponent: f32 },
+    Blinn { exponent: f32 },
+    BlinnMicrofacet { exponent: f32 },
+}
+
+impl BsdfModel {
+    fn at(self, reflectance: Vec3A) -> Bsdf {
+        match self {
+            BsdfModel::Diffuse => Bsdf::Diffuse(Diffuse { reflectance }),
+            BsdfModel::Mirror => Bsdf::Mirror(Mirror { reflectance }),
+            BsdfModel::Plastic { eta } => Bsdf::Plastic(Plastic { reflectance, eta }),
+            BsdfModel::Phong { exponent } => Bsdf::Phong(Phong {
+                reflectance,
+                exponent,
+            }),
+            BsdfModel::Blinn { exponent } => Bsdf::Blinn(Blinn {
+                reflectance,
+                exponent,
+            }),
+            BsdfModel::BlinnMicrofacet { exponent } => Bsdf::BlinnMicrofacet(BlinnMicrofacet {
+                reflectance,
+                exponent,
+            }),
+        }
+    }
+    fn eval(self, r: Vec3A, wo: Vec3A, wi: Vec3A) -> Vec3A {
+        self.at(r).eval(wo, wi)
+    }
+    fn pdf(self, r: Vec3A, wo: Vec3A, wi: Vec3A) -> f32 {
+        self.at(r).pdf(wo, wi)
+    }
+    fn sample(self, r: Vec3A, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        self.at(r).sample(wo, u, u_lobe)
+    }
+    fn is_delta(self) -> bool {
+        !self.at(Vec3A::ONE).flags().has_smooth()
+    }
+    fn has_delta(self) -> bool {
+        self.at(Vec3A::ONE).flags().contains(BsdfFlags::DELTA)
+    }
+    fn roughness(self) -> f32 {
+        self.at(Vec3A::ONE).roughness()
+    }
+    fn plastic_fresnel(eta: f32, cos_o: f32) -> f32 {
+        Plastic::fresnel(eta, cos_o)
+    }
+}
 
 const EXPONENTS: [f32; 4] = [1.0, 10.0, 100.0, 1000.0];
 const ANGLES_DEG: [f32; 3] = [0.0, 45.0, 85.0];
@@ -81,7 +140,7 @@ fn draw(model: BsdfModel, refl: Vec3A, wo: Vec3A, n: usize, seed: u64) -> Sample
             s.weight.is_finite() && s.weight.min_element() >= 0.0,
             "{model:?} {s:?}"
         );
-        if s.is_delta {
+        if s.is_delta() {
             assert!(s.pdf.is_infinite());
             dirs.push(None);
             continue;
@@ -397,18 +456,6 @@ fn closed_form_values() {
     );
 }
 
-#[test]
-fn schlick_fresnel_values() {
-    let f0 = Vec3A::new(0.04, 0.5, 1.0);
-    assert_eq!(schlick_fresnel(f0, 1.0), f0);
-    assert_eq!(schlick_fresnel(f0, 0.0), Vec3A::ONE);
-    let f = schlick_fresnel(f0, 0.5);
-    assert!((f - (f0 + (Vec3A::ONE - f0) / 32.0)).abs().max_element() < 1e-7);
-    // Plastic's F0 for η = 1.5 is 0.04.
-    assert!((BsdfModel::plastic_fresnel(1.5, 1.0) - 0.04).abs() < 1e-7);
-}
-
-/// Abramowitz & Stegun 7.1.26 (|error| < 1.5e-7).
 fn erf(x: f64) -> f64 {
     let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
     let poly = t
@@ -496,7 +543,7 @@ fn mirror_reflects_exactly_with_schlick_weight() {
             "{} vs {f}",
             s.weight
         );
-        assert!(s.is_delta && s.pdf.is_infinite());
+        assert!(s.is_delta() && s.pdf.is_infinite());
         assert_eq!(BsdfModel::Mirror.eval(r, wo, s.wi), Vec3A::ZERO);
         assert_eq!(BsdfModel::Mirror.pdf(r, wo, s.wi), 0.0);
     }
@@ -521,7 +568,7 @@ fn plastic_lobe_choice_matches_fresnel() {
         for _ in 0..n {
             let s = plastic.sample(r, wo, rng.vec2(), rng.f32()).unwrap();
             sum += s.weight.as_dvec3();
-            if s.is_delta {
+            if s.is_delta() {
                 spec += 1;
                 assert_eq!(s.wi, reflect_z(wo));
                 assert_eq!(s.weight, Vec3A::ONE);
@@ -585,75 +632,62 @@ fn roughness_orders_lobes() {
     assert!((BsdfModel::Phong { exponent: 100.0 }.roughness() - 0.14).abs() < 0.01);
 }
 
+/// Every sample carries its lobe and relative IOR: a reflection (eta 1) from one of the model's
+/// lobes, delta exactly when its pdf is infinite.
 #[test]
-fn from_kind_maps_every_scene_bsdf() {
-    let c = ColorParam::Constant(glam::Vec3::splat(0.5));
-    let cases = [
-        (
-            BsdfKind::Diffuse {
-                reflectance: c.clone(),
-            },
-            BsdfModel::Diffuse,
-        ),
-        (
-            BsdfKind::Mirror {
-                reflectance: c.clone(),
-            },
-            BsdfModel::Mirror,
-        ),
-        (
-            BsdfKind::Plastic {
-                reflectance: c.clone(),
-                eta: 1.3,
-            },
-            BsdfModel::Plastic { eta: 1.3 },
-        ),
-        (
-            BsdfKind::Phong {
-                reflectance: c.clone(),
-                exponent: 5.0,
-            },
-            BsdfModel::Phong { exponent: 5.0 },
-        ),
-        (
-            BsdfKind::Blinn {
-                reflectance: c.clone(),
-                exponent: 6.0,
-            },
-            BsdfModel::Blinn { exponent: 6.0 },
-        ),
-        (
-            BsdfKind::BlinnMicrofacet {
-                reflectance: c.clone(),
-                exponent: 7.0,
-            },
-            BsdfModel::BlinnMicrofacet { exponent: 7.0 },
-        ),
-    ];
-    for (kind, model) in cases {
-        let (m, refl) = BsdfModel::from_kind(&kind);
-        assert_eq!(m, model);
-        assert_eq!(refl, &c);
-    }
-}
-
-/// The path loop's sampler with the diffuse case inline gives exactly what `sample` gives, for
-/// the diffuse model and for the others it passes on, above and below the surface.
-#[test]
-fn inline_diffuse_sampling_equals_sample() {
-    let mut rng = Rng::new(11);
-    let refl = Vec3A::new(0.2, 0.5, 0.8);
+fn samples_carry_their_lobe_and_eta() {
+    let mut rng = Rng::new(23);
     let mut models = non_delta_models();
     models.push(BsdfModel::Mirror);
     for model in models {
-        for deg in [0.0, 45.0, 85.0, 120.0] {
-            let wo = wo_at(deg);
-            for _ in 0..200 {
-                let (u, u_lobe) = (rng.vec2(), rng.f32());
-                let a = model.sample(refl, wo, u, u_lobe);
-                let b = model.sample_inline_diffuse(refl, wo, u, u_lobe);
-                assert_eq!(format!("{a:?}"), format!("{b:?}"), "{model:?} wo {wo}");
+        let flags = model.at(Vec3A::ONE).flags();
+        for _ in 0..500 {
+            let Some(s) = model.sample(Vec3A::splat(0.5), wo_at(40.0), rng.vec2(), rng.f32())
+            else {
+                continue;
+            };
+            assert_eq!(s.eta, 1.0, "{model:?}");
+            assert!(s.lobe.contains(BsdfFlags::REFLECTION), "{model:?}");
+            assert!(!s.lobe.intersects(BsdfFlags::TRANSMISSION), "{model:?}");
+            assert!(
+                flags.contains(s.lobe),
+                "{model:?}: {:?} not in {flags:?}",
+                s.lobe
+            );
+            assert_eq!(s.is_delta(), s.pdf.is_infinite(), "{model:?}");
+        }
+    }
+}
+
+/// A two-sided BSDF seen from the back behaves as the front seen from the front, mirrored; a
+/// one-sided reflection model is black from the back.
+#[test]
+fn two_sided_mirrors_the_back_to_the_front() {
+    let mut rng = Rng::new(29);
+    let flip = |w: Vec3A| Vec3A::new(w.x, w.y, -w.z);
+    for model in non_delta_models() {
+        let bsdf = model.at(Vec3A::new(0.3, 0.6, 0.9));
+        let two = SurfaceBsdf {
+            front: bsdf,
+            back: Some(bsdf),
+        };
+        let one = SurfaceBsdf {
+            front: bsdf,
+            back: None,
+        };
+        let wo = flip(wo_at(35.0));
+        for _ in 0..200 {
+            let (u, u_lobe) = (rng.vec2(), rng.f32());
+            let s = two.sample(wo, u, u_lobe);
+            let f = bsdf.sample(flip(wo), u, u_lobe);
+            assert_eq!(s.map(|s| flip(s.wi)), f.map(|s| s.wi), "{model:?}");
+            if let Some(s) = s {
+                assert!(s.wi.z < 0.0);
+                assert_eq!(two.eval(wo, s.wi), bsdf.eval(flip(wo), flip(s.wi)));
+                assert_eq!(two.pdf(wo, s.wi), bsdf.pdf(flip(wo), flip(s.wi)));
+                assert_eq!(one.eval(wo, s.wi), Vec3A::ZERO, "{model:?}");
             }
+            assert!(one.sample(wo, u, u_lobe).is_none(), "{model:?}");
         }
     }
 }

@@ -1,0 +1,163 @@
+//! Building the wide BVH: obvhs's binary BVH, flattened into nodes of four or eight children and
+//! leaves of triangle blocks.
+
+use super::leaves::Leaves;
+use super::nodes4::Nodes4;
+use super::traversal::{ChildRef, EMPTY};
+use super::{Layout, PrimGeom};
+use glam::Vec3A;
+use obvhs::{aabb::Aabb, bvh2::Bvh2, BvhBuildParams};
+use std::time::Duration;
+
+impl PrimGeom {
+    /// Whether every coordinate (and radius) is finite: only such primitives can be ordered by
+    /// the builder, and the scene drops the others before building.
+    pub fn is_finite(&self) -> bool {
+        match *self {
+            PrimGeom::Triangle { p0, p1, p2 } => p0.is_finite() && p1.is_finite() && p2.is_finite(),
+            PrimGeom::Sphere { center, radius } => center.is_finite() && radius.is_finite(),
+        }
+    }
+
+    pub(crate) fn aabb(&self) -> Aabb {
+        match *self {
+            PrimGeom::Triangle { p0, p1, p2 } => Aabb {
+                min: p0.min(p1).min(p2),
+                max: p0.max(p1).max(p2),
+            },
+            PrimGeom::Sphere { center, radius } => Aabb {
+                min: center - Vec3A::splat(radius),
+                max: center + Vec3A::splat(radius),
+            },
+        }
+    }
+}
+
+/// The children of BVH2 inner node `index` that become one wide node: its two children, then
+/// the child with the largest surface area opened until there are `width` (or only leaves).
+fn wide_children(bvh2: &Bvh2, index: usize, width: usize) -> Vec<usize> {
+    let first = bvh2.nodes[index].first_index as usize;
+    let mut children = vec![first, first + 1];
+    while children.len() < width {
+        let widest = children
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| !bvh2.nodes[c].is_leaf())
+            .max_by(|a, b| {
+                let area = |c: usize| bvh2.nodes[c].aabb().half_area();
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+            .map(|(slot, _)| slot);
+        let Some(slot) = widest else { break };
+        let opened = bvh2.nodes[children[slot]].first_index as usize;
+        children.splice(slot..=slot, [opened, opened + 1]);
+    }
+    children
+}
+
+/// Structure-of-arrays bounds rows `[min x, min y, min z, max x, max y, max z]` of a wide
+/// node's children, lane i for child i; unused lanes get an inverted box that no ray enters.
+fn wide_bounds<const W: usize>(bvh2: &Bvh2, children: &[usize]) -> [[f32; W]; 6] {
+    let mut rows = [[f32::INFINITY; W]; 6];
+    for row in &mut rows[3..] {
+        *row = [f32::NEG_INFINITY; W];
+    }
+    for (lane, &c) in children.iter().enumerate() {
+        let aabb = bvh2.nodes[c].aabb();
+        for axis in 0..3 {
+            rows[axis][lane] = aabb.min[axis];
+            rows[axis + 3][lane] = aabb.max[axis];
+        }
+    }
+    rows
+}
+
+/// Builds the wide nodes of one width from a BVH2.
+pub(crate) struct WideBuilder<'a> {
+    bvh2: &'a Bvh2,
+    geoms: &'a [PrimGeom],
+    leaves: Leaves,
+    depth: usize,
+}
+
+impl WideBuilder<'_> {
+    /// Converts the subtree under BVH2 inner node `index` into `W`-wide nodes appended to
+    /// `nodes`: `make` creates a node from its bounds rows and child references (all the empty
+    /// leaf at first), `set_child` fills in its children once they are built. Returns the
+    /// subtree's reference.
+    pub(crate) fn add_inner<const W: usize, N>(
+        &mut self,
+        nodes: &mut Vec<N>,
+        index: usize,
+        level: usize,
+        make: &impl Fn([[f32; W]; 6], [ChildRef; W]) -> N,
+        set_child: &impl Fn(&mut N, usize, ChildRef),
+    ) -> ChildRef {
+        self.depth = self.depth.max(level);
+        let children = wide_children(self.bvh2, index, W);
+        let node_index = nodes.len();
+        nodes.push(make(
+            wide_bounds::<W>(self.bvh2, &children),
+            [Leaves::EMPTY_LEAF; W],
+        ));
+        for (lane, &c) in children.iter().enumerate() {
+            let node = &self.bvh2.nodes[c];
+            let child = if node.is_leaf() {
+                self.leaves
+                    .add(self.bvh2, node.first_index, node.prim_count, self.geoms)
+            } else {
+                self.add_inner(nodes, c, level + 1, make, set_child)
+            };
+            set_child(&mut nodes[node_index], lane, child);
+        }
+        node_index as ChildRef
+    }
+}
+
+/// Primitive count from which a scene counts as large: it gets obvhs's medium build instead of
+/// the slowest, best one, which would take seconds.
+const LARGE_SCENE: usize = 100_000;
+
+/// Builds the nodes and leaves over `geoms` (eight-wide when `eight`, which the caller sets only
+/// on CPUs with AVX2 and FMA): the layout, the leaves, the root reference and the depth of the
+/// inner nodes below the root.
+pub(super) fn build(geoms: &[PrimGeom], eight: bool) -> (Layout, Leaves, ChildRef, usize) {
+    let mut leaves = Leaves::new();
+    let empty_layout = || Layout::Four(Nodes4::empty());
+    if geoms.is_empty() {
+        return (empty_layout(), leaves, EMPTY, 0);
+    }
+    let aabbs: Vec<Aabb> = geoms.iter().map(PrimGeom::aabb).collect();
+    // The highest-quality build pays off while it is cheap; past ~100k primitives it costs
+    // seconds, so large scenes take the medium one. Leaves of up to four primitives fill one
+    // Triangle4 block; testing four triangles costs about as much as testing one, hence the
+    // high traversal cost given to the SAH leaf collapse.
+    let mut params = if geoms.len() < LARGE_SCENE {
+        BvhBuildParams::very_slow_build()
+    } else {
+        BvhBuildParams::medium_build()
+    };
+    params.max_prims_per_leaf = 4;
+    params.collapse_traversal_cost = 3.0;
+    let bvh2 = obvhs::bvh2::builder::build_bvh2(&aabbs, params, &mut Duration::default());
+    let root = &bvh2.nodes[0];
+    if root.is_leaf() {
+        let root = leaves.add(&bvh2, root.first_index, root.prim_count, geoms);
+        return (empty_layout(), leaves, root, 0);
+    }
+    let mut builder = WideBuilder {
+        bvh2: &bvh2,
+        geoms,
+        leaves,
+        depth: 0,
+    };
+    #[cfg(target_arch = "x86_64")]
+    if eight {
+        let (nodes, root) = super::x86_64::avx2::Nodes8::build(&mut builder);
+        return (Layout::Eight(nodes), builder.leaves, root, builder.depth);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = eight; // four-wide nodes only
+    let (nodes, root) = Nodes4::build(&mut builder);
+    (Layout::Four(nodes), builder.leaves, root, builder.depth)
+}

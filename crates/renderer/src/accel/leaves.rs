@@ -1,0 +1,158 @@
+//! The leaves of a BVH, whatever its node width: blocks of four triangles, spheres, and the
+//! records of leaves that hold spheres.
+
+use super::traversal::{ChildRef, LEAF, LEAF_COUNT_SHIFT, LEAF_INDEX_MASK};
+use super::triangle4::{Ray4, Triangle4};
+use super::{ClosestHit, PrimGeom};
+use crate::ray::Ray;
+use crate::shapes::sphere::intersect_sphere;
+use glam::Vec3A;
+use obvhs::bvh2::Bvh2;
+
+/// A leaf: a run of triangle blocks and a run of spheres.
+#[derive(Clone, Copy, Debug)]
+struct Leaf {
+    first_block: u32,
+    block_count: u32,
+    first_sphere: u32,
+    sphere_count: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct SphereRef {
+    center: Vec3A,
+    radius: f32,
+    prim: u32,
+}
+
+/// The closest hit in (0, tmax) among the triangles of `blocks`.
+#[inline(always)]
+pub(crate) fn closest_in_blocks(
+    blocks: &[Triangle4],
+    ray4: &Ray4,
+    ray: &Ray,
+    tmax: f32,
+) -> Option<ClosestHit> {
+    let mut tmax = tmax;
+    let mut best = None;
+    for block in blocks {
+        if let Some((lane, t, b1, b2)) = block.intersect(ray4, ray, tmax) {
+            tmax = t;
+            best = Some(ClosestHit {
+                t,
+                prim: block.prim[lane],
+                b1,
+                b2,
+            });
+        }
+    }
+    best
+}
+
+/// The leaves of a BVH, whatever its node width: triangle blocks, spheres, and the records of
+/// leaves that hold spheres.
+pub(crate) struct Leaves {
+    leaves: Vec<Leaf>,
+    blocks: Vec<Triangle4>,
+    spheres: Vec<SphereRef>,
+}
+
+impl Leaves {
+    /// Leaves with only the empty leaf, [`Leaves::EMPTY_LEAF`], in them.
+    pub(crate) fn new() -> Self {
+        Self {
+            leaves: vec![Leaf {
+                first_block: 0,
+                block_count: 0,
+                first_sphere: 0,
+                sphere_count: 0,
+            }],
+            blocks: Vec::new(),
+            spheres: Vec::new(),
+        }
+    }
+
+    /// A leaf holding nothing: what unused lanes of a wide node point at, so that every child
+    /// reference a traversal can read is valid whatever the box test answers for it.
+    pub(crate) const EMPTY_LEAF: ChildRef = LEAF;
+
+    pub(crate) fn add(
+        &mut self,
+        bvh2: &Bvh2,
+        first: u32,
+        count: u32,
+        geoms: &[PrimGeom],
+    ) -> ChildRef {
+        let prims = &bvh2.primitive_indices[first as usize..(first + count) as usize];
+        let mut tris = Vec::new();
+        let first_sphere = self.spheres.len() as u32;
+        for &prim in prims {
+            match geoms[prim as usize] {
+                PrimGeom::Triangle { p0, p1, p2 } => tris.push((p0, p1, p2, prim)),
+                PrimGeom::Sphere { center, radius } => self.spheres.push(SphereRef {
+                    center,
+                    radius,
+                    prim,
+                }),
+            }
+        }
+        let first_block = self.blocks.len() as u32;
+        self.blocks.extend(tris.chunks(4).map(Triangle4::new));
+        let block_count = self.blocks.len() as u32 - first_block;
+        let sphere_count = self.spheres.len() as u32 - first_sphere;
+        if sphere_count == 0 && (1..16).contains(&block_count) && first_block <= LEAF_INDEX_MASK {
+            return LEAF | block_count << LEAF_COUNT_SHIFT | first_block;
+        }
+        self.leaves.push(Leaf {
+            first_block,
+            block_count: self.blocks.len() as u32 - first_block,
+            first_sphere,
+            sphere_count: self.spheres.len() as u32 - first_sphere,
+        });
+        LEAF | (self.leaves.len() as u32 - 1)
+    }
+
+    /// The triangle blocks of leaf `r` when its reference carries them (a leaf of triangles
+    /// only); None for a leaf stored in `leaves`.
+    #[inline(always)]
+    pub(crate) fn packed_blocks(&self, r: ChildRef) -> Option<&[Triangle4]> {
+        let first = (r & LEAF_INDEX_MASK) as usize;
+        let count = ((r & !LEAF) >> LEAF_COUNT_SHIFT) as usize;
+        if count == 0 {
+            return None;
+        }
+        debug_assert!(first + count <= self.blocks.len());
+        // SAFETY: `add` packs only block ranges that it has just pushed to `blocks`.
+        Some(unsafe { self.blocks.get_unchecked(first..first + count) })
+    }
+
+    /// Closest hit in (0, tmax) among the triangles and spheres of leaf `r` of `leaves`. Kept
+    /// out of line: leaves with spheres are rare, and inlining the sphere test into the
+    /// traversal loops costs every ray registers and set-up.
+    #[inline(never)]
+    pub(crate) fn intersect_general(
+        &self,
+        r: ChildRef,
+        ray: &Ray,
+        ray4: &Ray4,
+        tmax: f32,
+    ) -> Option<ClosestHit> {
+        let leaf = &self.leaves[(r & LEAF_INDEX_MASK) as usize];
+        let blocks = leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
+        let spheres = leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize;
+        let mut best = closest_in_blocks(&self.blocks[blocks], ray4, ray, tmax);
+        let mut tmax = best.map_or(tmax, |h| h.t);
+        for s in &self.spheres[spheres] {
+            if let Some(t) = intersect_sphere(ray, s.center, s.radius, 0.0, tmax) {
+                tmax = t;
+                best = Some(ClosestHit {
+                    t,
+                    prim: s.prim,
+                    b1: 0.0,
+                    b2: 0.0,
+                });
+            }
+        }
+        best
+    }
+}

@@ -1,0 +1,51 @@
+//! AVX2 and FMA: eight-wide BVH nodes ([`Nodes8`]) and camera-ray packets of eight
+//! ([`packet`]). The traversal loops are the generic ones of [`crate::accel::traversal`],
+//! instantiated here inside functions compiled with these features enabled.
+
+mod nodes8;
+pub(crate) mod packet;
+
+pub(crate) use nodes8::Nodes8;
+pub(crate) use packet::PACKET;
+
+use crate::accel::leaves::Leaves;
+use crate::accel::traversal::{self, ChildRef};
+use crate::accel::ClosestHit;
+use crate::ray::Ray;
+use std::mem::MaybeUninit;
+
+/// True when this CPU can run these kernels (AVX2 and FMA, which every AVX2 CPU from Intel and
+/// AMD also has).
+pub fn available() -> bool {
+    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+}
+
+/// [`traversal::closest_hit`] over eight-wide nodes, compiled with AVX2 and FMA.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA ([`available`]); `Nodes8` values exist only then.
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn closest_hit(
+    nodes: &Nodes8,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> Option<ClosestHit> {
+    traversal::closest_hit(nodes, leaves, root, ray, stack)
+}
+
+/// [`traversal::any_hit`] over eight-wide nodes, compiled with AVX2 and FMA.
+///
+/// # Safety
+/// As for [`closest_hit`].
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn any_hit(
+    nodes: &Nodes8,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> bool {
+    traversal::any_hit(nodes, leaves, root, ray, stack)
+}

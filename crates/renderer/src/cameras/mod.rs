@@ -1,0 +1,82 @@
+//! Cameras (Mitsuba's sensors): from a point on the film and one on the lens to a primary ray.
+//!
+//! The contract with the render loop: [`Camera::lens_requests`] says how many 2D sampler draws a
+//! ray uses beyond the film position (so that low-discrepancy samplers can resume a sample at the
+//! right dimension), and [`Camera::rays_share_origin`] says whether a pixel's rays leave one point
+//! (packets of camera rays rely on it and are switched off for cameras whose rays do not).
+//! A new camera is a file, a [`Camera`] variant with one-line arms, the parser mapping and docs.
+
+mod perspective;
+mod thinlens;
+
+pub use perspective::PerspectiveCamera;
+pub use thinlens::ThinLensCamera;
+
+#[cfg(test)]
+pub(crate) use perspective::look_at;
+
+use glam::{Vec2, Vec3A};
+
+/// Where on the film (in pixels, (0, 0) = top-left corner) and where on the lens (a point of the
+/// unit square) a camera ray starts.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraSample {
+    pub film: Vec2,
+    pub lens: Vec2,
+}
+
+/// The scene's camera.
+#[derive(Clone, Debug)]
+pub enum Camera {
+    Perspective(PerspectiveCamera),
+    ThinLens(ThinLensCamera),
+}
+
+impl Camera {
+    /// The perspective camera (pinhole) every camera of the scene builds on.
+    fn pinhole(&self) -> &PerspectiveCamera {
+        match self {
+            Camera::Perspective(c) => c,
+            Camera::ThinLens(c) => &c.pinhole,
+        }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.pinhole().width()
+    }
+
+    pub fn height(&self) -> u32 {
+        self.pinhole().height()
+    }
+
+    /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
+    pub fn pixel_spread(&self) -> f32 {
+        self.pinhole().pixel_spread()
+    }
+
+    /// 2D sampler draws a ray takes for the lens, after the one for the film position.
+    pub fn lens_requests(&self) -> u32 {
+        match self {
+            Camera::Perspective(_) => 0,
+            Camera::ThinLens(_) => 1,
+        }
+    }
+
+    /// Whether all rays leave from one point (a pinhole, or a thin lens of zero aperture): only
+    /// then are a pixel's camera rays traced as a packet.
+    pub fn rays_share_origin(&self) -> bool {
+        match self {
+            Camera::Perspective(_) => true,
+            Camera::ThinLens(c) => c.is_pinhole(),
+        }
+    }
+
+    /// The primary ray for `sample`: its origin and normalised world direction.
+    #[inline]
+    pub fn generate_ray(&self, sample: &CameraSample) -> (Vec3A, Vec3A) {
+        match self {
+            Camera::Perspective(c) => c.generate_ray(sample.film),
+            Camera::ThinLens(c) => c.generate_ray(sample.film, sample.lens),
+        }
+    }
+}

@@ -1,0 +1,38 @@
+//! Integrators: from a camera ray to the radiance arriving along it. One file per integrator;
+//! today Mitsuba's `path` ([`path::radiance`]).
+
+pub mod path;
+
+pub use path::radiance;
+
+#[derive(Clone, Copy, Debug)]
+pub struct PathSettings {
+    pub max_depth: i32,
+    pub rr_depth: i32,
+    /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
+    /// as Mitsuba does; used to measure what mip-mapping changes.
+    pub mipmapping: bool,
+    /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
+    pub env_strategy: EnvStrategy,
+}
+
+/// Strategies for lights at infinity, kept selectable so their noise can be compared (issue: env
+/// sampling (a) uniform, (b) luminance-importance, (c) importance + MIS). (a) and (b) count the
+/// environment only through light samples: BSDF-sampled rays that escape add nothing after the
+/// first rough bounce, which keeps each estimator unbiased on its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum EnvStrategy {
+    Uniform,
+    Importance,
+    #[default]
+    ImportanceMis,
+}
+
+/// Rays traced, by query kind, for the rays-per-second report.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayCount {
+    /// Closest-hit queries (camera rays and path continuations).
+    pub closest: u64,
+    /// Any-hit queries: shadow rays, and last path segments in scenes without area lights.
+    pub shadow: u64,
+}

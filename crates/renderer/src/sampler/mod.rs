@@ -1,0 +1,46 @@
+//! Sample generators for the integrator: a trait the integrator and the render loop draw from,
+//! and its implementations, one per file.
+//!
+//! - [`PcgSampler`]: independent uniform numbers (Mitsuba's `independent`).
+//! - [`SobolSampler`]: shuffled, Owen-scrambled Sobol points (torrey's default).
+
+mod independent;
+mod sobol;
+
+pub use independent::PcgSampler;
+pub use sobol::SobolSampler;
+
+use glam::Vec2;
+
+/// Which sample generator a render uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Independent uniform random numbers (PCG32).
+    Independent,
+    /// Shuffled, Owen-scrambled Sobol points.
+    #[default]
+    Sobol,
+}
+
+/// A source of uniform numbers in [0, 1).
+pub trait Sampler {
+    /// Begins sample number `index` of the current pixel (sequences that depend on the sample
+    /// index, like Sobol, restart their dimensions here; independent samplers ignore it).
+    fn start_sample(&mut self, _index: u32) {}
+    /// Goes back to sample `index` after its first `requests` draws (`next_1d` and `next_2d`
+    /// calls each count one), when other samples were started in between: the camera rays of a
+    /// pixel's packet are drawn first, then each path is followed in turn. A stream of
+    /// independent numbers just continues; a low-discrepancy sampler returns to the sample's
+    /// next dimension.
+    fn resume_sample(&mut self, _index: u32, _requests: u32) {}
+    fn next_1d(&mut self) -> f32;
+    fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next_1d(), self.next_1d())
+    }
+}
+
+/// 24 random mantissa bits: uniform in [0, 1) and never rounds up to 1.
+#[inline]
+fn to_unit(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}

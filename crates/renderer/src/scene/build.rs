@@ -1,0 +1,321 @@
+//! Building a [`RenderScene`] from the parser's description: each concept by its own
+//! constructor (camera, textures, materials, shapes, lights), then the BVH over every primitive.
+
+use super::{Material, RenderScene};
+use crate::accel::{Accel, BvhWidth, PrimGeom};
+use crate::bsdfs::{BsdfParams, DiffuseParams};
+use crate::cameras::{Camera, PerspectiveCamera};
+use crate::lights::{AreaEmitter, AreaLight, ConstantLight, EnvLight, Light, PointLight};
+use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
+use crate::shapes::sphere::Sphere;
+use crate::shapes::{PrimInfo, Shape, ShapeKind};
+use crate::textures::{ColorSource, Texture};
+use glam::{Mat3, Vec3A};
+use torrey_light::EnvMap;
+use torrey_parser as desc;
+use torrey_texture::{BitmapTexture, MipMap};
+
+/// Why a parsed scene could not be prepared for rendering (texture files that do not decode, a
+/// camera that cannot form an image, say).
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("{location}: error: {message}")]
+    Texture { location: String, message: String },
+    #[error("{0}")]
+    Other(String),
+}
+
+impl RenderScene {
+    /// Prepares `scene` for a `width` x `height` film.
+    pub fn build(scene: &desc::Scene, width: u32, height: u32) -> Result<Self, BuildError> {
+        Self::build_with_width(scene, width, height, BvhWidth::Auto)
+    }
+
+    /// [`RenderScene::build`] with a chosen BVH node width (for comparing them; the images are
+    /// the same up to which of two triangles at exactly equal distance is reported).
+    pub fn build_with_width(
+        scene: &desc::Scene,
+        width: u32,
+        height: u32,
+        bvh_width: BvhWidth,
+    ) -> Result<Self, BuildError> {
+        let camera = build_camera(&scene.camera, width, height)?;
+        let mut warnings = Vec::new();
+        let textures = scene
+            .textures
+            .iter()
+            .map(|t| build_texture(t, &mut warnings))
+            .collect::<Result<Vec<_>, _>>()?;
+        let torrey_dialect = scene.dialect == desc::Dialect::Torrey;
+        let mut materials: Vec<Material> = scene
+            .bsdfs
+            .iter()
+            .map(|b| Material::from_desc(b, torrey_dialect))
+            .collect();
+        // Shapes without a bsdf get Mitsuba's default: diffuse, reflectance 0.5.
+        let default_material = materials.len() as u32;
+        materials.push(Material {
+            bsdf: BsdfParams::Diffuse(DiffuseParams {
+                reflectance: ColorSource::Constant(Vec3A::splat(0.5)),
+            }),
+            two_sided: torrey_dialect,
+            normal_map: None,
+        });
+
+        let mut mesh = MeshData::default();
+        let mut geoms = Vec::new();
+        let mut prims = Vec::new();
+        let mut shapes = Vec::new();
+        let mut lights = Vec::new();
+        let mut dropped = 0usize;
+        for (shape_index, shape) in scene.shapes.iter().enumerate() {
+            let shape_id = shape_index as u32;
+            let first_prim = prims.len();
+            let kind = match &shape.geometry {
+                desc::Geometry::Mesh(m) => ShapeKind::Mesh(MeshShape::add(
+                    &mut mesh,
+                    &mut geoms,
+                    &mut prims,
+                    shape_id,
+                    m,
+                    shape.to_world,
+                )),
+                desc::Geometry::Rectangle => ShapeKind::Mesh(MeshShape::add(
+                    &mut mesh,
+                    &mut geoms,
+                    &mut prims,
+                    shape_id,
+                    &MeshShape::rectangle(),
+                    shape.to_world,
+                )),
+                desc::Geometry::Sphere { center, radius } => {
+                    let sphere = Sphere::new(*center, *radius, shape.to_world);
+                    if sphere.prim_geom().is_finite() && sphere.radius > 0.0 {
+                        geoms.push(sphere.prim_geom());
+                        prims.push(PrimInfo {
+                            ng: Vec3A::ZERO,
+                            indices: [0; 3],
+                            shape: shape_id,
+                        });
+                    } else {
+                        dropped += 1;
+                    }
+                    ShapeKind::Sphere(sphere)
+                }
+            };
+            let shape_prims = &prims[first_prim..];
+            let area_light = match shape.emitter {
+                Some(radiance) if radiance.max_element() > 0.0 && !shape_prims.is_empty() => {
+                    let emitter = match kind {
+                        ShapeKind::Sphere(sphere) => AreaEmitter::Sphere(sphere),
+                        ShapeKind::Mesh(_) => {
+                            AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
+                        }
+                    };
+                    lights.push(Light::Area(AreaLight {
+                        shape: shape_id,
+                        radiance: radiance.into(),
+                        emitter,
+                        flip_normals: shape.flip_normals,
+                    }));
+                    Some(lights.len() as u32 - 1)
+                }
+                _ => None,
+            };
+            shapes.push(Shape {
+                kind,
+                material: shape.bsdf.map_or(default_material, |b| b as u32),
+                area_light,
+                flip_normals: shape.flip_normals,
+            });
+        }
+        if dropped > 0 {
+            warnings.push(format!(
+                "{dropped} sphere(s) with a zero or non-finite size or position after their \
+                 transform were left out"
+            ));
+        }
+
+        let mut infinite_lights = Vec::new();
+        for light in &scene.lights {
+            let light = match light {
+                desc::Light::Point {
+                    position,
+                    intensity,
+                } => Light::Point(PointLight {
+                    position: (*position).into(),
+                    intensity: (*intensity).into(),
+                }),
+                // A black background emits nothing: keeping it would only waste light samples.
+                desc::Light::Constant { radiance } if radiance.max_element() <= 0.0 => continue,
+                desc::Light::Constant { radiance } => Light::Constant(ConstantLight {
+                    radiance: (*radiance).into(),
+                }),
+                desc::Light::Envmap {
+                    bitmap,
+                    scale,
+                    to_world,
+                } => {
+                    let image = load_bitmap_image(bitmap, &mut warnings)?;
+                    let rotation = Mat3::from_mat4(*to_world);
+                    Light::Env(Box::new(EnvLight {
+                        map: EnvMap::new(image, *scale, rotation),
+                    }))
+                }
+            };
+            if light.is_infinite() {
+                infinite_lights.push(lights.len() as u32);
+            }
+            lights.push(light);
+        }
+
+        debug_assert!(geoms.iter().all(PrimGeom::is_finite));
+        let accel = Accel::build(&geoms, bvh_width);
+        let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
+        Ok(Self {
+            camera,
+            accel,
+            mesh,
+            prims,
+            shapes,
+            materials,
+            textures,
+            lights,
+            infinite_lights,
+            has_area_lights,
+            warnings,
+        })
+    }
+}
+
+/// The camera of the scene for a `width` x `height` film. Its transform must be finite and
+/// invertible: a degenerate one (a zero scale, say) maps every pixel to the same non-finite ray.
+fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, BuildError> {
+    let linear = Mat3::from_mat4(c.to_world);
+    let det = linear.determinant();
+    if !c.to_world.is_finite() || !(det.is_finite() && det != 0.0) {
+        return Err(BuildError::Other(
+            "error: the camera's transform is degenerate (zero scale, or non-finite)".into(),
+        ));
+    }
+    if !(c.fov_degrees.is_finite() && c.fov_degrees > 0.0 && c.fov_degrees < 180.0) {
+        return Err(BuildError::Other(format!(
+            "error: the camera's field of view must be in (0, 180) degrees, found {}",
+            c.fov_degrees
+        )));
+    }
+    Ok(Camera::Perspective(PerspectiveCamera::new(
+        c.to_world,
+        c.fov_degrees,
+        c.fov_axis,
+        width,
+        height,
+    )))
+}
+
+fn load_bitmap_image(
+    bitmap: &desc::Bitmap,
+    warnings: &mut Vec<String>,
+) -> Result<torrey_texture::Image, BuildError> {
+    let loaded = torrey_texture::load_image(&bitmap.filename, bitmap.raw).map_err(|e| {
+        BuildError::Texture {
+            location: bitmap.location.to_string(),
+            message: e.to_string(),
+        }
+    })?;
+    warnings.extend(loaded.warnings);
+    Ok(loaded.image)
+}
+
+/// A texture of the scene from its description, its bitmap loaded and mip-mapped.
+fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Texture, BuildError> {
+    Ok(match &t.kind {
+        desc::TextureKind::Bitmap(bitmap) => {
+            let image = load_bitmap_image(bitmap, warnings)?;
+            let wrap = match bitmap.wrap {
+                desc::WrapMode::Repeat => torrey_texture::WrapMode::Repeat,
+                desc::WrapMode::Mirror => torrey_texture::WrapMode::Mirror,
+                desc::WrapMode::Clamp => torrey_texture::WrapMode::Clamp,
+            };
+            let filter = match bitmap.filter {
+                desc::FilterType::Bilinear => torrey_texture::FilterType::Bilinear,
+                desc::FilterType::Nearest => torrey_texture::FilterType::Nearest,
+            };
+            Texture::Bitmap(BitmapTexture::new(
+                MipMap::new(image, wrap, filter),
+                bitmap.to_uv,
+            ))
+        }
+        desc::TextureKind::Checkerboard {
+            color0,
+            color1,
+            to_uv,
+        } => Texture::Checkerboard {
+            color0: (*color0).into(),
+            color1: (*color1).into(),
+            to_uv: *to_uv,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ray::Ray;
+    use crate::shapes::mesh::MeshShape;
+    use crate::shapes::ShapeKind;
+    use glam::Vec3A;
+    use std::path::Path;
+
+    fn scene(shapes: &str) -> RenderScene {
+        let xml = format!(
+            r#"<scene version="0.6.0">
+                <sensor type="perspective"><film type="hdrfilm">
+                    <integer name="width" value="8"/><integer name="height" value="8"/>
+                </film></sensor>
+                {shapes}
+            </scene>"#
+        );
+        let desc = torrey_parser::parse_scene_str(&xml, Path::new("test.xml"), &[]).unwrap();
+        RenderScene::build(&desc, 8, 8).unwrap()
+    }
+
+    /// Rectangles (one normal for all four vertices) take the flat-normal path, and a hit's
+    /// shading normal there is exactly the vertex normal; a smooth mesh does not.
+    #[test]
+    fn flat_shaded_meshes_are_recognised() {
+        let s = scene(
+            r#"<shape type="rectangle"><transform name="toWorld">
+                   <rotate x="1" angle="-90"/><scale value="2"/>
+               </transform></shape>"#,
+        );
+        assert!(matches!(
+            s.shapes[0].kind,
+            ShapeKind::Mesh(MeshShape {
+                flat_normals: true,
+                ..
+            })
+        ));
+        let ray = Ray {
+            origin: Vec3A::new(0.3, 1.0, -0.2),
+            dir: -Vec3A::Y,
+            tmax: f32::INFINITY,
+        };
+        let hit = s.intersect(&ray).expect("the floor is below");
+        assert_eq!(hit.ns, s.mesh.normals[0]);
+        assert!((hit.ns - Vec3A::Y).length() < 1e-6, "{}", hit.ns);
+
+        // The project's torus has smooth vertex normals (tests run in the crate's directory).
+        let s = scene(
+            r#"<shape type="obj"><string name="filename" value="../../scenes/meshes/torus.obj"/></shape>"#,
+        );
+        assert!(matches!(
+            s.shapes[0].kind,
+            ShapeKind::Mesh(MeshShape {
+                has_normals: true,
+                flat_normals: false,
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,103 @@
+//! Materials as the integrator sees them: a BSDF's (possibly textured) parameters, the
+//! material's sidedness, and an optional normal map.
+
+use crate::bsdfs::{BsdfParams, SurfaceBsdf};
+use crate::sampling::Frame;
+use crate::shapes::SurfaceHit;
+use crate::textures::{Texture, TextureQuery};
+use glam::Vec3A;
+use torrey_parser as desc;
+
+/// A material ready to shade.
+#[derive(Clone, Copy, Debug)]
+pub struct Material {
+    pub bsdf: BsdfParams,
+    /// Shades both sides (torrey-dialect scenes, or Mitsuba's `twosided`).
+    pub two_sided: bool,
+    pub normal_map: Option<u32>,
+}
+
+impl Material {
+    /// The material of a parsed bsdf; every material of a torrey-dialect scene is two-sided.
+    pub fn from_desc(b: &desc::Bsdf, torrey_dialect: bool) -> Self {
+        Material {
+            bsdf: BsdfParams::from_desc(&b.kind),
+            two_sided: b.two_sided || torrey_dialect,
+            normal_map: b.normal_map.map(|t| t as u32),
+        }
+    }
+
+    /// Whether shading reads any texture, i.e. needs uv and a ray-cone footprint.
+    #[inline]
+    pub fn is_textured(&self) -> bool {
+        self.normal_map.is_some() || self.bsdf.is_textured()
+    }
+
+    /// The BSDF at a hit, its textured parameters looked up through `q`.
+    #[inline(always)]
+    pub fn bsdf(&self, q: &TextureQuery) -> SurfaceBsdf {
+        let front = self.bsdf.resolve(q);
+        SurfaceBsdf {
+            front,
+            back: self.two_sided.then_some(front),
+        }
+    }
+
+    /// The local shading frame at a hit, its normal on the side `wo` leaves from; None when that is
+    /// the back of a one-sided material.
+    ///
+    /// Without a normal map the side is decided by the shading normal, as Mitsuba's `twosided` does.
+    /// With one, the side is decided by the geometric normal, the map perturbs the normal on that side
+    /// (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns, b = ns x t), and a perturbed normal
+    /// that would face away from `wo` is bent back until it is just visible, so normal-mapped surfaces
+    /// never turn black or leak light at grazing angles.
+    #[inline(always)]
+    pub fn shading_frame(
+        &self,
+        textures: &[Texture],
+        hit: &SurfaceHit,
+        wo: Vec3A,
+        footprint: f32,
+    ) -> Option<Frame> {
+        let Some(tex) = self.normal_map else {
+            // The common case, inline in the path loop; normal maps take the call below.
+            let ns = hit.ns;
+            if ns.dot(wo) >= 0.0 {
+                return Some(Frame::from_normal(ns));
+            }
+            return self.two_sided.then(|| Frame::from_normal(-ns));
+        };
+        self.normal_mapped_frame(textures, hit, wo, tex, footprint)
+    }
+
+    /// [`Material::shading_frame`] for a material with normal map `tex`.
+    #[inline(never)]
+    fn normal_mapped_frame(
+        &self,
+        textures: &[Texture],
+        hit: &SurfaceHit,
+        wo: Vec3A,
+        tex: u32,
+        footprint: f32,
+    ) -> Option<Frame> {
+        let front = hit.ng.dot(wo) >= 0.0;
+        if !front && !self.two_sided {
+            return None;
+        }
+        let rgb = textures[tex as usize].eval(hit.uv, footprint);
+        let local = (rgb * 2.0 - Vec3A::ONE).normalize_or(Vec3A::Z);
+        let ns = hit.ns;
+        let t = (hit.dpdu - ns * ns.dot(hit.dpdu)).normalize_or(Frame::from_normal(ns).s);
+        let b = ns.cross(t);
+        let mut n = (t * local.x + b * local.y + ns * local.z).normalize_or(ns);
+        if !front {
+            n = -n;
+        }
+        const MIN_COS: f32 = 0.01;
+        let cos = n.dot(wo);
+        if cos < MIN_COS {
+            n = (n + wo * (MIN_COS - cos)).normalize_or(n);
+        }
+        Some(Frame::from_normal(n))
+    }
+}

@@ -1,0 +1,87 @@
+//! The scene's shapes. Each file holds everything of its shape: construction from the parsed
+//! description, intersection, the surface at a hit (position, normals, uv and its derivatives),
+//! and area sampling with its pdf for shapes that emit. A new shape is a file, a [`ShapeKind`]
+//! variant with one-line arms below, its primitive in [`crate::accel::PrimGeom`] (or triangles),
+//! the parser mapping and the docs.
+
+pub mod mesh;
+pub mod sphere;
+pub mod triangle;
+
+use crate::accel::ClosestHit;
+use crate::ray::Ray;
+use glam::{Vec2, Vec3A};
+use mesh::{MeshData, MeshShape};
+use sphere::Sphere;
+
+/// What a hit needs to know about a BVH primitive, one load away from the hit's primitive index:
+/// its shape and, for a triangle, its unit geometric normal and vertex indices into [`MeshData`].
+/// (Indices and normal in a separate per-triangle array would put one more dependent load
+/// between a hit and its shading.)
+#[derive(Clone, Copy, Debug)]
+pub struct PrimInfo {
+    /// (p1 − p0) × (p2 − p0), normalised; zero for a sphere.
+    pub ng: Vec3A,
+    /// Zero for a sphere.
+    pub indices: [u32; 3],
+    pub shape: u32,
+}
+
+/// The differential geometry at a ray hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub t: f32,
+    pub p: Vec3A,
+    /// Geometric normal (after `flip_normals`), not turned towards the ray.
+    pub ng: Vec3A,
+    /// Shading normal (interpolated vertex normal, or `ng`), not turned towards the ray.
+    pub ns: Vec3A,
+    /// Texture coordinates and their position derivatives; only computed when the material reads
+    /// a texture (zero otherwise: nothing else uses them, and spheres pay two inverse
+    /// trigonometric functions for them).
+    pub uv: Vec2,
+    pub dpdu: Vec3A,
+    pub dpdv: Vec3A,
+    pub shape: u32,
+    pub prim: u32,
+}
+
+/// The geometry of a shape.
+#[derive(Clone, Copy, Debug)]
+pub enum ShapeKind {
+    Mesh(MeshShape),
+    Sphere(Sphere),
+}
+
+/// A shape of the scene: its geometry, material, emitter and orientation.
+#[derive(Clone, Copy, Debug)]
+pub struct Shape {
+    pub kind: ShapeKind,
+    pub material: u32,
+    pub area_light: Option<u32>,
+    pub flip_normals: bool,
+}
+
+impl Shape {
+    /// The surface at `hit`, a closest hit along `ray` on primitive `prim` of this shape; uv and
+    /// its derivatives only when `needs_uv`.
+    #[inline(always)]
+    pub fn surface(
+        &self,
+        mesh: &MeshData,
+        prim: &PrimInfo,
+        ray: &Ray,
+        hit: &ClosestHit,
+        needs_uv: bool,
+    ) -> SurfaceHit {
+        let mut sh = match &self.kind {
+            ShapeKind::Mesh(m) => m.surface(mesh, prim, hit, needs_uv),
+            ShapeKind::Sphere(s) => s.surface(ray, prim, hit, needs_uv),
+        };
+        if self.flip_normals {
+            sh.ng = -sh.ng;
+            sh.ns = -sh.ns;
+        }
+        sh
+    }
+}
