@@ -154,13 +154,8 @@ pub fn radiance(
         } else {
             0.0
         };
-        let Some(frame) = material.shading_frame(&scene.textures, &hit, wo, footprint) else {
-            break; // the back of a one-sided bsdf is black
-        };
+        let frame = material.shading_frame(&scene.textures, &hit, wo, footprint);
         let wo_local = frame.to_local(wo);
-        if wo_local.z <= 0.0 {
-            break;
-        }
         let bsdf = material.bsdf(&TextureQuery {
             textures: &scene.textures,
             uv: hit.uv,

@@ -43,14 +43,14 @@ impl Material {
         }
     }
 
-    /// The local shading frame at a hit, its normal on the side `wo` leaves from; None when that is
-    /// the back of a one-sided material.
+    /// The local shading frame at a hit: the shading normal as the shape gives it (the BSDF
+    /// decides what its back side does, see [`SurfaceBsdf`]), or the normal map's.
     ///
-    /// Without a normal map the side is decided by the shading normal, as Mitsuba's `twosided` does.
-    /// With one, the side is decided by the geometric normal, the map perturbs the normal on that side
-    /// (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns, b = ns x t), and a perturbed normal
-    /// that would face away from `wo` is bent back until it is just visible, so normal-mapped surfaces
-    /// never turn black or leak light at grazing angles.
+    /// With a normal map, the side is decided by the geometric normal, the map perturbs the
+    /// normal on that side (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns,
+    /// b = ns x t), and for a two-sided material a perturbed normal that would face away from
+    /// `wo` is bent back until it is just visible, so normal-mapped surfaces never turn black or
+    /// leak light at grazing angles.
     #[inline(always)]
     pub fn shading_frame(
         &self,
@@ -58,14 +58,10 @@ impl Material {
         hit: &SurfaceHit,
         wo: Vec3A,
         footprint: f32,
-    ) -> Option<Frame> {
+    ) -> Frame {
         let Some(tex) = self.normal_map else {
             // The common case, inline in the path loop; normal maps take the call below.
-            let ns = hit.ns;
-            if ns.dot(wo) >= 0.0 {
-                return Some(Frame::from_normal(ns));
-            }
-            return self.two_sided.then(|| Frame::from_normal(-ns));
+            return Frame::from_normal(hit.ns);
         };
         self.normal_mapped_frame(textures, hit, wo, tex, footprint)
     }
@@ -79,11 +75,8 @@ impl Material {
         wo: Vec3A,
         tex: u32,
         footprint: f32,
-    ) -> Option<Frame> {
+    ) -> Frame {
         let front = hit.ng.dot(wo) >= 0.0;
-        if !front && !self.two_sided {
-            return None;
-        }
         let rgb = textures[tex as usize].eval(hit.uv, footprint);
         let local = (rgb * 2.0 - Vec3A::ONE).normalize_or(Vec3A::Z);
         let ns = hit.ns;
@@ -91,6 +84,10 @@ impl Material {
         let b = ns.cross(t);
         let mut n = (t * local.x + b * local.y + ns * local.z).normalize_or(ns);
         if !front {
+            if !self.two_sided {
+                // The back of a one-sided material: its BSDF decides what the viewer sees.
+                return Frame::from_normal(n);
+            }
             n = -n;
         }
         const MIN_COS: f32 = 0.01;
@@ -98,6 +95,6 @@ impl Material {
         if cos < MIN_COS {
             n = (n + wo * (MIN_COS - cos)).normalize_or(n);
         }
-        Some(Frame::from_normal(n))
+        Frame::from_normal(n)
     }
 }
