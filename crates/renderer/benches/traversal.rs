@@ -13,8 +13,7 @@
 use glam::{Vec2, Vec3A};
 use std::path::Path;
 use std::time::Instant;
-use torrey_renderer::cameras::CameraSample;
-use torrey_renderer::ray::{offset_origin, Ray};
+use torrey_renderer::{offset_origin, CameraSample, Ray};
 use torrey_renderer::{BvhWidth, RenderScene};
 
 fn main() {

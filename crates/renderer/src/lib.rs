@@ -13,21 +13,23 @@
 //! other crates own (the parsed scene, textures, environment maps) keep `Vec3` and convert at
 //! the boundary.
 
-pub mod accel;
-pub mod bsdfs;
-pub mod cameras;
-pub mod integrator;
-pub mod lights;
-pub mod ray;
+mod accel;
+mod bsdfs;
+mod cameras;
+mod integrator;
+mod lights;
+mod ray;
 mod render;
-pub mod sampler;
-pub mod sampling;
+mod sampler;
+mod sampling;
 mod scene;
-pub mod shapes;
-pub mod textures;
+mod shapes;
+mod textures;
 
-pub use accel::{BvhWidth, Simd};
+pub use accel::{Accel, BvhWidth, ClosestHit, Simd};
+pub use cameras::{Camera, CameraSample};
 pub use integrator::EnvStrategy;
+pub use ray::{offset_origin, Ray};
 pub use render::{render, RenderOutput, RenderSettings};
 pub use sampler::SamplerKind;
 pub use scene::{BuildError, RenderScene};

@@ -281,6 +281,7 @@ fn sample_tent(u: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cameras::{Camera, ThinLensCamera};
     use crate::sampler::PcgSampler;
     use std::path::Path;
 
@@ -317,8 +318,8 @@ mod tests {
     /// 12 spp, so a whole packet and four single samples per pixel. (With the independent
     /// sampler a packet draws its eight camera rays first, so each path gets other numbers of
     /// the stream: a different image of the same expectation, which the reference tests check.)
-    #[test]
-    fn packets_render_the_image_of_single_rays() {
+    /// A small scene of meshes, a sphere and an area light (24 x 20 pixels).
+    fn packet_scene() -> RenderScene {
         let xml = r#"<scene version="0.6.0">
             <integrator type="path"><integer name="maxDepth" value="5"/></integrator>
             <sensor type="perspective">
@@ -344,30 +345,157 @@ mod tests {
             &[],
         )
         .unwrap();
-        let scene = RenderScene::build(&desc, 24, 20).unwrap();
-        let render_with = |packets: bool| {
-            let settings = RenderSettings {
-                spp: 12,
-                max_depth: 5,
-                rr_depth: 5,
-                seed: 3,
-                filter: PixelFilter::Box,
-                tile_size: 8,
-                mipmapping: true,
-                env_strategy: EnvStrategy::default(),
-                sampler: SamplerKind::Sobol,
-                packets,
-            };
-            render(&scene, &settings, &|_, _| {})
-        };
-        let (packed, single) = (render_with(true), render_with(false));
-        assert!(packed.image.pixels.iter().any(|p| p.max_element() > 0.0));
-        assert_eq!(packed.rays.closest, single.rays.closest);
-        for (a, b) in packed.image.pixels.iter().zip(&single.image.pixels) {
+        RenderScene::build(&desc, 24, 20).unwrap()
+    }
+
+    fn settings(packets: bool) -> RenderSettings {
+        RenderSettings {
+            spp: 12,
+            max_depth: 5,
+            rr_depth: 5,
+            seed: 3,
+            filter: PixelFilter::Box,
+            tile_size: 8,
+            mipmapping: true,
+            env_strategy: EnvStrategy::default(),
+            sampler: SamplerKind::Sobol,
+            packets,
+        }
+    }
+
+    fn assert_same_image(a: &RenderOutput, b: &RenderOutput) {
+        assert!(a.image.pixels.iter().any(|p| p.max_element() > 0.0));
+        assert_eq!(a.rays.closest, b.rays.closest);
+        for (a, b) in a.image.pixels.iter().zip(&b.image.pixels) {
             assert_eq!(
                 a.to_array().map(f32::to_bits),
                 b.to_array().map(f32::to_bits)
             );
         }
+    }
+
+    #[test]
+    fn packets_render_the_image_of_single_rays() {
+        let scene = packet_scene();
+        let (packed, single) = (
+            render(&scene, &settings(true), &|_, _| {}),
+            render(&scene, &settings(false), &|_, _| {}),
+        );
+        assert_same_image(&packed, &single);
+    }
+
+    /// A sampler that records, for every draw, the sample it belongs to and its dimension (the
+    /// count of draws since the sample started or resumed), and returns fixed numbers.
+    struct DimensionRecorder {
+        sample: u32,
+        dimension: u32,
+        draws: Vec<(u32, u32)>,
+    }
+
+    impl Sampler for DimensionRecorder {
+        fn start_sample(&mut self, index: u32) {
+            self.sample = index;
+            self.dimension = 0;
+        }
+        fn resume_sample(&mut self, index: u32, requests: u32) {
+            self.sample = index;
+            self.dimension = requests;
+        }
+        fn next_1d(&mut self) -> f32 {
+            self.draws.push((self.sample, self.dimension));
+            self.dimension += 1;
+            0.37
+        }
+        fn next_2d(&mut self) -> Vec2 {
+            Vec2::new(self.next_1d(), 0.61)
+        }
+    }
+
+    /// Each sample's draws are its dimensions 0, 1, 2, ... in order, none skipped or repeated,
+    /// whether its camera ray was drawn in a packet first or not, for a camera that takes one
+    /// 2D draw (pinhole) and one that takes two (thin lens: film, then lens). With the thin lens
+    /// of zero aperture (rays share the origin, so packets stay on) the path must resume at
+    /// dimension 2, not 1.
+    #[test]
+    fn cameras_keep_sampler_dimensions_aligned() {
+        let mut scene = packet_scene();
+        let pinhole = match scene.camera() {
+            Camera::Perspective(c) => c.clone(),
+            _ => unreachable!(),
+        };
+        for (camera, lens_draws) in [
+            (Camera::Perspective(pinhole.clone()), 0),
+            (
+                Camera::ThinLens(ThinLensCamera::new(pinhole.clone(), 0.0, 3.0)),
+                1,
+            ),
+            (
+                Camera::ThinLens(ThinLensCamera::new(pinhole.clone(), 0.05, 3.0)),
+                1,
+            ),
+        ] {
+            assert_eq!(camera.lens_requests(), lens_draws);
+            scene.camera = camera;
+            for packets in [true, false] {
+                let mut recorder = DimensionRecorder {
+                    sample: 0,
+                    dimension: 0,
+                    draws: Vec::new(),
+                };
+                let path = PathSettings {
+                    max_depth: 5,
+                    rr_depth: 5,
+                    mipmapping: true,
+                    env_strategy: EnvStrategy::default(),
+                };
+                let mut rays = RayCount::default();
+                render_pixel(
+                    &scene,
+                    (12, 10),
+                    &settings(packets),
+                    path,
+                    &mut recorder,
+                    &mut rays,
+                );
+                let mut next = vec![0u32; 12];
+                for &(sample, dimension) in &recorder.draws {
+                    assert_eq!(
+                        dimension, next[sample as usize],
+                        "sample {sample} (packets {packets}, lens draws {lens_draws})"
+                    );
+                    next[sample as usize] += 1;
+                }
+                // Film (and lens) draws, then at least one bounce's four.
+                assert!(next.iter().all(|&n| n >= 1 + lens_draws + 4), "{next:?}");
+            }
+        }
+    }
+
+    /// A camera whose rays do not share an origin (a thin lens with an aperture) is not traced
+    /// in packets: asked for packets, the render is the single-ray render, bit for bit.
+    #[test]
+    fn cameras_without_a_shared_origin_disable_packets() {
+        let mut scene = packet_scene();
+        let pinhole = match scene.camera() {
+            Camera::Perspective(c) => c.clone(),
+            _ => unreachable!(),
+        };
+        scene.camera = Camera::ThinLens(ThinLensCamera::new(pinhole, 0.1, 3.5));
+        assert!(!scene.camera().rays_share_origin());
+        let (packed, single) = (
+            render(&scene, &settings(true), &|_, _| {}),
+            render(&scene, &settings(false), &|_, _| {}),
+        );
+        assert_same_image(&packed, &single);
+        // The independent sampler too: with packets off, the camera ray is drawn right before
+        // its path either way.
+        let independent = |packets| RenderSettings {
+            sampler: SamplerKind::Independent,
+            ..settings(packets)
+        };
+        assert_same_image(
+            &render(&scene, &independent(true), &|_, _| {}),
+            &render(&scene, &independent(false), &|_, _| {}),
+        );
     }
 }

@@ -61,43 +61,6 @@ pub fn uniform_sphere_pdf() -> f32 {
     1.0 / (4.0 * PI)
 }
 
-/// Uniformly distributed direction on the +z hemisphere; pdf = 1 / 2π
-/// ([`uniform_hemisphere_pdf`]). Handy as an unbiased fallback when no better density is known.
-pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3A {
-    let z = u.x;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (sin, cos) = sin_cos_2pi(u.y);
-    Vec3A::new(r * cos, r * sin, z)
-}
-
-/// Solid-angle density of [`square_to_uniform_hemisphere`] (for directions with z >= 0).
-pub fn uniform_hemisphere_pdf() -> f32 {
-    1.0 / TAU
-}
-
-/// Uniform direction inside the cone of directions within angle acos(`cos_theta_max`) of +z: the
-/// density used to sample a sphere light by the solid angle it subtends; pdf =
-/// 1 / (2π (1 − cos θmax)) ([`uniform_cone_pdf`]).
-pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3A {
-    let z = 1.0 - u.x * (1.0 - cos_theta_max);
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (sin, cos) = sin_cos_2pi(u.y);
-    Vec3A::new(r * cos, r * sin, z)
-}
-
-/// Solid-angle density of [`square_to_uniform_cone`] inside the cone (callers check membership).
-pub fn uniform_cone_pdf(cos_theta_max: f32) -> f32 {
-    1.0 / (TAU * (1.0 - cos_theta_max))
-}
-
-/// Uniformly distributed point on a triangle, returned as the barycentric weights (b1, b2) of the
-/// second and third vertex (b0 = 1 − b1 − b2); the area density is 1 / area. Used to sample
-/// triangle area lights.
-pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
-    let su = u.x.sqrt();
-    Vec2::new(su * (1.0 - u.y), su * u.y)
-}
-
 /// Direction on the +z hemisphere with density ∝ cos^exponent θ: the Phong lobe (around the
 /// mirror direction) and the Blinn half-vector distribution. pdf = (n + 1)/(2π) cos^n θ
 /// ([`cosine_power_pdf`]). Written so that large exponents keep their precision near the pole.
@@ -142,30 +105,13 @@ impl Frame {
         Frame { s, t, n }
     }
 
-    /// Builds a frame whose `s` follows a tangent (e.g. dp/du) projected into the tangent plane
-    /// (Gram-Schmidt), so anisotropic or normal-mapped shading keeps a texture-aligned frame.
-    /// Falls back to [`Frame::from_normal`] when the tangent is (nearly) parallel to `n`.
-    pub fn from_normal_tangent(n: Vec3A, tangent: Vec3A) -> Self {
-        let s = tangent - n * n.dot(tangent);
-        let len2 = s.length_squared();
-        if !(len2 > 1e-10 * tangent.length_squared()) || !len2.is_finite() {
-            return Self::from_normal(n);
-        }
-        let s = s / len2.sqrt();
-        Frame {
-            s,
-            t: n.cross(s),
-            n,
-        }
-    }
-
     /// World direction to local coordinates (z = component along the normal).
-    pub fn to_local(&self, v: Vec3A) -> Vec3A {
+    pub fn to_local(self, v: Vec3A) -> Vec3A {
         Vec3A::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 
     /// Local coordinates back to a world direction.
-    pub fn to_world(&self, v: Vec3A) -> Vec3A {
+    pub fn to_world(self, v: Vec3A) -> Vec3A {
         self.s * v.x + self.t * v.y + self.n * v.z
     }
 }
@@ -301,16 +247,7 @@ mod tests {
             let v = square_to_uniform_sphere(rng.vec2());
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
             assert!((f.to_local(n) - Vec3A::Z).length() < 1e-5);
-            let tangent = square_to_uniform_sphere(rng.vec2());
-            let g = Frame::from_normal_tangent(n, tangent);
-            assert_orthonormal(&g);
-            assert_eq!(g.n, n);
-            let projected = (tangent - n * n.dot(tangent)).normalize();
-            assert!((g.s - projected).length() < 1e-4, "{g:?} {tangent}");
         }
-        // Degenerate tangent falls back instead of producing NaNs.
-        assert_orthonormal(&Frame::from_normal_tangent(Vec3A::Z, Vec3A::Z * 2.0));
-        assert_orthonormal(&Frame::from_normal_tangent(Vec3A::Z, Vec3A::ZERO));
     }
 
     #[test]
@@ -330,17 +267,11 @@ mod tests {
             assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0, "{w}");
             let w = square_to_uniform_sphere(u);
             assert!((w.length() - 1.0).abs() < 1e-5, "{w}");
-            let w = square_to_uniform_hemisphere(u);
-            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0, "{w}");
-            let w = square_to_uniform_cone(u, 0.8);
-            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.8 - 1e-6, "{w}");
             for e in [0.0, 1.0, 1000.0, 1e6] {
                 let w = square_to_cosine_power(u, e);
                 assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0, "{w}");
                 assert!(w.is_finite());
             }
-            let b = square_to_uniform_triangle(u);
-            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
         }
     }
 
@@ -390,33 +321,9 @@ mod tests {
         let p = chi2_direction_warp(square_to_uniform_sphere, |_| uniform_sphere_pdf() as f64, 3);
         assert!(p > 1e-3);
         let p = chi2_direction_warp(
-            square_to_uniform_hemisphere,
-            |w| {
-                if w.z > 0.0 {
-                    uniform_hemisphere_pdf() as f64
-                } else {
-                    0.0
-                }
-            },
-            4,
-        );
-        assert!(p > 1e-3);
-        let p = chi2_direction_warp(
             square_to_cosine_hemisphere,
             |w| cosine_hemisphere_pdf(w.z) as f64,
             5,
-        );
-        assert!(p > 1e-3);
-        let p = chi2_direction_warp(
-            |u| square_to_uniform_cone(u, 0.3),
-            |w| {
-                if w.z > 0.3 {
-                    uniform_cone_pdf(0.3) as f64
-                } else {
-                    0.0
-                }
-            },
-            6,
         );
         assert!(p > 1e-3);
         for (e, seed) in [(0.0, 7), (1.0, 8), (4.0, 9), (20.0, 10)] {
@@ -445,56 +352,18 @@ mod tests {
         // Lobes are turned to point along +x (the equator of the stratification) so that even the
         // exponent-1000 lobe spans many strata.
         type Pdf = Box<dyn Fn(Vec3A) -> f64>;
-        let checks: [(&str, Pdf); 5] = [
+        let checks: [(&str, Pdf); 3] = [
             ("cosine", Box::new(|w| cosine_hemisphere_pdf(w.x) as f64)),
             ("power 10", Box::new(|w| cosine_power_pdf(w.x, 10.0) as f64)),
             (
                 "power 1000",
                 Box::new(|w| cosine_power_pdf(w.x, 1000.0) as f64),
             ),
-            (
-                "cone",
-                Box::new(|w| {
-                    if w.x > 0.9 {
-                        uniform_cone_pdf(0.9) as f64
-                    } else {
-                        0.0
-                    }
-                }),
-            ),
-            (
-                "hemisphere",
-                Box::new(|w| {
-                    if w.x > 0.0 {
-                        uniform_hemisphere_pdf() as f64
-                    } else {
-                        0.0
-                    }
-                }),
-            ),
         ];
         for (name, pdf) in checks {
             let integral = stratified_sphere_integral(pdf, 1024, 1024, Some(12));
             assert!((integral - 1.0).abs() < 2e-3, "{name}: {integral}");
         }
-    }
-
-    #[test]
-    fn uniform_triangle_is_uniform() {
-        // Mean barycentrics are 1/3 each, and the fraction in the sub-triangle b1 + b2 < 1/2 is 1/4.
-        let mut rng = Rng::new(13);
-        let n = 200_000;
-        let (mut m1, mut m2, mut inner) = (0.0f64, 0.0f64, 0usize);
-        for _ in 0..n {
-            let b = square_to_uniform_triangle(rng.vec2());
-            m1 += b.x as f64;
-            m2 += b.y as f64;
-            inner += (b.x + b.y < 0.5) as usize;
-        }
-        let frac = inner as f64 / n as f64;
-        assert!((m1 / n as f64 - 1.0 / 3.0).abs() < 3e-3);
-        assert!((m2 / n as f64 - 1.0 / 3.0).abs() < 3e-3);
-        assert!((frac - 0.25).abs() < 5.0 * (0.25f64 * 0.75 / n as f64).sqrt());
     }
 
     #[test]

@@ -226,3 +226,56 @@ fn width_follows_the_request() {
     let eight = Accel::build(&geoms, BvhWidth::Eight).bvh_width();
     assert_eq!(eight, if Simd::detect() == Simd::Avx2 { 8 } else { 4 });
 }
+
+/// Rays with NaN or infinite components pass every box test (the SIMD minimum and maximum
+/// return their non-NaN operand), so a traversal visits every lane of every node, unused ones
+/// included. They must find nothing and read nothing out of bounds, whatever the layout: unused
+/// lanes point at the empty leaf. (Before, they held a sentinel that decoded as a leaf of 15
+/// blocks far past the end: the SIGSEGV of a degenerate camera.)
+#[test]
+fn non_finite_rays_are_safe_in_every_layout() {
+    let mut geoms = Vec::new();
+    // A few hundred triangles, and nodes with unused lanes: 6 and 7 children per group.
+    for i in 0..301 {
+        let c = Vec3A::new((i % 17) as f32, (i / 17) as f32, (i % 5) as f32);
+        geoms.push(PrimGeom::Triangle {
+            p0: c,
+            p1: c + Vec3A::X * 0.5,
+            p2: c + Vec3A::Y * 0.5,
+        });
+    }
+    geoms.push(PrimGeom::Sphere {
+        center: Vec3A::new(3.0, 3.0, 9.0),
+        radius: 0.5,
+    });
+    let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e-30, 0.0];
+    for width in [BvhWidth::Four, BvhWidth::Eight] {
+        let accel = Accel::build(&geoms, width);
+        for &x in &bad {
+            for (origin, dir) in [
+                (Vec3A::ZERO, Vec3A::splat(x)),
+                (Vec3A::splat(x), Vec3A::Z),
+                (Vec3A::new(x, 1.0, 2.0), Vec3A::new(0.0, x, 1.0)),
+            ] {
+                let ray = Ray {
+                    origin,
+                    dir,
+                    tmax: f32::INFINITY,
+                };
+                if let Some(hit) = accel.intersect(&ray) {
+                    assert!((hit.prim as usize) < geoms.len());
+                }
+                accel.occluded(&ray);
+                let lanes = accel.packet_width();
+                if lanes > 0 {
+                    let dirs = vec![dir; lanes];
+                    let mut hits = vec![None; lanes];
+                    accel.intersect_packet(origin, &dirs, &mut hits);
+                    for hit in hits.into_iter().flatten() {
+                        assert!((hit.prim as usize) < geoms.len());
+                    }
+                }
+            }
+        }
+    }
+}

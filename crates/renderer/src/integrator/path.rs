@@ -63,6 +63,9 @@ pub fn radiance(
     let mut prev_delta = true;
     let mut prev_p = origin;
     let mut specular_chain = true;
+    // Product of the relative IORs of the refractions so far: radiance crossing an interface
+    // scales by 1/η², which Russian roulette discounts (as Mitsuba's path integrator does).
+    let mut eta_scale = 1.0f32;
     let mut depth: u32 = 0;
 
     loop {
@@ -214,6 +217,7 @@ pub fn radiance(
         }
         prev_bsdf_pdf = bs.pdf;
         prev_delta = bs.is_delta();
+        eta_scale *= bs.eta;
         prev_p = hit.p;
         ray = Ray {
             origin: offset_origin(hit.p, hit.ng, wi),
@@ -222,9 +226,9 @@ pub fn radiance(
         };
         depth += 1;
 
-        // Russian roulette, as Mitsuba: survive with probability min(max throughput, 0.95).
+        // Russian roulette, as Mitsuba: survive with probability min(max throughput η², 0.95).
         if depth as i32 >= settings.rr_depth {
-            let q = throughput.max_element().min(0.95);
+            let q = (throughput.max_element() * (eta_scale * eta_scale)).min(0.95);
             if u_rr >= q {
                 break;
             }

@@ -15,8 +15,6 @@ pub enum AreaEmitter {
 
 /// An emitting shape.
 pub struct AreaLight {
-    /// The shape's index in the scene.
-    pub shape: u32,
     pub radiance: Vec3A,
     pub emitter: AreaEmitter,
     pub flip_normals: bool,

@@ -149,7 +149,6 @@ mod tests {
             },
         ];
         Light::Area(AreaLight {
-            shape: 0,
             radiance: Vec3A::ONE,
             emitter: AreaEmitter::Mesh(MeshEmitter::from_triangles(geometry)),
             flip_normals: false,

@@ -96,6 +96,7 @@ fn permute(v: Vec3A, kz: u8) -> Vec3A {
 /// Watertight ray/triangle intersection (Woop, Benthin and Wald 2013): edges shared by two
 /// triangles are never missed by both, so closed meshes do not leak rays.
 #[inline]
+#[cfg(test)]
 pub fn intersect_triangle(
     ray: &Ray,
     p0: Vec3A,
