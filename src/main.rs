@@ -211,7 +211,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH",
+        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH ({})",
         scene_path.display(),
         width,
         height,
@@ -227,6 +227,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.rays.shadow,
         out.first_tile.as_secs_f64(),
         render_scene.accel().bvh_width(),
+        render_scene.accel().simd().name(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

@@ -142,6 +142,15 @@ impl Accel {
         self.layout.width()
     }
 
+    /// The instruction set of this BVH's kernels.
+    pub fn simd(&self) -> Simd {
+        match self.layout {
+            Layout::Four(_) => Simd::Portable,
+            #[cfg(target_arch = "x86_64")]
+            Layout::Eight(_) => Simd::Avx2,
+        }
+    }
+
     pub fn primitive_count(&self) -> usize {
         self.primitive_count
     }
