@@ -221,7 +221,10 @@ impl Accel {
                     )
                 }
             }
-            _ => false,
+            _ => {
+                let _ = (origin, dirs, hits); // no packet layout on this CPU or target
+                false
+            }
         }
     }
 

@@ -40,6 +40,7 @@ impl Triangle4 {
     }
 
     /// Coordinate `axis` of vertex `vertex` of the triangle in `lane` (NaN in unused lanes).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn coordinate(&self, vertex: usize, axis: usize, lane: usize) -> f32 {
         self.v[vertex][axis].to_array()[lane]
