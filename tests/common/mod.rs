@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod verdict;
+
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use torrey_texture::Image;
