@@ -164,19 +164,27 @@ fn render_pixel<S: Sampler>(
     let spp = settings.spp.max(1);
     let filter = settings.filter;
     let cone = RayCone::from_pixel(scene.camera.pixel_spread);
+    // Mitsuba places samples inside the film only (hdrfilm's sample_border is false) and divides
+    // each pixel's splats by their filter weights: a filter offset that leaves the film therefore
+    // does not count (the pixel's mean is over the samples that stay inside).
+    let size = Vec2::new(scene.camera.width() as f32, scene.camera.height() as f32);
     let camera_ray = |sampler: &mut S| {
         let offset = sample_filter(filter, sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-        scene.camera.generate_ray(film)
+        let inside = film.cmpge(Vec2::ZERO).all() && film.cmplt(size).all();
+        let (o, d) = scene.camera.generate_ray(film);
+        (o, d, inside)
     };
-    let mut add = |s: u32, l: Vec3A| {
+    let mut counted = 0u32;
+    let mut add = |l: Vec3A| {
         let l = if l.is_finite() {
             l
         } else {
             bad += 1;
             Vec3A::ZERO
         };
-        let n = (s + 1) as f32;
+        counted += 1;
+        let n = counted as f32;
         let delta = l - mean;
         mean += delta / n;
         m2 += delta * (l - mean);
@@ -187,6 +195,7 @@ fn render_pixel<S: Sampler>(
     // each path gets, not their distribution; low-discrepancy samples resume their dimensions.)
     let mut origin = Vec3A::ZERO;
     let mut dirs = [Vec3A::ZERO; PACKET];
+    let mut insides = [true; PACKET];
     let mut packet: Option<[Option<ClosestHit>; PACKET]> = None;
     let packed_samples = if settings.packets {
         spp - spp % PACKET as u32
@@ -195,11 +204,11 @@ fn render_pixel<S: Sampler>(
     };
     for s in 0..spp {
         let lane = s as usize % PACKET;
-        let (o, d, first_hit) = if s < packed_samples {
+        let (o, d, first_hit, inside) = if s < packed_samples {
             if lane == 0 {
-                for (k, dir) in dirs.iter_mut().enumerate() {
+                for (k, (dir, inside)) in dirs.iter_mut().zip(&mut insides).enumerate() {
                     sampler.start_sample(s + k as u32);
-                    (origin, *dir) = camera_ray(sampler);
+                    (origin, *dir, *inside) = camera_ray(sampler);
                 }
                 packet = scene.intersect_packet(origin, &dirs);
             }
@@ -210,19 +219,18 @@ fn render_pixel<S: Sampler>(
                 tmax: f32::INFINITY,
             };
             let first_hit = packet.map(|hits| hits[lane].map(|hit| scene.surface(&ray, &hit)));
-            (origin, dirs[lane], first_hit)
+            (origin, dirs[lane], first_hit, insides[lane])
         } else {
             sampler.start_sample(s);
-            let (o, d) = camera_ray(sampler);
-            (o, d, None)
+            let (o, d, inside) = camera_ray(sampler);
+            (o, d, None, inside)
         };
-        add(
-            s,
-            radiance(scene, o, d, cone, path, sampler, rays, first_hit),
-        );
+        if inside {
+            add(radiance(scene, o, d, cone, path, sampler, rays, first_hit));
+        }
     }
-    let var_of_mean = if spp > 1 {
-        m2 / ((spp - 1) as f32 * spp as f32)
+    let var_of_mean = if counted > 1 {
+        m2 / ((counted - 1) as f32 * counted as f32)
     } else {
         Vec3A::ZERO
     };
@@ -236,6 +244,11 @@ fn render_pixel<S: Sampler>(
 fn sample_filter(filter: PixelFilter, u: Vec2) -> Vec2 {
     match filter {
         PixelFilter::Box => u - Vec2::splat(0.5),
+        // Filters with negative lobes need weighted splatting (not implemented yet): drawn as a
+        // box for now; the command line says so.
+        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. } => {
+            u - Vec2::splat(0.5)
+        }
         PixelFilter::Tent { radius } => Vec2::new(sample_tent(u.x), sample_tent(u.y)) * radius,
         PixelFilter::Gaussian { stddev } => {
             // Box-Muller, truncated at Mitsuba's radius of 4 standard deviations.
