@@ -137,7 +137,12 @@ impl std::fmt::Display for MitsubaVerdict {
 
 /// Mitsuba's z-test of `img` (rendered at `spp` samples per pixel) against `reference` with its
 /// per-sample variance `ref_var`, all linear sRGB.
-pub fn verdict(img: &RawImage, reference: &RawImage, ref_var: &RawImage, spp: u64) -> MitsubaVerdict {
+pub fn verdict(
+    img: &RawImage,
+    reference: &RawImage,
+    ref_var: &RawImage,
+    spp: u64,
+) -> MitsubaVerdict {
     assert_eq!(
         (img.width, img.height),
         (reference.width, reference.height),

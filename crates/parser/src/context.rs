@@ -2,10 +2,11 @@
 //! paths), the growing texture and bsdf tables, the id namespace, and the warnings.
 
 use crate::error::{ParseError, Result};
-use crate::scene::{Bsdf, BsdfId, Dialect, Texture, TextureId, Warning};
-use crate::xml::{location, Element, Pos};
+use crate::include::Sources;
+use crate::scene::{Bsdf, BsdfId, Dialect, SourceLocation, Texture, TextureId, Warning};
+use crate::xml::{Element, Pos};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What an `id` names. Mitsuba has one id namespace for all objects.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -17,8 +18,8 @@ pub(crate) enum IdTarget {
 }
 
 pub(crate) struct Ctx {
-    pub file: PathBuf,
-    pub dir: PathBuf,
+    /// The scene's files (for positions) and `<path>` folders (for file names).
+    pub sources: Sources,
     pub dialect: Dialect,
     pub warnings: Vec<Warning>,
     pub textures: Vec<Texture>,
@@ -27,12 +28,9 @@ pub(crate) struct Ctx {
 }
 
 impl Ctx {
-    pub fn new(file: &Path, dialect: Dialect) -> Self {
-        let parent = file.parent().unwrap_or(Path::new(""));
-        let dir = std::path::absolute(parent).unwrap_or_else(|_| parent.to_path_buf());
+    pub fn new(sources: Sources, dialect: Dialect) -> Self {
         Ctx {
-            file: file.to_path_buf(),
-            dir,
+            sources,
             dialect,
             warnings: Vec::new(),
             textures: Vec::new(),
@@ -41,18 +39,51 @@ impl Ctx {
         }
     }
 
+    /// An error at `pos`; in an included file the message names the chain of includes.
     pub fn err(&self, pos: Pos, message: impl Into<String>) -> ParseError {
-        ParseError {
-            location: location(&self.file, pos),
-            message: message.into(),
-        }
+        self.sources.err(pos, message)
     }
 
     pub fn warn(&mut self, pos: Pos, message: impl Into<String>) {
-        self.warnings.push(Warning {
-            location: location(&self.file, pos),
-            message: message.into(),
-        });
+        let w = self.sources.warning(pos, message);
+        self.warnings.push(w);
+    }
+
+    /// `file:line:column` of a position (in whichever file of the scene it is).
+    pub fn location(&self, pos: Pos) -> SourceLocation {
+        self.sources.location(pos)
+    }
+
+    /// Makes `<alias id="a" as="b"/>`: `b` names what `a` names.
+    pub fn alias(&mut self, elem: &Element) -> Result<()> {
+        let get = |n: &str| {
+            elem.attr(n).ok_or_else(|| {
+                self.err(
+                    elem.pos,
+                    format!("missing required attribute '{n}' on <alias>"),
+                )
+            })
+        };
+        let (id, alias) = (get("id")?, get("as")?);
+        let Some(&(target, _, ref tag)) = self.ids.get(&id.value) else {
+            return Err(self.err(
+                id.value_pos,
+                format!("<alias> of undefined id '{}'", id.value),
+            ));
+        };
+        let tag = tag.clone();
+        if let Some((_, first, t)) = self.ids.get(&alias.value) {
+            return Err(self.err(
+                alias.value_pos,
+                format!(
+                    "duplicate id '{}' (a <{}> already has it at line {}, column {})",
+                    alias.value, t, first.line, first.column
+                ),
+            ));
+        }
+        self.ids
+            .insert(alias.value.clone(), (target, elem.pos, tag));
+        Ok(())
     }
 
     /// Records `elem`'s `id` attribute (if any) as naming `target`; a second definition of the
@@ -91,14 +122,10 @@ impl Ctx {
             })
     }
 
-    /// Resolves a file name from the scene against the scene file's folder.
-    pub fn resolve(&self, name: &str) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            self.dir.join(p)
-        }
+    /// Resolves a file name given at `pos`: see [`Sources::resolve`] (the naming file's folder,
+    /// the `<path>` folders, the scene file's folder).
+    pub fn resolve(&self, name: &str, pos: Pos) -> PathBuf {
+        self.sources.resolve(name, pos)
     }
 }
 

@@ -6,7 +6,7 @@ use crate::mesh::{obj, ply, serialized, smooth_normals, validate};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
 use crate::scene::{BsdfId, Geometry, Shape, TriangleMesh};
-use crate::xml::{location, Element};
+use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
 const KNOWN: &[&str] = &["obj", "ply", "serialized", "sphere", "rectangle"];
@@ -19,7 +19,7 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let path = ctx.resolve(&file.value);
+    let path = ctx.resolve(&file.value, file.value_pos);
     if !path.is_file() {
         return Err(ctx.err(
             file.value_pos,
@@ -184,6 +184,6 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
         bsdf,
         emitter,
         flip_normals,
-        location: location(&ctx.file, elem.pos),
+        location: ctx.location(elem.pos),
     })
 }

@@ -44,7 +44,7 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let filename = ctx.resolve(&file.value);
+    let filename = ctx.resolve(&file.value, file.value_pos);
     if !filename.is_file() {
         return Err(ctx.err(
             file.value_pos,
@@ -104,7 +104,7 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
         raw,
         filter,
         wrap,
-        location: crate::xml::location(&ctx.file, file.value_pos),
+        location: ctx.location(file.value_pos),
     })
 }
 
