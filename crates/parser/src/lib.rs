@@ -5,6 +5,7 @@
 //! [`Warning`]s in [`Scene::warnings`]. See `docs/scene-format.md` for all plugins and
 //! parameters.
 
+mod cie_table;
 mod context;
 mod error;
 mod include;
@@ -12,6 +13,7 @@ mod mesh;
 mod plugins;
 mod props;
 pub mod scene;
+mod spectrum;
 mod transform;
 mod values;
 mod xml;

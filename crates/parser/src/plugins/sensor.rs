@@ -367,12 +367,14 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
                     "diagonal" => FovAxis::Diagonal,
                     "smaller" => FovAxis::Smaller,
                     "larger" => FovAxis::Larger,
-                    v => return Err(ctx.err(
-                        a.value_pos,
-                        format!(
+                    v => {
+                        return Err(ctx.err(
+                            a.value_pos,
+                            format!(
                             "unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"
                         ),
-                    )),
+                        ))
+                    }
                 };
             }
         }
