@@ -24,6 +24,23 @@ pub use scene::*;
 
 use std::path::Path;
 
+/// Every plugin type the parser accepts, per element kind (`bsdf`, `shape`, `emitter`,
+/// `texture`, `sensor`, `film`, `rfilter`, `sampler`, `integrator`): what docs/scene-format.md
+/// must document.
+pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
+    vec![
+        ("bsdf", plugins::bsdf::KNOWN),
+        ("shape", plugins::shape::KNOWN),
+        ("emitter", plugins::emitter::KNOWN),
+        ("texture", plugins::texture::KNOWN),
+        ("sensor", plugins::sensor::SENSORS),
+        ("film", plugins::sensor::FILMS),
+        ("rfilter", plugins::sensor::RFILTERS),
+        ("sampler", plugins::sensor::SAMPLERS),
+        ("integrator", plugins::sensor::INTEGRATORS),
+    ]
+}
+
 /// How to read a scene: `-D` overrides and an optional dialect that replaces the detected one.
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {

@@ -8,7 +8,8 @@ use crate::scene::Light;
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
-const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
+/// The types this parser reads (see `torrey_parser::accepted_plugins`).
+pub(crate) const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
 
 /// Parses a top-level `<emitter>`.
 ///

@@ -9,7 +9,8 @@ use crate::scene::{BsdfId, Geometry, Shape, TriangleMesh};
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
-const KNOWN: &[&str] = &["obj", "ply", "serialized", "sphere", "rectangle"];
+/// The types this parser reads (see `torrey_parser::accepted_plugins`).
+pub(crate) const KNOWN: &[&str] = &["obj", "ply", "serialized", "sphere", "rectangle"];
 
 /// Reads a mesh file named by the `filename` parameter; errors name the file and point at it.
 fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<TriangleMesh> {
