@@ -25,6 +25,7 @@ pub(crate) struct Ctx {
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
+    media_warned: bool,
 }
 
 impl Ctx {
@@ -36,12 +37,28 @@ impl Ctx {
             textures: Vec::new(),
             bsdfs: Vec::new(),
             ids: HashMap::new(),
+            media_warned: false,
         }
     }
 
     /// An error at `pos`; in an included file the message names the chain of includes.
     pub fn err(&self, pos: Pos, message: impl Into<String>) -> ParseError {
         self.sources.err(pos, message)
+    }
+
+    /// Media (`<medium>`, `<phase>`, `<volume>`, `<subsurface>`) are not rendered: the first
+    /// one gives one warning, the others are dropped silently.
+    pub fn warn_media(&mut self, elem: &Element, owner: Option<&str>) {
+        if self.media_warned {
+            return;
+        }
+        self.media_warned = true;
+        let what = crate::props::describe(elem);
+        let place = owner.map_or(String::new(), |o| format!(" in {o}"));
+        self.warn(
+            elem.pos,
+            format!("{what}{place} is not supported; ignored, with every other medium, phase function and volume of the scene (media are not rendered)"),
+        );
     }
 
     pub fn warn(&mut self, pos: Pos, message: impl Into<String>) {

@@ -109,10 +109,7 @@ impl<'a> Props<'a> {
                     used: false,
                 });
             } else if SKIPPED_TAGS.contains(&tag) {
-                ctx.warn(
-                    child.pos,
-                    format!("{} in {owner} is not supported; ignored", describe(child)),
-                );
+                ctx.warn_media(child, Some(&owner));
             } else if tag == "default" {
                 return Err(ctx.err(child.pos, "<default> must be a direct child of <scene>"));
             } else {

@@ -94,7 +94,7 @@ pub(crate) fn list_to_rgb(
     if wavelengths.len() != values.len() || wavelengths.len() < 2 {
         return Err("a spectrum needs at least two wavelength:value pairs".into());
     }
-    if wavelengths.windows(2).any(|w| !(w[1] > w[0])) {
+    if wavelengths.windows(2).any(|w| w[1] <= w[0]) {
         return Err("the wavelengths of a spectrum must increase".into());
     }
     if wavelengths.iter().chain(values).any(|v| !v.is_finite()) {

@@ -358,3 +358,21 @@ fn emitter_spectra_and_mitsuba06_names() {
         .iter()
         .any(|w| w.message.contains("roughdiffuse")));
 }
+
+/// Media are not rendered: one warning for the whole scene, at the first medium.
+#[test]
+fn media_give_one_warning() {
+    let xml = r#"<scene version="3.0.0">
+  <medium type="homogeneous" id="fog"/>
+  <shape type="sphere"><medium name="interior" type="homogeneous"/></shape>
+  <phase type="hg"/>
+</scene>"#;
+    let s = parse_ok(xml);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    assert_eq!(
+        (w.location.line, w.location.column),
+        pos_of(xml, "<medium type")
+    );
+    assert!(w.message.contains("media are not rendered"), "{w}");
+}

@@ -9,7 +9,7 @@ pub(crate) mod texture;
 use crate::context::Ctx;
 use crate::error::{ParseError, Result};
 use crate::include::{self, Sources};
-use crate::props::{describe, SKIPPED_TAGS};
+use crate::props::SKIPPED_TAGS;
 use crate::scene::{Dialect, Light, Scene};
 use crate::xml::{location, Element};
 use glam::Vec3;
@@ -161,12 +161,7 @@ pub(crate) fn parse_scene(
                 lights.push(emitter::parse_background(&mut ctx, child)?);
                 has_background = true;
             }
-            t if SKIPPED_TAGS.contains(&t) => {
-                ctx.warn(
-                    child.pos,
-                    format!("{} is not supported; ignored", describe(child)),
-                );
-            }
+            t if SKIPPED_TAGS.contains(&t) => ctx.warn_media(child, None),
             t @ ("film" | "sampler" | "rfilter") => {
                 return Err(ctx.err(child.pos, format!("<{t}> must be inside a <sensor>")));
             }

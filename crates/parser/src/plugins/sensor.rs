@@ -241,7 +241,12 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
 }
 
 fn next_prime(mut n: u32) -> u32 {
-    let is_prime = |n: u32| n >= 2 && (2..).take_while(|d| d * d <= n).all(|d| n % d != 0);
+    let is_prime = |n: u32| {
+        n >= 2
+            && (2..)
+                .take_while(|d| d * d <= n)
+                .all(|d| !n.is_multiple_of(d))
+    };
     while !is_prime(n) {
         n += 1;
     }
