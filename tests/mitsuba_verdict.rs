@@ -80,6 +80,7 @@ verdict_tests!(
     area_diffuse,
     envmap_textured,
     include_path_default_alias,
+    instances_cube_direct,
     no_fov,
 );
 
@@ -119,6 +120,7 @@ fn every_scene_has_a_reference() {
         "area_diffuse",
         "envmap_textured",
         "include_path_default_alias",
+        "instances_cube_direct",
         "no_fov",
         "textured_plane_gaussian",
     ];

@@ -13,6 +13,8 @@ use std::path::PathBuf;
 pub(crate) enum IdTarget {
     Bsdf(BsdfId),
     Texture(TextureId),
+    /// Index into [`Ctx::shape_groups`].
+    ShapeGroup(usize),
     /// Shapes, sensors, emitters...: may carry ids but cannot be referenced here.
     Other,
 }
@@ -24,6 +26,8 @@ pub(crate) struct Ctx {
     pub warnings: Vec<Warning>,
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
+    /// The shapes of each `shapegroup`, placed by `instance`s.
+    pub shape_groups: Vec<Vec<crate::scene::Shape>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
     media_warned: bool,
 }
@@ -36,6 +40,7 @@ impl Ctx {
             warnings: Vec::new(),
             textures: Vec::new(),
             bsdfs: Vec::new(),
+            shape_groups: Vec::new(),
             ids: HashMap::new(),
             media_warned: false,
         }

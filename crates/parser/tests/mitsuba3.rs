@@ -376,3 +376,78 @@ fn media_give_one_warning() {
     );
     assert!(w.message.contains("media are not rendered"), "{w}");
 }
+
+/// Mitsuba's cube (its vertex layout and uvs, from Mitsuba 3.9.1), and shapegroups placed by
+/// instances (read as copies).
+#[test]
+fn cube_shapegroup_and_instances() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0">
+  <shape type="cube"/>
+  <shape type="shapegroup" id="g">
+    <shape type="sphere"><float name="radius" value="0.5"/></shape>
+    <shape type="cube"><transform name="to_world"><translate x="2"/></transform></shape>
+  </shape>
+  <shape type="instance"><ref id="g"/><transform name="to_world"><translate y="3"/></transform></shape>
+  <shape type="instance"><ref id="g"/></shape>
+</scene>"#,
+    );
+    assert_eq!(s.shapes.len(), 5, "a cube and two instances of two shapes");
+    let torrey_parser::Geometry::Mesh(m) = &s.shapes[0].geometry else {
+        panic!()
+    };
+    assert_eq!((m.positions.len(), m.indices.len()), (24, 12));
+    // Mitsuba's first face: y = -1, vertices (1,-1,-1) (1,-1,1) (-1,-1,1) (-1,-1,-1), uvs
+    // (0,1) (1,1) (1,0) (0,0), triangles (0,1,2) (3,0,2).
+    assert_eq!(m.positions[1], Vec3::new(1.0, -1.0, 1.0));
+    assert_eq!(m.uvs[1], glam::Vec2::new(1.0, 1.0));
+    assert_eq!(m.normals[3], Vec3::new(0.0, -1.0, 0.0));
+    assert_eq!(m.indices[1], [3, 0, 2]);
+    // Every triangle winds counter-clockwise around its outward normal.
+    for t in &m.indices {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        let n = (b - a).cross(c - a).normalize();
+        assert!((n - m.normals[t[0] as usize]).length() < 1e-6, "{t:?}");
+    }
+    // The instance's transform follows the shape's own.
+    let moved = s.shapes[2].to_world.transform_point3(Vec3::ZERO);
+    assert_eq!(moved, Vec3::new(2.0, 3.0, 0.0));
+    assert_eq!(
+        s.shapes[4].to_world.transform_point3(Vec3::ZERO),
+        Vec3::new(2.0, 0.0, 0.0)
+    );
+}
+
+#[test]
+fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
+    for (xml, message, at) in [
+        (
+            "<scene version=\"3.0.0\">\n  <shape type=\"disk\"/></scene>",
+            "shape 'disk' is not supported yet",
+            "disk",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"/></scene>",
+            "emitter 'spot' is not supported yet",
+            "spot",
+        ),
+    ] {
+        let e = common::parse(xml).unwrap_err();
+        assert_err(&e, message, pos_of(xml, at));
+    }
+    let xml = r#"<scene version="3.0.0">
+  <shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance"/></emitter></shape>
+</scene>"#;
+    assert_err(
+        &common::parse(xml).unwrap_err(),
+        "a textured area emitter radiance is not supported yet",
+        pos_of(xml, "<texture"),
+    );
+    let xml =
+        "<scene version=\"3.0.0\">\n  <shape type=\"instance\"><ref id=\"nope\"/></shape></scene>";
+    assert_err(
+        &common::parse(xml).unwrap_err(),
+        "reference to undefined id 'nope'",
+        pos_of(xml, "nope"),
+    );
+}

@@ -151,7 +151,7 @@ pub(crate) fn parse_scene(
             "texture" => {
                 texture::parse_texture(&mut ctx, child)?;
             }
-            "shape" => shapes.push(shape::parse_shape(&mut ctx, child)?),
+            "shape" => shapes.extend(shape::parse_shape(&mut ctx, child)?),
             "emitter" => {
                 let light = emitter::parse_emitter(&mut ctx, child)?;
                 has_background |= matches!(light, Light::Envmap { .. } | Light::Constant { .. });
