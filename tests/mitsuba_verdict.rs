@@ -66,12 +66,26 @@ fn judge(name: &str) -> (Case, MitsubaVerdict) {
     (case, v)
 }
 
+/// Scenes whose image mean is known to differ from Mitsuba's by more than the noise, and why.
+/// envmap_textured: torrey and Mitsuba place an environment map's texel rows half a texel apart
+/// (README, "Environment maps"); on this 64 x 32 sky that moves the mean by -0.4% in X and Y,
+/// +0.2% in Z (a 512 x 256 version of the sky: -0.1%). Mitsuba's per-pixel test passes.
+const KNOWN_MEAN_DIFFERENCES: &[&str] = &["envmap_textured"];
+
 macro_rules! verdict_tests {
     ($($name:ident),* $(,)?) => {$(
         #[test]
         fn $name() {
-            let (_, v) = judge(stringify!($name));
-            assert!(v.pass, "{}: {v}", stringify!($name));
+            let name = stringify!($name);
+            let (_, v) = judge(name);
+            assert!(v.pass, "{name}: {v}");
+            // Beyond Mitsuba's test: the image mean within 5 standard errors.
+            if !KNOWN_MEAN_DIFFERENCES.contains(&name) {
+                assert!(
+                    v.mean_z.iter().all(|z| z.abs() < 5.0),
+                    "{name}: the image mean is off: {v}"
+                );
+            }
         }
     )*};
 }
@@ -81,6 +95,7 @@ verdict_tests!(
     envmap_textured,
     include_path_default_alias,
     instances_cube_direct,
+    mitsuba06_indoor,
     no_fov,
 );
 
@@ -90,6 +105,7 @@ verdict_tests!(
 fn textured_plane_gaussian() {
     let (case, v) = judge("textured_plane_gaussian");
     assert!(v.pass, "textured_plane_gaussian: {v}");
+    assert!(v.mean_z.iter().all(|z| z.abs() < 5.0), "{v}");
     let darker = verdict(
         &case.image.scaled(0.97),
         &case.reference,
@@ -121,6 +137,7 @@ fn every_scene_has_a_reference() {
         "envmap_textured",
         "include_path_default_alias",
         "instances_cube_direct",
+        "mitsuba06_indoor",
         "no_fov",
         "textured_plane_gaussian",
     ];
@@ -222,9 +239,16 @@ fn verdict_accepts_noise_and_rejects_errors() {
     for seed in 1..6 {
         let v = synthetic(1.0, 1.0, seed);
         assert!(v.pass, "seed {seed}: {v}");
+        assert!(v.mean_z.iter().all(|z| z.abs() < 5.0), "seed {seed}: {v}");
     }
     let gain = synthetic(1.0, 1.05, 1);
     assert!(!gain.pass, "5% gain: {gain}");
+    // A 0.5% gain passes the per-pixel test but not the mean check.
+    let small = synthetic(1.0, 1.005, 1);
+    assert!(
+        small.pass && small.mean_z.iter().any(|z| z.abs() > 5.0),
+        "{small}"
+    );
     let noisy = synthetic(3.0, 1.0, 1);
     assert!(!noisy.pass, "3x noise: {noisy}");
     let identical = synthetic(0.0, 1.0, 1);

@@ -116,13 +116,17 @@ pub struct MitsubaVerdict {
     pub failing: Vec<(usize, usize)>,
     /// Mean of the image over the mean of the reference, per XYZ channel (for messages).
     pub mean_ratio: [f64; 3],
+    /// Beyond Mitsuba's test: the difference of the image means in standard errors of the
+    /// render's mean (from the reference's per-sample variance, floored like the test's), per
+    /// XYZ channel. The per-pixel test cannot see a bias of a fraction of a percent; this can.
+    pub mean_z: [f64; 3],
 }
 
 impl std::fmt::Display for MitsubaVerdict {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} ({:.4}% of pixel channels pass, need 99.75%; min p {:.3e}, alpha {:.3e}; mean XYZ ratio [{:.4} {:.4} {:.4}]; first failing pixels {:?})",
+            "{} ({:.4}% of pixel channels pass, need 99.75%; min p {:.3e}, alpha {:.3e}; mean XYZ ratio [{:.4} {:.4} {:.4}], z [{:.2} {:.2} {:.2}]; first failing pixels {:?})",
             if self.pass { "pass" } else { "FAIL" },
             self.passing_fraction * 100.0,
             self.min_p,
@@ -130,6 +134,9 @@ impl std::fmt::Display for MitsubaVerdict {
             self.mean_ratio[0],
             self.mean_ratio[1],
             self.mean_ratio[2],
+            self.mean_z[0],
+            self.mean_z[1],
+            self.mean_z[2],
             self.failing
         )
     }
@@ -159,6 +166,7 @@ pub fn verdict(
     let mut min_p = f64::INFINITY;
     let mut failing = Vec::new();
     let mut sums = [[0f64; 3]; 2];
+    let mut var_sum = [0f64; 3];
     for (i, ((a, r), v)) in img
         .pixels
         .iter()
@@ -171,6 +179,7 @@ pub fn verdict(
         for c in 0..3 {
             sums[0][c] += a[c];
             sums[1][c] += r[c];
+            var_sum[c] += v[c].max(1e-4);
             let z = (a[c] - r[c]).abs() * (spp as f64 / v[c].max(1e-4)).sqrt();
             // p = 2 (1 - Phi(z)) = erfc(z / sqrt 2); NaN fails.
             let p = erfc(z / std::f64::consts::SQRT_2);
@@ -193,5 +202,6 @@ pub fn verdict(
         alpha,
         failing,
         mean_ratio: [0, 1, 2].map(|c| sums[0][c] / sums[1][c].max(1e-12)),
+        mean_z: [0, 1, 2].map(|c| (sums[0][c] - sums[1][c]) / (var_sum[c] / spp as f64).sqrt()),
     }
 }

@@ -5,7 +5,7 @@ use crate::error::Result;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
-use crate::scene::{BsdfId, Geometry, Shape, TriangleMesh};
+use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TriangleMesh};
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
@@ -357,6 +357,22 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             ep.finish(ctx);
             Some(radiance)
         }
+    };
+    // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
+    // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
+    let bsdf = match bsdf {
+        None if emitter.is_some() && ctx.dialect == Dialect::Mitsuba3 => {
+            ctx.bsdfs.push(Bsdf {
+                id: None,
+                kind: BsdfKind::Diffuse {
+                    reflectance: ColorParam::Constant(Vec3::ZERO),
+                },
+                two_sided: false,
+                normal_map: None,
+            });
+            Some(ctx.bsdfs.len() - 1)
+        }
+        b => b,
     };
     props.finish(ctx);
     Ok(vec![Shape {
