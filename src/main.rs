@@ -100,6 +100,39 @@ enum SamplerArg {
     Independent,
 }
 
+/// What the scene asks for that the parser reads but the renderer does not draw yet.
+fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
+    use torrey_parser::{CameraKind, PixelFilter};
+    let mut out = Vec::new();
+    if matches!(
+        scene.film.filter,
+        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. }
+    ) {
+        out.push(format!(
+            "rfilter {:?} is rendered as a box filter for now (filters with negative lobes need splatting)",
+            scene.film.filter
+        ));
+    }
+    match scene.camera.kind {
+        CameraKind::Perspective => {}
+        CameraKind::ThinLens { .. } => out
+            .push("sensor 'thinlens' is rendered as a pinhole for now (no depth of field)".into()),
+        CameraKind::Orthographic => {
+            out.push("sensor 'orthographic' is rendered as a perspective pinhole for now".into())
+        }
+    }
+    if scene.camera.principal_point_offset != glam::Vec2::ZERO {
+        out.push("principal_point_offset is not rendered yet (the image is centred)".into());
+    }
+    if scene.film.crop.is_some() {
+        out.push("the film's crop window is not rendered yet (the whole film is rendered)".into());
+    }
+    if scene.integrator.hide_emitters {
+        out.push("hide_emitters is not rendered yet (emitters stay visible)".into());
+    }
+    out
+}
+
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -154,16 +187,8 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     for w in &scene.warnings {
         eprintln!("{w}");
     }
-    if matches!(
-        scene.film.filter,
-        torrey_parser::PixelFilter::Mitchell { .. }
-            | torrey_parser::PixelFilter::CatmullRom
-            | torrey_parser::PixelFilter::Lanczos { .. }
-    ) {
-        eprintln!(
-            "warning: rfilter {:?} is rendered as a box filter for now (filters with negative lobes need splatting)",
-            scene.film.filter
-        );
+    for w in not_rendered_yet(&scene) {
+        eprintln!("warning: {w}");
     }
     let parse_time = load_start.elapsed();
     let (width, height) = args.size.unwrap_or((scene.film.width, scene.film.height));
