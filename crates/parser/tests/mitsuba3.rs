@@ -451,3 +451,41 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
         pos_of(xml, "nope"),
     );
 }
+
+#[test]
+fn spectrum_errors_point_at_the_value_or_file() {
+    let xml = "<scene version=\"3.0.0\">\n  <emitter type=\"constant\"><spectrum name=\"radiance\" value=\"500:1, 400:2\"/></emitter></scene>";
+    assert_err(
+        &common::parse(xml).unwrap_err(),
+        "the wavelengths of a spectrum must increase",
+        pos_of(xml, "500:1"),
+    );
+    let dir = temp_dir("spd");
+    write(&dir, "bad.spd", "400 1\n500 x\n");
+    let xml = "<scene version=\"3.0.0\">\n  <emitter type=\"constant\"><spectrum name=\"radiance\" filename=\"bad.spd\"/></emitter></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "in spectrum file 'bad.spd': line 2:",
+        pos_of(xml, "bad.spd"),
+    );
+    let xml = "<scene version=\"3.0.0\">\n  <emitter type=\"constant\"><spectrum name=\"radiance\" filename=\"none.spd\"/></emitter></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "cannot read spectrum file 'none.spd'",
+        pos_of(xml, "none.spd"),
+    );
+    // Mitsuba 0.6's <blackbody> and Mitsuba 3's plugin form give the same colour.
+    let a = parse_ok(
+        r#"<scene version="3.0.0"><emitter type="constant"><blackbody name="radiance" temperature="4000" scale="2"/></emitter></scene>"#,
+    );
+    let b = parse_ok(
+        r#"<scene version="3.0.0"><emitter type="constant"><spectrum type="blackbody" name="radiance"><float name="temperature" value="4000"/><float name="scale" value="2"/></spectrum></emitter></scene>"#,
+    );
+    let (Light::Constant { radiance: ra }, Light::Constant { radiance: rb }) =
+        (&a.lights[0], &b.lights[0])
+    else {
+        panic!()
+    };
+    assert_eq!(ra, rb);
+    assert!(ra.x > ra.z, "a 4000 K blackbody is warm: {ra}");
+}
