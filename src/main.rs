@@ -61,6 +61,11 @@ struct RenderArgs {
     /// Look textures up at full resolution (bilinear, as Mitsuba) instead of ray-cone mip-mapping.
     #[arg(long)]
     no_mipmap: bool,
+    /// Read the scene with the torrey course's rules or Mitsuba's, instead of the detected ones
+    /// (version 2.0+ is Mitsuba; 0.5/0.6 files are torrey only with a <background> or the
+    /// course's bsdfs).
+    #[arg(long, value_enum)]
+    dialect: Option<DialectArg>,
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
@@ -84,9 +89,46 @@ enum BvhWidthArg {
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum DialectArg {
+    Torrey,
+    Mitsuba,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum SamplerArg {
     Sobol,
     Independent,
+}
+
+/// What the scene asks for that the parser reads but the renderer does not draw yet.
+fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
+    use torrey_parser::{CameraKind, PixelFilter};
+    let mut out = Vec::new();
+    if matches!(
+        scene.film.filter,
+        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. }
+    ) {
+        out.push(format!(
+            "rfilter {:?} is rendered as a box filter for now (filters with negative lobes need splatting)",
+            scene.film.filter
+        ));
+    }
+    match scene.camera.kind {
+        CameraKind::Perspective | CameraKind::ThinLens { .. } => {}
+        CameraKind::Orthographic => {
+            out.push("sensor 'orthographic' is rendered as a perspective pinhole for now".into())
+        }
+    }
+    if scene.camera.principal_point_offset != glam::Vec2::ZERO {
+        out.push("principal_point_offset is not rendered yet (the image is centred)".into());
+    }
+    if scene.film.crop.is_some() {
+        out.push("the film's crop window is not rendered yet (the whole film is rendered)".into());
+    }
+    if scene.integrator.hide_emitters {
+        out.push("hide_emitters is not rendered yet (emitters stay visible)".into());
+    }
+    out
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -132,9 +174,19 @@ fn main() -> ExitCode {
 fn render_command(args: &RenderArgs) -> Result<(), String> {
     let scene_path = args.scene.as_ref().ok_or("no scene file given")?;
     let load_start = Instant::now();
-    let scene = torrey_parser::load_scene(scene_path, &args.define).map_err(|e| e.to_string())?;
+    let options = torrey_parser::LoadOptions {
+        overrides: args.define.clone(),
+        dialect: args.dialect.map(|d| match d {
+            DialectArg::Torrey => torrey_parser::Dialect::Torrey,
+            DialectArg::Mitsuba => torrey_parser::Dialect::Mitsuba3,
+        }),
+    };
+    let scene = torrey_parser::load_scene_with(scene_path, &options).map_err(|e| e.to_string())?;
     for w in &scene.warnings {
         eprintln!("{w}");
+    }
+    for w in not_rendered_yet(&scene) {
+        eprintln!("warning: {w}");
     }
     let parse_time = load_start.elapsed();
     let (width, height) = args.size.unwrap_or((scene.film.width, scene.film.height));
@@ -211,8 +263,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH ({})",
+        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH ({})",
         scene_path.display(),
+        scene.dialect,
+        scene.dialect_reason,
         width,
         height,
         out.spp,

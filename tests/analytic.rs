@@ -6,6 +6,9 @@ mod common;
 use glam::Vec3;
 use std::path::PathBuf;
 
+/// The torrey course's rules: both sides shaded, a 0.5 grey sky by default.
+const TORREY: torrey_parser::Dialect = torrey_parser::Dialect::Torrey;
+
 /// Writes `xml` to a fresh temp file and renders it.
 fn render_xml(
     name: &str,
@@ -14,11 +17,28 @@ fn render_xml(
     spp: u32,
     max_depth: Option<i32>,
 ) -> common::Rendered {
+    render_xml_as(name, xml, size, spp, max_depth, None)
+}
+
+/// As [`render_xml`], reading the scene in `dialect` (a 0.6 file without a `<background>` or the
+/// course's bsdfs is read with Mitsuba's rules unless the torrey dialect is asked for).
+fn render_xml_as(
+    name: &str,
+    xml: &str,
+    size: u32,
+    spp: u32,
+    max_depth: Option<i32>,
+    dialect: Option<torrey_parser::Dialect>,
+) -> common::Rendered {
     let dir = std::env::temp_dir().join(format!("torrey-analytic-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path: PathBuf = dir.join(format!("{name}.xml"));
     std::fs::write(&path, xml).unwrap();
-    let r = common::render_scene(&path, size, size, spp, max_depth, 1);
+    let options = torrey_parser::LoadOptions {
+        dialect,
+        ..Default::default()
+    };
+    let r = common::render_scene_with(&path, &options, (size, size), spp, max_depth, 1, true);
     assert_eq!(r.nonfinite, 0, "no NaN or infinite samples expected");
     r
 }
@@ -61,7 +81,7 @@ fn diffuse_furnace(max_depth: Option<i32>) {
            </scene>"#,
         camera("0, 0, 5", "0, 0, 0", "0, 1, 0", 30.0)
     );
-    let r = render_xml("furnace", &xml, 32, 64, max_depth);
+    let r = render_xml_as("furnace", &xml, 32, 64, max_depth, Some(TORREY));
     let centre = mean_rect(&r.image, 12, 12, 20, 20);
     let expected = Vec3::new(0.6, 0.3, 0.9) * 0.5;
     // Standard error of the block mean from the render's own variance.
@@ -105,10 +125,10 @@ fn depth_one_shows_only_emitters() {
            </scene>"#,
         camera("0, 0, 5", "0, 0, 0", "0, 1, 0", 30.0)
     );
-    let r = render_xml("depth1", &xml, 32, 4, Some(1));
+    let r = render_xml_as("depth1", &xml, 32, 4, Some(1), Some(TORREY));
     assert_eq!(r.image.get(16, 16), Vec3::ZERO);
     assert!((r.image.get(0, 0) - Vec3::splat(0.5)).abs().max_element() < 1e-6);
-    let r = render_xml("depth0", &xml, 32, 1, Some(0));
+    let r = render_xml_as("depth0", &xml, 32, 1, Some(0), Some(TORREY));
     assert!(r.image.pixels.iter().all(|p| *p == Vec3::ZERO));
 }
 
@@ -179,7 +199,8 @@ fn sidedness_follows_the_dialect() {
         ("m3-two", body("3.0.0", two)),
         ("torrey", body("0.6.0", diffuse)),
     ] {
-        let r = render_xml(name, &xml, 32, 64, None);
+        let dialect = (name == "torrey").then_some(TORREY);
+        let r = render_xml_as(name, &xml, 32, 64, None, dialect);
         let c = mean_rect(&r.image, 12, 12, 20, 20);
         // The back side sees half the constant environment: rho * L = 0.5 (furnace, a plane).
         assert!((c.x - 0.5).abs() < 0.03, "{name}: {c}");

@@ -40,6 +40,7 @@ const GOOD: &str = r#"<scene version="0.6.0">
   </sensor>
   <bsdf type="diffuse" id="d"><rgb name="reflectance" value="0.5"/></bsdf>
   <shape type="sphere"><float name="radius" value="1"/><ref id="d"/></shape>
+  <background/>
 </scene>"#;
 
 #[test]
@@ -81,6 +82,23 @@ fn good_scene_writes_exr_and_png_and_reports_speed() {
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(
         stderr.contains("24x16 px, 4 spp") && stderr.contains("samples/s"),
+        "{stderr}"
+    );
+    assert!(
+        stderr
+            .contains("torrey dialect (scene version 0.6.0 with the torrey course's <background>"),
+        "{stderr}"
+    );
+    // --dialect overrides the detection, and the summary says so.
+    let forced = torrey()
+        .arg(&scene)
+        .args(["--dialect", "mitsuba", "--quiet", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&forced.stderr);
+    assert!(
+        forced.status.success() && stderr.contains("mitsuba dialect (forced (detected"),
         "{stderr}"
     );
     let img = torrey_texture::load_image(&out, false).unwrap().image;

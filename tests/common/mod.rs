@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod verdict;
+
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use torrey_texture::Image;
@@ -46,7 +48,28 @@ pub fn render_scene_opts(
     seed: u64,
     mipmapping: bool,
 ) -> Rendered {
-    let desc = torrey_parser::load_scene(scene, &[]).unwrap_or_else(|e| panic!("{e}"));
+    render_scene_with(
+        scene,
+        &torrey_parser::LoadOptions::default(),
+        (width, height),
+        spp,
+        max_depth,
+        seed,
+        mipmapping,
+    )
+}
+
+/// As [`render_scene_opts`], reading the scene with `options` (a forced dialect, say).
+pub fn render_scene_with(
+    scene: &Path,
+    options: &torrey_parser::LoadOptions,
+    (width, height): (u32, u32),
+    spp: u32,
+    max_depth: Option<i32>,
+    seed: u64,
+    mipmapping: bool,
+) -> Rendered {
+    let desc = torrey_parser::load_scene_with(scene, options).unwrap_or_else(|e| panic!("{e}"));
     let rs =
         torrey_renderer::RenderScene::build(&desc, width, height).unwrap_or_else(|e| panic!("{e}"));
     let settings = torrey_renderer::RenderSettings {

@@ -2,57 +2,110 @@
 //! paths), the growing texture and bsdf tables, the id namespace, and the warnings.
 
 use crate::error::{ParseError, Result};
-use crate::scene::{Bsdf, BsdfId, Dialect, Texture, TextureId, Warning};
-use crate::xml::{location, Element, Pos};
+use crate::include::Sources;
+use crate::scene::{Bsdf, BsdfId, Dialect, SourceLocation, Texture, TextureId, Warning};
+use crate::xml::{Element, Pos};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What an `id` names. Mitsuba has one id namespace for all objects.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum IdTarget {
     Bsdf(BsdfId),
     Texture(TextureId),
+    /// Index into [`Ctx::shape_groups`].
+    ShapeGroup(usize),
     /// Shapes, sensors, emitters...: may carry ids but cannot be referenced here.
     Other,
 }
 
 pub(crate) struct Ctx {
-    pub file: PathBuf,
-    pub dir: PathBuf,
+    /// The scene's files (for positions) and `<path>` folders (for file names).
+    pub sources: Sources,
     pub dialect: Dialect,
     pub warnings: Vec<Warning>,
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
+    /// The shapes of each `shapegroup`, placed by `instance`s.
+    pub shape_groups: Vec<Vec<crate::scene::Shape>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
+    media_warned: bool,
 }
 
 impl Ctx {
-    pub fn new(file: &Path, dialect: Dialect) -> Self {
-        let parent = file.parent().unwrap_or(Path::new(""));
-        let dir = std::path::absolute(parent).unwrap_or_else(|_| parent.to_path_buf());
+    pub fn new(sources: Sources, dialect: Dialect) -> Self {
         Ctx {
-            file: file.to_path_buf(),
-            dir,
+            sources,
             dialect,
             warnings: Vec::new(),
             textures: Vec::new(),
             bsdfs: Vec::new(),
+            shape_groups: Vec::new(),
             ids: HashMap::new(),
+            media_warned: false,
         }
     }
 
+    /// An error at `pos`; in an included file the message names the chain of includes.
     pub fn err(&self, pos: Pos, message: impl Into<String>) -> ParseError {
-        ParseError {
-            location: location(&self.file, pos),
-            message: message.into(),
+        self.sources.err(pos, message)
+    }
+
+    /// Media (`<medium>`, `<phase>`, `<volume>`, `<subsurface>`) are not rendered: the first
+    /// one gives one warning, the others are dropped silently.
+    pub fn warn_media(&mut self, elem: &Element, owner: Option<&str>) {
+        if self.media_warned {
+            return;
         }
+        self.media_warned = true;
+        let what = crate::props::describe(elem);
+        let place = owner.map_or(String::new(), |o| format!(" in {o}"));
+        self.warn(
+            elem.pos,
+            format!("{what}{place} is not supported; ignored, with every other medium, phase function and volume of the scene (media are not rendered)"),
+        );
     }
 
     pub fn warn(&mut self, pos: Pos, message: impl Into<String>) {
-        self.warnings.push(Warning {
-            location: location(&self.file, pos),
-            message: message.into(),
-        });
+        let w = self.sources.warning(pos, message);
+        self.warnings.push(w);
+    }
+
+    /// `file:line:column` of a position (in whichever file of the scene it is).
+    pub fn location(&self, pos: Pos) -> SourceLocation {
+        self.sources.location(pos)
+    }
+
+    /// Makes `<alias id="a" as="b"/>`: `b` names what `a` names.
+    pub fn alias(&mut self, elem: &Element) -> Result<()> {
+        let get = |n: &str| {
+            elem.attr(n).ok_or_else(|| {
+                self.err(
+                    elem.pos,
+                    format!("missing required attribute '{n}' on <alias>"),
+                )
+            })
+        };
+        let (id, alias) = (get("id")?, get("as")?);
+        let Some(&(target, _, ref tag)) = self.ids.get(&id.value) else {
+            return Err(self.err(
+                id.value_pos,
+                format!("<alias> of undefined id '{}'", id.value),
+            ));
+        };
+        let tag = tag.clone();
+        if let Some((_, first, t)) = self.ids.get(&alias.value) {
+            return Err(self.err(
+                alias.value_pos,
+                format!(
+                    "duplicate id '{}' (a <{}> already has it at line {}, column {})",
+                    alias.value, t, first.line, first.column
+                ),
+            ));
+        }
+        self.ids
+            .insert(alias.value.clone(), (target, elem.pos, tag));
+        Ok(())
     }
 
     /// Records `elem`'s `id` attribute (if any) as naming `target`; a second definition of the
@@ -91,14 +144,10 @@ impl Ctx {
             })
     }
 
-    /// Resolves a file name from the scene against the scene file's folder.
-    pub fn resolve(&self, name: &str) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            self.dir.join(p)
-        }
+    /// Resolves a file name given at `pos`: see [`Sources::resolve`] (the naming file's folder,
+    /// the `<path>` folders, the scene file's folder).
+    pub fn resolve(&self, name: &str, pos: Pos) -> PathBuf {
+        self.sources.resolve(name, pos)
     }
 }
 

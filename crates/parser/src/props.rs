@@ -3,6 +3,7 @@
 
 use crate::context::Ctx;
 use crate::error::Result;
+use crate::spectrum::{self, SpectrumUse};
 use crate::transform::parse_transform;
 use crate::values;
 use crate::xml::{Attr, Element, Pos};
@@ -17,6 +18,7 @@ const VALUE_TAGS: &[&str] = &[
     "rgb",
     "srgb",
     "spectrum",
+    "blackbody",
     "point",
     "vector",
     "transform",
@@ -48,6 +50,8 @@ pub(crate) struct Props<'a> {
     /// "bsdf 'diffuse'": how messages name the plugin.
     pub owner: String,
     items: Vec<Item<'a>>,
+    /// Spectra here are emission (the plugin is an `<emitter>` in a Mitsuba-dialect scene).
+    illuminant: bool,
 }
 
 fn value_attr<'e>(ctx: &Ctx, elem: &'e Element) -> Result<&'e Attr> {
@@ -105,17 +109,19 @@ impl<'a> Props<'a> {
                     used: false,
                 });
             } else if SKIPPED_TAGS.contains(&tag) {
-                ctx.warn(
-                    child.pos,
-                    format!("{} in {owner} is not supported; ignored", describe(child)),
-                );
+                ctx.warn_media(child, Some(&owner));
             } else if tag == "default" {
                 return Err(ctx.err(child.pos, "<default> must be a direct child of <scene>"));
             } else {
                 return Err(ctx.err(child.pos, format!("unknown tag <{tag}> in {owner}")));
             }
         }
-        Ok(Props { owner, items })
+        let illuminant = elem.tag == "emitter" && ctx.dialect == crate::scene::Dialect::Mitsuba3;
+        Ok(Props {
+            owner,
+            items,
+            illuminant,
+        })
     }
 
     /// Takes the unused child named `name` (snake_case), whatever its tag.
@@ -288,15 +294,106 @@ impl<'a> Props<'a> {
         Ok(v)
     }
 
-    /// Reads a constant colour from an `rgb`, `srgb`, `spectrum` or `float` element.
+    /// Reads a constant colour from an `rgb`, `srgb`, `spectrum`, `blackbody` or `float`
+    /// element; spectra are reduced to RGB as Mitsuba's RGB variants do (see `spectrum.rs`).
     pub fn color_of(&self, ctx: &Ctx, e: &Element) -> Result<Vec3> {
-        let a = value_attr(ctx, e)?;
+        let usage = if self.illuminant {
+            SpectrumUse::Illuminant
+        } else {
+            SpectrumUse::Reflectance
+        };
         match e.tag.as_str() {
-            "rgb" => self.parse_attr(ctx, e, a, values::vec3),
-            "srgb" => self.parse_attr(ctx, e, a, values::srgb),
-            "spectrum" => self.parse_attr(ctx, e, a, values::spectrum),
-            "float" => self.parse_attr(ctx, e, a, values::float).map(Vec3::splat),
-            _ => Err(self.wrong_type(ctx, e, "a colour (<rgb>, <srgb>, <spectrum> or <float>)")),
+            "spectrum" => self.spectrum_of(ctx, e, usage),
+            "blackbody" => {
+                let t = e.attr("temperature").ok_or_else(|| {
+                    ctx.err(
+                        e.pos,
+                        "missing required attribute 'temperature' on <blackbody>",
+                    )
+                })?;
+                let temperature = self.parse_attr(ctx, e, t, values::float)?;
+                let scale = match e.attr("scale") {
+                    Some(s) => self.parse_attr(ctx, e, s, values::float)?,
+                    None => 1.0,
+                };
+                self.parse_attr(ctx, e, t, |_| spectrum::blackbody(temperature, scale))
+            }
+            tag => {
+                let a = value_attr(ctx, e)?;
+                match tag {
+                    "rgb" => self.parse_attr(ctx, e, a, values::vec3),
+                    "srgb" => self.parse_attr(ctx, e, a, values::srgb),
+                    "float" => self.parse_attr(ctx, e, a, values::float).map(Vec3::splat),
+                    _ => Err(self.wrong_type(
+                        ctx,
+                        e,
+                        "a colour (<rgb>, <srgb>, <spectrum> or <float>)",
+                    )),
+                }
+            }
+        }
+    }
+
+    /// `<spectrum>`: a `value` (constant or wavelength:value list), a `filename` (.spd), or
+    /// Mitsuba's plugin form `<spectrum type="blackbody">` with a `temperature`.
+    fn spectrum_of(&self, ctx: &Ctx, e: &Element, usage: SpectrumUse) -> Result<Vec3> {
+        if let Some(a) = e.attr("value") {
+            return self.parse_attr(ctx, e, a, |s| spectrum::parse_value(s, usage));
+        }
+        if let Some(f) = e.attr("filename") {
+            let path = ctx.resolve(&f.value, f.value_pos);
+            let text = std::fs::read_to_string(&path).map_err(|err| {
+                ctx.err(
+                    f.value_pos,
+                    format!(
+                        "cannot read spectrum file '{}' (looked for '{}'): {err}",
+                        f.value,
+                        path.display()
+                    ),
+                )
+            })?;
+            return spectrum::read_spd(&text)
+                .and_then(|(w, v)| spectrum::list_to_rgb(&w, &v, usage))
+                .map_err(|m| ctx.err(f.value_pos, format!("in spectrum file '{}': {m}", f.value)));
+        }
+        match e.attr_value("type") {
+            Some("blackbody") => {
+                let mut temperature = None;
+                let mut scale = 1.0;
+                for c in &e.children {
+                    let a = value_attr(ctx, c)?;
+                    match c.attr_value("name") {
+                        Some("temperature") => {
+                            temperature = Some(self.parse_attr(ctx, c, a, values::float)?)
+                        }
+                        Some("scale") => scale = self.parse_attr(ctx, c, a, values::float)?,
+                        _ => {
+                            return Err(ctx.err(
+                                c.pos,
+                                format!("unknown parameter {} of spectrum 'blackbody'", describe(c)),
+                            ))
+                        }
+                    }
+                }
+                let t = temperature.ok_or_else(|| {
+                    ctx.err(
+                        e.pos,
+                        "missing required parameter 'temperature' of spectrum 'blackbody'",
+                    )
+                })?;
+                spectrum::blackbody(t, scale).map_err(|m| ctx.err(e.pos, m))
+            }
+            Some(t) => Err(ctx.err(
+                e.pos,
+                format!("spectrum type '{t}' is not supported (supported: blackbody; or a value or filename)"),
+            )),
+            None => Err(ctx.err(
+                e.pos,
+                format!(
+                    "{} needs a 'value' or a 'filename' attribute",
+                    describe(e)
+                ),
+            )),
         }
     }
 

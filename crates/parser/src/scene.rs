@@ -14,13 +14,26 @@ pub type BsdfId = usize;
 /// Index into [`Scene::textures`].
 pub type TextureId = usize;
 
-/// Which XML dialect a scene is written in, from `<scene version="...">`.
+/// Which rules a scene is read with. Version 2.0 and up is Mitsuba 3; 1.x is the torrey
+/// course's; 0.5/0.6 files are the torrey dialect only when they contain something only the
+/// course has (`<background>`, its phong/blinn/blinn_microfacet/mirror), otherwise Mitsuba's.
+/// [`crate::LoadOptions::dialect`] overrides the detection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dialect {
-    /// Versions below 2.0.0 (the torrey course's 0.5/0.6): surfaces shade on both sides.
+    /// The torrey course: surfaces shade on both sides; a 0.5 grey sky when no emitter is at
+    /// infinity.
     Torrey,
-    /// Versions 2.0.0 and up: one-sided bsdfs unless wrapped in `twosided`.
+    /// Mitsuba: one-sided bsdfs unless wrapped in `twosided`; no implicit sky.
     Mitsuba3,
+}
+
+impl std::fmt::Display for Dialect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Dialect::Torrey => "torrey",
+            Dialect::Mitsuba3 => "mitsuba",
+        })
+    }
 }
 
 /// A position in a scene file, for diagnostics. Lines and columns count from 1.
@@ -55,6 +68,9 @@ pub struct Scene {
     /// The scene file this was read from (relative paths inside were resolved against its folder).
     pub path: PathBuf,
     pub dialect: Dialect,
+    /// Why [`Scene::dialect`] was chosen (the version, the element that marks the torrey
+    /// dialect, or an override), for the command line's summary.
+    pub dialect_reason: String,
     pub camera: Camera,
     pub film: Film,
     pub sampler: Sampler,
@@ -67,16 +83,34 @@ pub struct Scene {
     pub warnings: Vec<Warning>,
 }
 
-/// Perspective pinhole camera, Mitsuba 3 semantics: camera space looks along +z, +x is left,
-/// +y is up; `to_world` maps camera space to world space.
+/// The camera, Mitsuba 3 semantics: camera space looks along +z, +x is left, +y is up;
+/// `to_world` maps camera space to world space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
+    /// Projection: perspective pinhole, thin lens or orthographic. (The renderer draws every
+    /// camera as a pinhole for now.)
+    pub kind: CameraKind,
     pub to_world: Mat4,
-    /// Full field of view in degrees along `fov_axis`.
+    /// Full field of view in degrees along `fov_axis` (perspective and thin lens).
     pub fov_degrees: f32,
     pub fov_axis: FovAxis,
     pub near_clip: f32,
     pub far_clip: f32,
+    /// Mitsuba's `principal_point_offset_x/_y`: the image centre moved by these fractions of the
+    /// film size (perspective and thin lens).
+    pub principal_point_offset: Vec2,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CameraKind {
+    Perspective,
+    /// Depth of field: a lens of `aperture_radius` focused at `focus_distance`.
+    ThinLens {
+        aperture_radius: f32,
+        focus_distance: f32,
+    },
+    /// Parallel rays; `to_world`'s scale sets the visible extent (Mitsuba: [-1, 1]^2 before it).
+    Orthographic,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,6 +129,17 @@ pub struct Film {
     /// Output file name from the scene, if it names one.
     pub filename: Option<String>,
     pub filter: PixelFilter,
+    /// Mitsuba's crop window: only this part of the `width` x `height` film is rendered.
+    pub crop: Option<CropWindow>,
+}
+
+/// A sub-rectangle of the film in pixels (`crop_offset_x/y`, `crop_width/height`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CropWindow {
+    pub offset_x: u32,
+    pub offset_y: u32,
+    pub width: u32,
+    pub height: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -105,12 +150,22 @@ pub enum PixelFilter {
     Gaussian { stddev: f32 },
     /// Mitsuba's tent filter (radius in pixels).
     Tent { radius: f32 },
+    /// Mitchell-Netravali with parameters B and C (Mitsuba's defaults 1/3, 1/3), radius 2.
+    Mitchell { b: f32, c: f32 },
+    /// Catmull-Rom: Mitchell-Netravali with B = 0, C = 1/2, radius 2.
+    CatmullRom,
+    /// Windowed sinc with `lobes` lobes (Mitsuba's default 3); radius = lobes.
+    Lanczos { lobes: u32 },
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sampler {
+    /// Mitsuba's sample count after its sampler's rounding (a square for `stratified` and
+    /// `multijitter`, a power of two for `ldsampler`, a prime's square for `orthogonal`).
     pub sample_count: u32,
     pub seed: u64,
+    /// The scene's sampler type; torrey draws its own samples whatever it is.
+    pub kind: String,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -119,8 +174,15 @@ pub struct Integrator {
     pub max_depth: i32,
     /// Russian roulette starts at this depth (Mitsuba's `rr_depth`, default 5).
     pub rr_depth: i32,
-    /// The integrator's type name (`path`, `direct`, ...), kept for information.
+    /// The integrator's type name (`path`, `direct`, ...), kept for information; wrappers
+    /// (`moment`, `aov`) are read through to the integrator inside them.
     pub kind: String,
+    /// Mitsuba's `hide_emitters`: emitters seen directly by the camera are black.
+    pub hide_emitters: bool,
+    /// `direct` only: emitter and bsdf samples per shading point (Mitsuba's `emitter_samples`,
+    /// `bsdf_samples`, both defaulting to `shading_samples`, 1). 1 and 1 otherwise.
+    pub emitter_samples: u32,
+    pub bsdf_samples: u32,
 }
 
 /// A colour that may be a constant or come from a texture.

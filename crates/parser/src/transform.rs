@@ -62,6 +62,18 @@ pub(crate) fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Option<Mat4> {
     ))
 }
 
+/// The up vector Mitsuba 3 gives a `lookat` without one: the first vector of its orthonormal
+/// frame around the view direction d (Duff et al.'s branchless construction):
+/// s = (1 + sign d.x^2 a, sign b, -sign d.x) with sign = copysign(1, d.z), a = -1 / (sign + d.z),
+/// b = d.x d.y a.
+pub(crate) fn generated_up(dir: Vec3) -> Vec3 {
+    let d = dir.normalize_or_zero();
+    let sign = 1f32.copysign(d.z);
+    let a = -1.0 / (sign + d.z);
+    let b = d.x * d.y * a;
+    Vec3::new(1.0 + sign * d.x * d.x * a, sign * b, -sign * d.x)
+}
+
 /// Parses a `<transform>`. With `uv`, `rotate` without an axis turns about z, and a 9-entry
 /// `matrix` is read as a 2D homogeneous matrix.
 pub(crate) fn parse_transform(ctx: &Ctx, elem: &Element, uv: bool) -> Result<Mat4> {
@@ -110,7 +122,7 @@ pub(crate) fn parse_transform(ctx: &Ctx, elem: &Element, uv: bool) -> Result<Mat
                 let target = vector(ctx, op, required(ctx, op, "target")?)?;
                 let up = match op.attr("up") {
                     Some(a) => vector(ctx, op, a)?,
-                    None => Vec3::Y,
+                    None => generated_up(target - origin),
                 };
                 look_at(origin, target, up).ok_or_else(|| {
                     ctx.err(

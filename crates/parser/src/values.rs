@@ -112,22 +112,6 @@ pub(crate) fn srgb(s: &str) -> Result<Vec3, String> {
     ))
 }
 
-/// Parses a `spectrum`: a single value (grey). Wavelength:value lists are not supported.
-pub(crate) fn spectrum(s: &str) -> Result<Vec3, String> {
-    if s.contains(':') {
-        return Err(format!(
-            "spectrum '{s}' lists wavelengths; only a single grey value is supported"
-        ));
-    }
-    let v = floats(s)?;
-    match v.len() {
-        1 => Ok(Vec3::splat(v[0])),
-        n => Err(format!(
-            "expected a single value in spectrum '{s}', found {n}"
-        )),
-    }
-}
-
 /// Converts camelCase parameter names to snake_case so both dialects' spellings match:
 /// `toWorld` → `to_world`, `intIOR` → `int_ior`, `flipTexCoords` → `flip_tex_coords`.
 pub(crate) fn snake_case(name: &str) -> String {

@@ -7,11 +7,14 @@ use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
 use std::path::Path;
 
-/// A 1-based line and column (columns count characters, a tab is one column).
+/// A 1-based line and column (columns count characters, a tab is one column), and which file
+/// of the scene it is in: 0 is the scene file, others are `<include>`d files (see
+/// `include::Sources`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub(crate) struct Pos {
     pub line: u32,
     pub column: u32,
+    pub file: u32,
 }
 
 /// One attribute with the position of its value's first character.
@@ -67,6 +70,7 @@ impl<'a> LineIndex<'a> {
         Pos {
             line: line as u32 + 1,
             column: column as u32 + 1,
+            file: 0,
         }
     }
 }
@@ -209,16 +213,31 @@ mod tests {
     fn positions_of_elements_and_attributes() {
         let text = "<scene version=\"1\">\n\t<float name=\"fov\" value=\"4\"/>\n</scene>";
         let root = parse_document(text, Path::new("a.xml")).unwrap();
-        assert_eq!(root.pos, Pos { line: 1, column: 1 });
+        assert_eq!(
+            root.pos,
+            Pos {
+                line: 1,
+                column: 1,
+                file: 0
+            }
+        );
         let f = &root.children[0];
         assert_eq!(f.tag, "float");
-        assert_eq!(f.pos, Pos { line: 2, column: 2 });
+        assert_eq!(
+            f.pos,
+            Pos {
+                line: 2,
+                column: 2,
+                file: 0
+            }
+        );
         let v = f.attr("value").unwrap();
         assert_eq!(
             v.value_pos,
             Pos {
                 line: 2,
-                column: 27
+                column: 27,
+                file: 0
             }
         );
         assert_eq!(v.value, "4");

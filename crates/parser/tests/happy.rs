@@ -50,7 +50,10 @@ fn lookat_frame_matches_mitsuba() {
         Integrator {
             max_depth: -1,
             rr_depth: 5,
-            kind: "path".into()
+            kind: "path".into(),
+            hide_emitters: false,
+            emitter_samples: 1,
+            bsdf_samples: 1,
         }
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);

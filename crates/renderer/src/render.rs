@@ -171,6 +171,10 @@ fn render_pixel<S: Sampler>(
     let cone = RayCone::from_pixel(camera.pixel_spread());
     // The camera's sampler draws: the film position, then its lens (if it has one).
     let camera_requests = 1 + camera.lens_requests();
+    // Mitsuba places samples inside the film only (hdrfilm's sample_border is false) and divides
+    // each pixel's splats by their filter weights: a filter offset that leaves the film therefore
+    // does not count (the pixel's mean is over the samples that stay inside).
+    let size = Vec2::new(camera.width() as f32, camera.height() as f32);
     let camera_ray = |sampler: &mut S| {
         let offset = sample_filter(filter, sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
@@ -179,16 +183,20 @@ fn render_pixel<S: Sampler>(
         } else {
             Vec2::ZERO
         };
-        camera.generate_ray(&CameraSample { film, lens })
+        let inside = film.cmpge(Vec2::ZERO).all() && film.cmplt(size).all();
+        let (o, d) = camera.generate_ray(&CameraSample { film, lens });
+        (o, d, inside)
     };
-    let mut add = |s: u32, l: Vec3A| {
+    let mut counted = 0u32;
+    let mut add = |l: Vec3A| {
         let l = if l.is_finite() {
             l
         } else {
             bad += 1;
             Vec3A::ZERO
         };
-        let n = (s + 1) as f32;
+        counted += 1;
+        let n = counted as f32;
         let delta = l - mean;
         mean += delta / n;
         m2 += delta * (l - mean);
@@ -205,6 +213,7 @@ fn render_pixel<S: Sampler>(
     };
     let mut origin = Vec3A::ZERO;
     let mut dirs = [Vec3A::ZERO; MAX_PACKET];
+    let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut packed = false;
     let packed_samples = if lanes > 0 {
@@ -213,12 +222,16 @@ fn render_pixel<S: Sampler>(
         0
     };
     for s in 0..spp {
-        let (o, d, first_hit) = if s < packed_samples {
+        let (o, d, first_hit, inside) = if s < packed_samples {
             let lane = s as usize % lanes;
             if lane == 0 {
-                for (k, dir) in dirs[..lanes].iter_mut().enumerate() {
+                for (k, (dir, inside)) in dirs[..lanes]
+                    .iter_mut()
+                    .zip(&mut insides[..lanes])
+                    .enumerate()
+                {
                     sampler.start_sample(s + k as u32);
-                    (origin, *dir) = camera_ray(sampler);
+                    (origin, *dir, *inside) = camera_ray(sampler);
                 }
                 packed = scene
                     .accel()
@@ -232,19 +245,18 @@ fn render_pixel<S: Sampler>(
             };
             let first_hit =
                 packed.then(|| hits[lane].map(|hit: ClosestHit| scene.surface(&ray, &hit)));
-            (origin, dirs[lane], first_hit)
+            (origin, dirs[lane], first_hit, insides[lane])
         } else {
             sampler.start_sample(s);
-            let (o, d) = camera_ray(sampler);
-            (o, d, None)
+            let (o, d, inside) = camera_ray(sampler);
+            (o, d, None, inside)
         };
-        add(
-            s,
-            radiance(scene, o, d, cone, path, sampler, rays, first_hit),
-        );
+        if inside {
+            add(radiance(scene, o, d, cone, path, sampler, rays, first_hit));
+        }
     }
-    let var_of_mean = if spp > 1 {
-        m2 / ((spp - 1) as f32 * spp as f32)
+    let var_of_mean = if counted > 1 {
+        m2 / ((counted - 1) as f32 * counted as f32)
     } else {
         Vec3A::ZERO
     };
@@ -258,6 +270,11 @@ fn render_pixel<S: Sampler>(
 fn sample_filter(filter: PixelFilter, u: Vec2) -> Vec2 {
     match filter {
         PixelFilter::Box => u - Vec2::splat(0.5),
+        // Filters with negative lobes need weighted splatting (not implemented yet): drawn as a
+        // box for now; the command line says so.
+        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. } => {
+            u - Vec2::splat(0.5)
+        }
         PixelFilter::Tent { radius } => Vec2::new(sample_tent(u.x), sample_tent(u.y)) * radius,
         PixelFilter::Gaussian { stddev } => {
             // Box-Muller, truncated at Mitsuba's radius of 4 standard deviations.

@@ -9,7 +9,8 @@ use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, TextureId, TextureKind};
 use crate::xml::Element;
 use glam::Vec3;
 
-const KNOWN: &[&str] = &[
+/// The types this parser reads (see `torrey_parser::accepted_plugins`).
+pub(crate) const KNOWN: &[&str] = &[
     "diffuse",
     "mirror",
     "plastic",
@@ -20,6 +21,7 @@ const KNOWN: &[&str] = &[
     "blinnphong_microfacet",
     "twosided",
     "normalmap",
+    "roughdiffuse",
 ];
 
 /// Named indices of refraction Mitsuba accepts in place of a number.
@@ -223,6 +225,17 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
         "diffuse" => plain(BsdfKind::Diffuse {
             reflectance: color_param(ctx, &mut props, &["reflectance"], Vec3::splat(0.5))?,
         }),
+        "roughdiffuse" => {
+            // Mitsuba 0.6's Oren-Nayar: read as Lambertian (alpha ignored), said once per bsdf.
+            ctx.warn(
+                elem.pos,
+                "bsdf 'roughdiffuse' is read as 'diffuse' (its roughness is ignored)",
+            );
+            props.ignore(&["alpha", "use_fast_approx", "distribution"]);
+            plain(BsdfKind::Diffuse {
+                reflectance: color_param(ctx, &mut props, &["reflectance"], Vec3::splat(0.5))?,
+            })
+        }
         "mirror" => plain(BsdfKind::Mirror {
             reflectance: color_param(ctx, &mut props, &["reflectance"], Vec3::ONE)?,
         }),

@@ -8,7 +8,17 @@ use crate::scene::Light;
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
-const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
+/// The types this parser reads (see `torrey_parser::accepted_plugins`).
+pub(crate) const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
+
+/// Mitsuba 3 emitters the renderer cannot draw yet: a clear error at their place.
+const NOT_YET: &[&str] = &[
+    "spot",
+    "directional",
+    "projector",
+    "directionalarea",
+    "sunsky",
+];
 
 /// Parses a top-level `<emitter>`.
 ///
@@ -24,6 +34,16 @@ const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
 /// | `constant` | `radiance` | colour | 1 |
 pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
     let ty = plugin_type(ctx, elem)?;
+    if NOT_YET.contains(&ty) {
+        let pos = elem.attr("type").map_or(elem.pos, |a| a.value_pos);
+        return Err(ctx.err(
+            pos,
+            format!(
+                "emitter '{ty}' is not supported yet (supported: {}; area inside a shape)",
+                KNOWN[..3].join(", ")
+            ),
+        ));
+    }
     if !KNOWN.contains(&ty) {
         return Err(unknown_type(ctx, elem, "emitter", &KNOWN[..3]));
     }

@@ -8,25 +8,47 @@ pub(crate) mod texture;
 
 use crate::context::Ctx;
 use crate::error::{ParseError, Result};
-use crate::props::{describe, SKIPPED_TAGS};
+use crate::include::{self, Sources};
+use crate::props::SKIPPED_TAGS;
 use crate::scene::{Dialect, Light, Scene};
-use crate::values;
 use crate::xml::{location, Element};
 use glam::Vec3;
-use std::collections::HashMap;
 use std::path::Path;
 
-/// Reads `<scene version>`: below 2.0.0 is the torrey dialect.
-fn dialect(root: &Element, file: &Path) -> Result<Dialect> {
-    let err = |pos, message: String| ParseError {
-        location: location(file, pos),
-        message,
-    };
+/// bsdf types only the torrey course has (its own phong, blinn, blinn_microfacet and mirror).
+const TORREY_BSDFS: &[&str] = &[
+    "mirror",
+    "phong",
+    "blinn",
+    "blinnphong",
+    "blinn_microfacet",
+    "blinnphong_microfacet",
+];
+
+/// The first element (depth first, document order) that only the torrey course dialect has.
+fn torrey_marker(elem: &Element) -> Option<&Element> {
+    for c in &elem.children {
+        if c.tag == "background"
+            || (c.tag == "bsdf"
+                && c.attr_value("type")
+                    .is_some_and(|t| TORREY_BSDFS.contains(&t)))
+        {
+            return Some(c);
+        }
+        if let Some(m) = torrey_marker(c) {
+            return Some(m);
+        }
+    }
+    None
+}
+
+/// Decides the dialect: `<scene version>` 2.0 and up is Mitsuba 3; 1.x exists only in the torrey
+/// course; 0.x (Mitsuba 0.5/0.6 and the course's older files) is the torrey dialect only when the
+/// file has something only the course has (a `<background>`, the course's bsdfs). Returns the
+/// dialect and why, for the summary line.
+fn dialect(root: &Element, sources: &Sources) -> Result<(Dialect, String)> {
     let Some(v) = root.attr("version") else {
-        return Err(err(
-            root.pos,
-            "missing required attribute 'version' on <scene>".into(),
-        ));
+        return Err(sources.err(root.pos, "missing required attribute 'version' on <scene>"));
     };
     let major = v
         .value
@@ -34,47 +56,49 @@ fn dialect(root: &Element, file: &Path) -> Result<Dialect> {
         .next()
         .and_then(|m| m.trim().parse::<u32>().ok())
         .ok_or_else(|| {
-            err(
+            sources.err(
                 v.value_pos,
                 format!("cannot parse scene version '{}'", v.value),
             )
         })?;
-    Ok(if major < 2 {
-        Dialect::Torrey
-    } else {
-        Dialect::Mitsuba3
+    Ok(match major {
+        2.. => (Dialect::Mitsuba3, format!("scene version {}", v.value)),
+        1 => (
+            Dialect::Torrey,
+            format!("scene version {} (the torrey course's)", v.value),
+        ),
+        0 => match torrey_marker(root) {
+            Some(m) => {
+                let what = match m.attr_value("type") {
+                    Some(t) if m.tag == "bsdf" => format!("bsdf '{t}'"),
+                    _ => format!("<{}>", m.tag),
+                };
+                (
+                    Dialect::Torrey,
+                    format!(
+                        "scene version {} with the torrey course's {what} at {}",
+                        v.value,
+                        sources.location(m.pos)
+                    ),
+                )
+            }
+            None => (
+                Dialect::Mitsuba3,
+                format!(
+                    "scene version {} without torrey course elements: Mitsuba's semantics",
+                    v.value
+                ),
+            ),
+        },
     })
 }
 
-/// Applies `$name` substitution to every attribute below `elem`, except `<default>`s' own.
-fn substitute_tree(
-    elem: &mut Element,
-    defaults: &HashMap<String, String>,
-    file: &Path,
-) -> Result<()> {
-    for child in &mut elem.children {
-        if child.tag == "default" {
-            continue;
-        }
-        for a in &mut child.attrs {
-            a.value = values::substitute(&a.value, defaults).map_err(|name| ParseError {
-                location: location(file, a.value_pos),
-                message: format!(
-                    "undefined parameter '${name}' in attribute '{}' of <{}> (add <default name=\"{name}\" .../> or -D {name}=...)",
-                    a.name, child.tag
-                ),
-            })?;
-        }
-        substitute_tree(child, defaults, file)?;
-    }
-    Ok(())
-}
-
-/// Builds a [`Scene`] from the parsed document.
+/// Builds a [`Scene`] from the parsed document; `dialect` overrides the detected dialect.
 pub(crate) fn parse_scene(
-    mut root: Element,
+    root: Element,
     path: &Path,
     overrides: &[(String, String)],
+    forced: Option<Dialect>,
 ) -> Result<Scene> {
     if root.tag != "scene" {
         return Err(ParseError {
@@ -82,23 +106,16 @@ pub(crate) fn parse_scene(
             message: format!("the root element must be <scene>, found <{}>", root.tag),
         });
     }
-    let dialect = dialect(&root, path)?;
-    let mut defaults = HashMap::new();
-    for d in root.children.iter().filter(|c| c.tag == "default") {
-        let get = |n: &str| {
-            d.attr_value(n).ok_or_else(|| ParseError {
-                location: location(path, d.pos),
-                message: format!("missing required attribute '{n}' on <default>"),
-            })
-        };
-        defaults.insert(get("name")?.to_string(), get("value")?.to_string());
-    }
-    for (k, v) in overrides {
-        defaults.insert(k.clone(), v.clone());
-    }
-    substitute_tree(&mut root, &defaults, path)?;
-
-    let mut ctx = Ctx::new(path, dialect);
+    let expanded = include::expand(root, path, overrides)?;
+    let root = expanded.root;
+    let (detected, reason) = dialect(&root, &expanded.sources)?;
+    let (dialect, dialect_reason) = match forced {
+        Some(d) if d != detected => (d, format!("forced (detected {reason})")),
+        Some(d) => (d, format!("forced, as detected ({reason})")),
+        None => (detected, reason),
+    };
+    let mut ctx = Ctx::new(expanded.sources, dialect);
+    ctx.warnings = expanded.warnings;
     let mut camera_parts = None;
     let mut integrator = None;
     let mut shapes = Vec::new();
@@ -106,7 +123,7 @@ pub(crate) fn parse_scene(
     let mut has_background = false;
     for child in &root.children {
         match child.tag.as_str() {
-            "default" => {}
+            "alias" => ctx.alias(child)?,
             "sensor" => {
                 if camera_parts.is_some() {
                     ctx.warn(
@@ -134,7 +151,7 @@ pub(crate) fn parse_scene(
             "texture" => {
                 texture::parse_texture(&mut ctx, child)?;
             }
-            "shape" => shapes.push(shape::parse_shape(&mut ctx, child)?),
+            "shape" => shapes.extend(shape::parse_shape(&mut ctx, child)?),
             "emitter" => {
                 let light = emitter::parse_emitter(&mut ctx, child)?;
                 has_background |= matches!(light, Light::Envmap { .. } | Light::Constant { .. });
@@ -144,12 +161,7 @@ pub(crate) fn parse_scene(
                 lights.push(emitter::parse_background(&mut ctx, child)?);
                 has_background = true;
             }
-            t if SKIPPED_TAGS.contains(&t) => {
-                ctx.warn(
-                    child.pos,
-                    format!("{} is not supported; ignored", describe(child)),
-                );
-            }
+            t if SKIPPED_TAGS.contains(&t) => ctx.warn_media(child, None),
             t @ ("film" | "sampler" | "rfilter") => {
                 return Err(ctx.err(child.pos, format!("<{t}> must be inside a <sensor>")));
             }
@@ -167,13 +179,14 @@ pub(crate) fn parse_scene(
     let (camera, film, sampler) = camera_parts.unwrap_or_else(|| {
         (
             sensor::default_camera(dialect),
-            sensor::default_film(),
+            sensor::default_film(dialect),
             sensor::default_sampler(),
         )
     });
     Ok(Scene {
         path: path.to_path_buf(),
         dialect,
+        dialect_reason,
         camera,
         film,
         sampler,

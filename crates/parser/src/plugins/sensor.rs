@@ -1,35 +1,89 @@
-//! The camera side: sensor `perspective`, film `hdrfilm`/`ldrfilm`, rfilters, samplers, and
-//! integrators `path`/`direct`.
+//! The camera side: sensors `perspective`, `thinlens`, `orthographic`; film `hdrfilm`
+//! (`ldrfilm` alike); rfilters; samplers; integrators.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::props::Props;
-use crate::scene::{Camera, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler};
+use crate::scene::{
+    Camera, CameraKind, CropWindow, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler,
+};
 use crate::xml::Element;
-use glam::Mat4;
+use glam::{Mat4, Vec2};
+
+/// Sensor types read (see [`parse_sensor`]).
+pub(crate) const SENSORS: &[&str] = &["perspective", "thinlens", "orthographic"];
+/// Film types read.
+pub(crate) const FILMS: &[&str] = &["hdrfilm", "ldrfilm"];
+/// Reconstruction filter types read.
+pub(crate) const RFILTERS: &[&str] = &[
+    "box",
+    "tent",
+    "gaussian",
+    "mitchell",
+    "catmullrom",
+    "lanczos",
+];
+/// Sampler types read (all drawn with torrey's own sampler).
+pub(crate) const SAMPLERS: &[&str] = &[
+    "independent",
+    "stratified",
+    "multijitter",
+    "orthogonal",
+    "ldsampler",
+];
+/// Integrator types read: `path`, `direct`, the wrappers `moment` and `aov` (read through), and
+/// those rendered by the path tracer with a warning.
+pub(crate) const INTEGRATORS: &[&str] = &[
+    "path",
+    "direct",
+    "moment",
+    "aov",
+    "ptracer",
+    "volpath",
+    "volpathmis",
+    "prb",
+    "prb_basic",
+];
+
+/// Diagonal of 35 mm film (36 x 24 mm), along which Mitsuba measures `focal_length`.
+const FILM_DIAGONAL_MM: f32 = 43.266_617;
+
+/// Mitsuba's field of view for a focal length in mm (35 mm film equivalent), along the
+/// diagonal: 2 atan(diagonal / (2 f)); 50 mm gives 46.79 degrees.
+pub(crate) fn focal_length_fov(mm: f32) -> f32 {
+    2.0 * (FILM_DIAGONAL_MM / (2.0 * mm)).atan().to_degrees()
+}
 
 /// The camera used when a scene has no sensor (and the fov when a sensor gives none):
-/// torrey's 45 degrees, or Mitsuba 3's 50mm lens (39.6 degrees along x).
+/// torrey's 45 degrees along x, or Mitsuba's 50 mm lens (46.79 degrees along the diagonal).
 pub(crate) fn default_camera(dialect: Dialect) -> Camera {
+    let (fov_degrees, fov_axis) = match dialect {
+        Dialect::Torrey => (45.0, FovAxis::X),
+        Dialect::Mitsuba3 => (focal_length_fov(50.0), FovAxis::Diagonal),
+    };
     Camera {
+        kind: CameraKind::Perspective,
         to_world: Mat4::IDENTITY,
-        fov_degrees: match dialect {
-            Dialect::Torrey => 45.0,
-            Dialect::Mitsuba3 => focal_length_fov(50.0),
-        },
-        fov_axis: FovAxis::X,
+        fov_degrees,
+        fov_axis,
         near_clip: 1e-2,
         far_clip: 1e4,
+        principal_point_offset: Vec2::ZERO,
     }
 }
 
-/// Mitsuba's film defaults: 768 x 576, box filter (torrey's, not Mitsuba 3's gaussian).
-pub(crate) fn default_film() -> Film {
+/// The film defaults: 768 x 576; Mitsuba's gaussian filter (stddev 0.5) in Mitsuba-dialect
+/// scenes, a box in the torrey dialect (the course's renderer).
+pub(crate) fn default_film(dialect: Dialect) -> Film {
     Film {
         width: 768,
         height: 576,
         filename: None,
-        filter: PixelFilter::Box,
+        filter: match dialect {
+            Dialect::Torrey => PixelFilter::Box,
+            Dialect::Mitsuba3 => PixelFilter::Gaussian { stddev: 0.5 },
+        },
+        crop: None,
     }
 }
 
@@ -37,6 +91,7 @@ pub(crate) fn default_sampler() -> Sampler {
     Sampler {
         sample_count: 4,
         seed: 0,
+        kind: "independent".into(),
     }
 }
 
@@ -45,12 +100,10 @@ pub(crate) fn default_integrator() -> Integrator {
         max_depth: -1,
         rr_depth: 5,
         kind: "path".into(),
+        hide_emitters: false,
+        emitter_samples: 1,
+        bsdf_samples: 1,
     }
-}
-
-/// Horizontal fov of a 35mm-film lens of focal length `mm`.
-fn focal_length_fov(mm: f32) -> f32 {
-    2.0 * (18.0 / mm).atan().to_degrees()
 }
 
 fn positive(ctx: &Ctx, props: &mut Props, name: &str, default: i64) -> Result<u32> {
@@ -67,24 +120,103 @@ fn positive(ctx: &Ctx, props: &mut Props, name: &str, default: i64) -> Result<u3
     }
 }
 
+fn non_negative(ctx: &Ctx, props: &mut Props, name: &str) -> Result<Option<u32>> {
+    match props.opt_int_pos(ctx, &[name])? {
+        None => Ok(None),
+        Some((v, pos)) if v < 0 || v > u32::MAX as i64 => Err(ctx.err(
+            pos,
+            format!(
+                "parameter '{name}' of {} must not be negative, found {v}",
+                props.owner
+            ),
+        )),
+        Some((v, _)) => Ok(Some(v as u32)),
+    }
+}
+
+/// Reconstruction filters, with Mitsuba's parameters and radii:
+///
+/// | type | name | type | default | radius |
+/// | --- | --- | --- | --- | --- |
+/// | `box` | | | | 0.5 |
+/// | `tent` | `radius` | float | 1 | radius |
+/// | `gaussian` | `stddev` | float | 0.5 | 4 stddev |
+/// | `mitchell` | `B`, `C` | float | 1/3, 1/3 | 2 |
+/// | `catmullrom` | | | | 2 |
+/// | `lanczos` | `lobes` | integer | 3 | lobes |
+fn parse_rfilter(ctx: &mut Ctx, f: &Element) -> Result<PixelFilter> {
+    let fty = plugin_type(ctx, f)?;
+    if !RFILTERS.contains(&fty) {
+        return Err(unknown_type(ctx, f, "rfilter", RFILTERS));
+    }
+    let mut fp = Props::new(ctx, f, format!("rfilter '{fty}'"))?;
+    let filter = match fty {
+        "box" => PixelFilter::Box,
+        "gaussian" => PixelFilter::Gaussian {
+            stddev: fp.float(ctx, &["stddev"], 0.5)?,
+        },
+        "tent" => PixelFilter::Tent {
+            radius: fp.float(ctx, &["radius"], 1.0)?,
+        },
+        "mitchell" => PixelFilter::Mitchell {
+            b: fp.float(ctx, &["B", "b"], 1.0 / 3.0)?,
+            c: fp.float(ctx, &["C", "c"], 1.0 / 3.0)?,
+        },
+        "catmullrom" => PixelFilter::CatmullRom,
+        _ => PixelFilter::Lanczos {
+            lobes: positive(ctx, &mut fp, "lobes", 3)?,
+        },
+    };
+    fp.finish(ctx);
+    Ok(filter)
+}
+
 /// Film `hdrfilm` (`ldrfilm` accepted alike):
 ///
 /// | name | type | default |
 /// | --- | --- | --- |
 /// | `width`, `height` | integer | 768, 576 |
 /// | `filename` | string | none |
-/// | nested `<rfilter>` | `box`, `gaussian` (`stddev` 0.5), `tent` (`radius` 1) | box |
-/// | `pixel_format`, `component_format`, `file_format`, `banner`, `high_quality_edges`, `attach_log`, `sample_border` | any | accepted, no effect |
+/// | `crop_offset_x`, `crop_offset_y`, `crop_width`, `crop_height` | integer | 0, 0, width, height |
+/// | nested `<rfilter>` | see [`parse_rfilter`] | Mitsuba dialect: gaussian (stddev 0.5); torrey: box |
+/// | `pixel_format`, `component_format`, `file_format`, `banner`, `high_quality_edges`, `attach_log`, `sample_border`, `compensate`, `tonemap_method`, `gamma`, `exposure`, `key`, `burn` | any | accepted, no effect |
 fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     let ty = plugin_type(ctx, elem)?;
-    if ty != "hdrfilm" && ty != "ldrfilm" {
-        return Err(unknown_type(ctx, elem, "film", &["hdrfilm", "ldrfilm"]));
+    if !FILMS.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "film", FILMS));
     }
     let mut props = Props::new(ctx, elem, format!("film '{ty}'"))?;
-    let mut film = default_film();
+    let mut film = default_film(ctx.dialect);
     film.width = positive(ctx, &mut props, "width", 768)?;
     film.height = positive(ctx, &mut props, "height", 576)?;
     film.filename = props.string(ctx, &["filename"])?.map(|a| a.value.clone());
+    let cx = non_negative(ctx, &mut props, "crop_offset_x")?;
+    let cy = non_negative(ctx, &mut props, "crop_offset_y")?;
+    let cw = non_negative(ctx, &mut props, "crop_width")?;
+    let ch = non_negative(ctx, &mut props, "crop_height")?;
+    if cx.is_some() || cy.is_some() || cw.is_some() || ch.is_some() {
+        let (x, y) = (cx.unwrap_or(0), cy.unwrap_or(0));
+        let crop = CropWindow {
+            offset_x: x,
+            offset_y: y,
+            width: cw.unwrap_or(film.width.saturating_sub(x)),
+            height: ch.unwrap_or(film.height.saturating_sub(y)),
+        };
+        if crop.width == 0
+            || crop.height == 0
+            || x as u64 + crop.width as u64 > film.width as u64
+            || y as u64 + crop.height as u64 > film.height as u64
+        {
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "the crop window ({x}, {y}) + {} x {} does not fit the {} x {} film",
+                    crop.width, crop.height, film.width, film.height
+                ),
+            ));
+        }
+        film.crop = Some(crop);
+    }
     props.ignore(&[
         "pixel_format",
         "component_format",
@@ -93,48 +225,66 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
         "high_quality_edges",
         "attach_log",
         "sample_border",
+        "compensate",
+        "tonemap_method",
+        "gamma",
+        "exposure",
+        "key",
+        "burn",
     ]);
     let filters = props.take_tag("rfilter");
     if let Some(f) = filters.first() {
-        let fty = plugin_type(ctx, f)?;
-        let mut fp = Props::new(ctx, f, format!("rfilter '{fty}'"))?;
-        film.filter = match fty {
-            "box" => PixelFilter::Box,
-            "gaussian" => PixelFilter::Gaussian {
-                stddev: fp.float(ctx, &["stddev"], 0.5)?,
-            },
-            "tent" => PixelFilter::Tent {
-                radius: fp.float(ctx, &["radius"], 1.0)?,
-            },
-            _ => {
-                return Err(unknown_type(
-                    ctx,
-                    f,
-                    "rfilter",
-                    &["box", "gaussian", "tent"],
-                ))
-            }
-        };
-        fp.finish(ctx);
+        film.filter = parse_rfilter(ctx, f)?;
     }
     props.finish(ctx);
     Ok(film)
 }
 
-/// Sampler: any type is read as `independent` (others get a warning).
+fn next_prime(mut n: u32) -> u32 {
+    let is_prime = |n: u32| {
+        n >= 2
+            && (2..)
+                .take_while(|d| d * d <= n)
+                .all(|d| !n.is_multiple_of(d))
+    };
+    while !is_prime(n) {
+        n += 1;
+    }
+    n
+}
+
+/// Samplers: every type is drawn with torrey's own sampler (one warning for types other than
+/// `independent`: the same expected image, other noise); the sample count is rounded as
+/// Mitsuba's sampler rounds it.
 ///
-/// | name | type | default |
-/// | --- | --- | --- |
-/// | `sample_count` (`sampleCount`) | integer | 4 |
-/// | `seed` | integer | 0 |
+/// | type | name | type | default |
+/// | --- | --- | --- | --- |
+/// | all | `sample_count` (`sampleCount`) | integer | 4 |
+/// | all | `seed` | integer | 0 |
+/// | `stratified`, `multijitter` | `jitter` | boolean | accepted; count rounded up to a square |
+/// | `orthogonal` | `strength`, `jitter` | integer, boolean | accepted; count rounded up to a prime's square |
+/// | `ldsampler` | | | count rounded up to a power of two |
 fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
     let ty = plugin_type(ctx, elem)?;
+    if !SAMPLERS.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "sampler", SAMPLERS));
+    }
     if ty != "independent" {
         let pos = elem.attr("type").map_or(elem.pos, |a| a.value_pos);
-        ctx.warn(pos, format!("sampler '{ty}' is treated as 'independent'"));
+        ctx.warn(
+            pos,
+            format!("sampler '{ty}' is drawn with torrey's own sampler (same expected image, other noise)"),
+        );
     }
     let mut props = Props::new(ctx, elem, format!("sampler '{ty}'"))?;
-    let sample_count = positive(ctx, &mut props, "sample_count", 4)?;
+    let mut sample_count = positive(ctx, &mut props, "sample_count", 4)?;
+    let root = |n: u32| (n as f64).sqrt().ceil() as u32;
+    sample_count = match ty {
+        "stratified" | "multijitter" => root(sample_count).pow(2),
+        "orthogonal" => next_prime(root(sample_count)).pow(2),
+        "ldsampler" => sample_count.next_power_of_two(),
+        _ => sample_count,
+    };
     let seed = match props.opt_int_pos(ctx, &["seed"])? {
         None => 0,
         Some((s, pos)) if s < 0 => {
@@ -142,117 +292,222 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
         }
         Some((s, _)) => s as u64,
     };
+    props.ignore(&["jitter", "strength", "dimension"]);
     props.finish(ctx);
-    Ok(Sampler { sample_count, seed })
+    Ok(Sampler {
+        sample_count,
+        seed,
+        kind: ty.to_string(),
+    })
 }
 
-/// Sensor `perspective`.
+/// Sensors `perspective`, `thinlens` and `orthographic` (the renderer draws all as a pinhole
+/// for now).
 ///
-/// | name | type | default |
-/// | --- | --- | --- |
-/// | `fov` | float | 45 (torrey) / 39.6 = 50mm (Mitsuba 3) |
-/// | `focal_length` | string like `50mm` | used when `fov` is absent; sets fov along x |
-/// | `fov_axis` (`fovAxis`) | string: x, y, diagonal, smaller, larger | x |
-/// | `to_world` (`toWorld`) | transform | identity |
-/// | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000 |
-/// | `focus_distance` (`focusDistance`) | float | accepted, ignored (pinhole) |
-/// | nested `<film>`, `<sampler>` | | see film and sampler |
+/// | types | name | type | default |
+/// | --- | --- | --- | --- |
+/// | perspective, thinlens | `fov` | float | Mitsuba: from `focal_length`; torrey: 45 |
+/// | perspective, thinlens | `focal_length` (`focalLength`) | string like `50mm` | `50mm` (Mitsuba dialect); fov along the diagonal of 36 x 24 mm film: 2 atan(43.27 / (2 f)) |
+/// | perspective, thinlens | `fov_axis` (`fovAxis`) | string: x, y, diagonal, smaller, larger | x (with `fov`) |
+/// | perspective, thinlens | `principal_point_offset_x`, `_y` | float | 0 |
+/// | thinlens | `aperture_radius` (`apertureRadius`) | float | required |
+/// | thinlens | `focus_distance` (`focusDistance`) | float | required (perspective: accepted, ignored) |
+/// | all | `to_world` (`toWorld`) | transform | identity |
+/// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000 |
+/// | all | nested `<film>`, `<sampler>` | | see film and sampler |
 pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Film, Sampler)> {
     let ty = plugin_type(ctx, elem)?;
-    if ty != "perspective" {
-        return Err(unknown_type(ctx, elem, "sensor", &["perspective"]));
+    if !SENSORS.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "sensor", SENSORS));
     }
     let mut props = Props::new(ctx, elem, format!("sensor '{ty}'"))?;
     ctx.register_id(elem, IdTarget::Other)?;
     let mut camera = default_camera(ctx.dialect);
-    let fov = props.opt_float_pos(ctx, &["fov"])?;
-    let focal = props.string(ctx, &["focal_length"])?;
-    match (fov, focal) {
-        (Some((f, pos)), _) => {
-            if !(f > 0.0 && f < 180.0) {
-                return Err(ctx.err(
-                    pos,
-                    format!("fov must be between 0 and 180 degrees, found {f}"),
-                ));
+    if ty != "orthographic" {
+        let fov = props.opt_float_pos(ctx, &["fov"])?;
+        let focal = props.string(ctx, &["focal_length"])?;
+        let axis = props.string(ctx, &["fov_axis"])?;
+        match (fov, focal) {
+            (Some((f, pos)), _) => {
+                if !(f > 0.0 && f < 180.0) {
+                    return Err(ctx.err(
+                        pos,
+                        format!("fov must be between 0 and 180 degrees, found {f}"),
+                    ));
+                }
+                camera.fov_degrees = f;
+                camera.fov_axis = FovAxis::X;
             }
-            camera.fov_degrees = f;
+            (None, Some(a)) => {
+                let mm = a
+                    .value
+                    .trim()
+                    .strip_suffix("mm")
+                    .and_then(|s| s.trim().parse::<f32>().ok())
+                    .filter(|&v| v > 0.0 && v.is_finite())
+                    .ok_or_else(|| {
+                        ctx.err(
+                            a.value_pos,
+                            format!(
+                                "cannot parse focal_length '{}' (expected e.g. 50mm)",
+                                a.value
+                            ),
+                        )
+                    })?;
+                camera.fov_degrees = focal_length_fov(mm);
+                camera.fov_axis = FovAxis::Diagonal;
+            }
+            (None, None) => {}
         }
-        (None, Some(a)) => {
-            let mm = a
-                .value
-                .trim()
-                .strip_suffix("mm")
-                .and_then(|s| s.trim().parse::<f32>().ok())
-                .filter(|&v| v > 0.0)
-                .ok_or_else(|| {
-                    ctx.err(
-                        a.value_pos,
-                        format!(
-                            "cannot parse focal_length '{}' (expected e.g. 50mm)",
-                            a.value
-                        ),
-                    )
-                })?;
-            camera.fov_degrees = focal_length_fov(mm);
-        }
-        (None, None) => {}
-    }
-    if let Some(a) = props.string(ctx, &["fov_axis"])? {
-        camera.fov_axis = match a.value.to_ascii_lowercase().as_str() {
-            "x" => FovAxis::X,
-            "y" => FovAxis::Y,
-            "diagonal" => FovAxis::Diagonal,
-            "smaller" => FovAxis::Smaller,
-            "larger" => FovAxis::Larger,
-            v => {
-                return Err(ctx.err(
+        if let Some(a) = axis {
+            if fov.is_none() && ctx.dialect == Dialect::Mitsuba3 {
+                ctx.warn(
                     a.value_pos,
-                    format!("unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"),
-                ))
+                    "fov_axis without fov is ignored: Mitsuba measures focal_length along the diagonal",
+                );
+            } else {
+                camera.fov_axis = match a.value.to_ascii_lowercase().as_str() {
+                    "x" => FovAxis::X,
+                    "y" => FovAxis::Y,
+                    "diagonal" => FovAxis::Diagonal,
+                    "smaller" => FovAxis::Smaller,
+                    "larger" => FovAxis::Larger,
+                    v => {
+                        return Err(ctx.err(
+                            a.value_pos,
+                            format!(
+                            "unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"
+                        ),
+                        ))
+                    }
+                };
             }
-        };
+        }
+        camera.principal_point_offset = Vec2::new(
+            props.float(ctx, &["principal_point_offset_x"], 0.0)?,
+            props.float(ctx, &["principal_point_offset_y"], 0.0)?,
+        );
     }
+    camera.kind = match ty {
+        "thinlens" => {
+            let mut required = |name: &str| -> Result<f32> {
+                match props.opt_float_pos(ctx, &[name])? {
+                    Some((v, pos)) if !(v >= 0.0 && v.is_finite()) => Err(ctx.err(
+                        pos,
+                        format!("{name} must be a finite non-negative number, found {v}"),
+                    )),
+                    Some((v, _)) => Ok(v),
+                    None => Err(ctx.err(
+                        elem.pos,
+                        format!("missing required parameter '{name}' of sensor 'thinlens'"),
+                    )),
+                }
+            };
+            CameraKind::ThinLens {
+                aperture_radius: required("aperture_radius")?,
+                focus_distance: required("focus_distance")?,
+            }
+        }
+        "orthographic" => CameraKind::Orthographic,
+        _ => {
+            props.ignore(&["focus_distance"]);
+            CameraKind::Perspective
+        }
+    };
     if let Some(m) = props.transform(ctx, &["to_world"], false)? {
         camera.to_world = m;
     }
     camera.near_clip = props.float(ctx, &["near_clip"], camera.near_clip)?;
     camera.far_clip = props.float(ctx, &["far_clip"], camera.far_clip)?;
-    props.ignore(&["focus_distance"]);
+    if !(camera.near_clip > 0.0 && camera.near_clip < camera.far_clip) {
+        return Err(ctx.err(
+            elem.pos,
+            format!(
+                "near_clip ({}) must be positive and less than far_clip ({})",
+                camera.near_clip, camera.far_clip
+            ),
+        ));
+    }
     let film = match props.take_tag("film").first() {
         Some(f) => parse_film(ctx, f)?,
-        None => default_film(),
+        None => default_film(ctx.dialect),
     };
     let sampler = match props.take_tag("sampler").first() {
         Some(s) => parse_sampler(ctx, s)?,
         None => default_sampler(),
     };
+    props.ignore(&["srf", "shutter_open", "shutter_close", "shutter_open_time"]);
     props.finish(ctx);
     Ok((camera, film, sampler))
 }
 
-/// Integrators: `path` and `direct` (= path with max_depth 2); `volpath` is read as `path`
-/// with a warning.
+/// Integrators: `path` and `direct`; the wrappers `moment` and `aov` are read through to the
+/// integrator inside; `ptracer`, `volpath`, `volpathmis`, `prb` and `prb_basic` are rendered by
+/// the path tracer (one warning; the same expected image without media).
 ///
-/// | name | type | default |
-/// | --- | --- | --- |
-/// | `max_depth` (`maxDepth`) | integer | -1 (unbounded; 2 for `direct`) |
-/// | `rr_depth` (`rrDepth`) | integer | 5 |
+/// | types | name | type | default |
+/// | --- | --- | --- | --- |
+/// | path and the read-as-path ones | `max_depth` (`maxDepth`) | integer | -1 (unbounded) |
+/// | same | `rr_depth` (`rrDepth`) | integer | 5 |
+/// | path, direct, ptracer, volpath | `hide_emitters` (`hideEmitters`) | boolean | false |
+/// | direct | `shading_samples`, `emitter_samples`, `bsdf_samples` | integer | 1, shading_samples, shading_samples (max_depth is 2) |
+/// | moment | nested `<integrator>`s | | the first is read |
+/// | aov | `aovs` + nested `<integrator>` | string | the integrator is read; AOVs are not written (warning) |
 pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrator> {
     let ty = plugin_type(ctx, elem)?;
-    if !["path", "direct", "volpath"].contains(&ty) {
-        return Err(unknown_type(ctx, elem, "integrator", &["path", "direct"]));
-    }
-    if ty == "volpath" {
-        ctx.warn(
-            elem.pos,
-            "integrator 'volpath' is read as 'path' (media are not rendered)",
-        );
+    if !INTEGRATORS.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "integrator", INTEGRATORS));
     }
     let mut props = Props::new(ctx, elem, format!("integrator '{ty}'"))?;
-    let max_depth = if ty == "direct" {
-        2
+    if ty == "moment" || ty == "aov" {
+        if ty == "aov" {
+            ctx.warn(
+                elem.pos,
+                "integrator 'aov': its AOV images are not written; the integrator inside it renders the image",
+            );
+            props.ignore(&["aovs"]);
+        }
+        let inner = props.take_tag("integrator");
+        let result = match inner.first() {
+            Some(i) => parse_integrator(ctx, i)?,
+            None if ty == "aov" => default_integrator(),
+            None => {
+                return Err(ctx.err(elem.pos, "integrator 'moment' needs a nested <integrator>"))
+            }
+        };
+        for extra in inner.iter().skip(1) {
+            ctx.warn(
+                extra.pos,
+                format!("integrator '{ty}': only the first nested integrator is read"),
+            );
+        }
+        props.finish(ctx);
+        return Ok(result);
+    }
+    if !["path", "direct"].contains(&ty) {
+        ctx.warn(
+            elem.pos,
+            format!(
+                "integrator '{ty}' is rendered by the path tracer (the same image without media)"
+            ),
+        );
+    }
+    let mut integrator = default_integrator();
+    integrator.kind = ty.to_string();
+    if ty == "direct" {
+        integrator.max_depth = 2;
+        let shading = positive(ctx, &mut props, "shading_samples", 1)?;
+        integrator.emitter_samples =
+            non_negative(ctx, &mut props, "emitter_samples")?.unwrap_or(shading);
+        integrator.bsdf_samples = non_negative(ctx, &mut props, "bsdf_samples")?.unwrap_or(shading);
+        if integrator.emitter_samples + integrator.bsdf_samples == 0 {
+            return Err(ctx.err(
+                elem.pos,
+                "integrator 'direct' needs emitter_samples or bsdf_samples above 0",
+            ));
+        }
     } else {
-        match props.opt_int_pos(ctx, &["max_depth"])? {
+        integrator.max_depth = match props.opt_int_pos(ctx, &["max_depth"])? {
             None => -1,
             Some((d, pos)) if d < -1 || d > i32::MAX as i64 => {
                 return Err(ctx.err(
@@ -261,19 +516,17 @@ pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrat
                 ))
             }
             Some((d, _)) => d as i32,
-        }
-    };
-    let rr_depth = match props.opt_int_pos(ctx, &["rr_depth"])? {
-        None => 5,
-        Some((d, pos)) if d <= 0 || d > i32::MAX as i64 => {
-            return Err(ctx.err(pos, format!("rr_depth must be positive, found {d}")))
-        }
-        Some((d, _)) => d as i32,
-    };
+        };
+        integrator.rr_depth = match props.opt_int_pos(ctx, &["rr_depth"])? {
+            None => 5,
+            Some((d, pos)) if d <= 0 || d > i32::MAX as i64 => {
+                return Err(ctx.err(pos, format!("rr_depth must be positive, found {d}")))
+            }
+            Some((d, _)) => d as i32,
+        };
+        props.ignore(&["samples_per_pass", "timeout"]);
+    }
+    integrator.hide_emitters = props.boolean(ctx, &["hide_emitters"], false)?;
     props.finish(ctx);
-    Ok(Integrator {
-        max_depth,
-        rr_depth,
-        kind: ty.to_string(),
-    })
+    Ok(integrator)
 }

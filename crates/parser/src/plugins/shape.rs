@@ -5,11 +5,168 @@ use crate::error::Result;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
-use crate::scene::{BsdfId, Geometry, Shape, TriangleMesh};
-use crate::xml::{location, Element};
+use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TriangleMesh};
+use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
-const KNOWN: &[&str] = &["obj", "ply", "serialized", "sphere", "rectangle"];
+/// The types this parser reads (see `torrey_parser::accepted_plugins`).
+pub(crate) const KNOWN: &[&str] = &[
+    "obj",
+    "ply",
+    "serialized",
+    "sphere",
+    "rectangle",
+    "cube",
+    "shapegroup",
+    "instance",
+];
+
+/// Mitsuba 3 shapes the renderer cannot draw yet: a clear error at their place.
+const NOT_YET: &[&str] = &["disk", "cylinder"];
+
+/// Mitsuba's `cube`: [-1, 1]^3 as 12 triangles, each face with its own 4 vertices, flat
+/// normals and uvs (0,1), (1,1), (1,0), (0,0) at its corners, in Mitsuba's vertex order
+/// (checked against Mitsuba 3.9.1's vertex_positions, vertex_normals, vertex_texcoords, faces).
+fn cube_mesh() -> TriangleMesh {
+    // (normal, the face's four corners in Mitsuba's order)
+    const FACES: [([f32; 3], [[f32; 3]; 4]); 6] = [
+        (
+            [0.0, -1.0, 0.0],
+            [
+                [1.0, -1.0, -1.0],
+                [1.0, -1.0, 1.0],
+                [-1.0, -1.0, 1.0],
+                [-1.0, -1.0, -1.0],
+            ],
+        ),
+        (
+            [0.0, 1.0, 0.0],
+            [
+                [1.0, 1.0, -1.0],
+                [-1.0, 1.0, -1.0],
+                [-1.0, 1.0, 1.0],
+                [1.0, 1.0, 1.0],
+            ],
+        ),
+        (
+            [1.0, 0.0, 0.0],
+            [
+                [1.0, -1.0, -1.0],
+                [1.0, 1.0, -1.0],
+                [1.0, 1.0, 1.0],
+                [1.0, -1.0, 1.0],
+            ],
+        ),
+        (
+            [0.0, 0.0, 1.0],
+            [
+                [1.0, -1.0, 1.0],
+                [1.0, 1.0, 1.0],
+                [-1.0, 1.0, 1.0],
+                [-1.0, -1.0, 1.0],
+            ],
+        ),
+        (
+            [-1.0, 0.0, 0.0],
+            [
+                [-1.0, -1.0, 1.0],
+                [-1.0, 1.0, 1.0],
+                [-1.0, 1.0, -1.0],
+                [-1.0, -1.0, -1.0],
+            ],
+        ),
+        (
+            [0.0, 0.0, -1.0],
+            [
+                [1.0, 1.0, -1.0],
+                [1.0, -1.0, -1.0],
+                [-1.0, -1.0, -1.0],
+                [-1.0, 1.0, -1.0],
+            ],
+        ),
+    ];
+    const UVS: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    let mut m = TriangleMesh::default();
+    for (f, (normal, corners)) in FACES.iter().enumerate() {
+        for (c, uv) in corners.iter().zip(UVS) {
+            m.positions.push(Vec3::from(*c));
+            m.normals.push(Vec3::from(*normal));
+            m.uvs.push(uv.into());
+        }
+        let b = 4 * f as u32;
+        m.indices.push([b, b + 1, b + 2]);
+        m.indices.push([b + 3, b, b + 2]);
+    }
+    m
+}
+
+/// `shapegroup` (top level, with an `id`): its nested shapes are kept for `instance`s and not
+/// drawn themselves. Returns nothing.
+fn parse_shapegroup(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
+    if elem.attr("id").is_none() {
+        return Err(ctx.err(elem.pos, "a shapegroup needs an 'id' to be instanced"));
+    }
+    let mut props = Props::new(ctx, elem, "shape 'shapegroup'".into())?;
+    let mut shapes = Vec::new();
+    for child in props.take_tag("shape") {
+        let ty = child.attr_value("type").unwrap_or("");
+        if ty == "shapegroup" || ty == "instance" {
+            return Err(ctx.err(
+                child.pos,
+                format!("a shapegroup cannot contain a '{ty}' (Mitsuba allows one level)"),
+            ));
+        }
+        for s in parse_shape(ctx, child)? {
+            if s.emitter.is_some() {
+                return Err(ctx.err(
+                    child.pos,
+                    "shapes in a shapegroup cannot be emitters (as in Mitsuba)",
+                ));
+            }
+            shapes.push(s);
+        }
+    }
+    props.finish(ctx);
+    ctx.shape_groups.push(shapes);
+    let index = ctx.shape_groups.len() - 1;
+    ctx.register_id(elem, IdTarget::ShapeGroup(index))?;
+    Ok(Vec::new())
+}
+
+/// `instance`: a `<ref>` to a shapegroup placed by `to_world`. torrey copies the group's shapes
+/// (the renderer's two-level BVH, which would share them, comes later).
+fn parse_instance(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
+    let mut props = Props::new(ctx, elem, "shape 'instance'".into())?;
+    ctx.register_id(elem, IdTarget::Other)?;
+    let to_world = props
+        .transform(ctx, &["to_world"], false)?
+        .unwrap_or(Mat4::IDENTITY);
+    let refs = props.take_tag("ref");
+    let Some(r) = refs.first() else {
+        return Err(ctx.err(
+            elem.pos,
+            "shape 'instance' needs a <ref id=\"...\"/> to a shapegroup",
+        ));
+    };
+    let IdTarget::ShapeGroup(g) = ctx.lookup(r)? else {
+        return Err(ctx.err(
+            r.pos,
+            format!(
+                "<ref id=\"{}\"> in an instance must name a shapegroup",
+                r.attr_value("id").unwrap_or("")
+            ),
+        ));
+    };
+    props.finish(ctx);
+    Ok(ctx.shape_groups[g]
+        .iter()
+        .map(|s| Shape {
+            to_world: to_world * s.to_world,
+            location: ctx.location(elem.pos),
+            ..s.clone()
+        })
+        .collect())
+}
 
 /// Reads a mesh file named by the `filename` parameter; errors name the file and point at it.
 fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<TriangleMesh> {
@@ -19,7 +176,7 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let path = ctx.resolve(&file.value);
+    let path = ctx.resolve(&file.value, file.value_pos);
     if !path.is_file() {
         return Err(ctx.err(
             file.value_pos,
@@ -90,10 +247,25 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
 /// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
 /// | sphere | `center` | point | 0 |
 /// | sphere | `radius` | float | 1 (negative is an error) |
-pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
+pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     let ty = plugin_type(ctx, elem)?;
+    if NOT_YET.contains(&ty) {
+        let pos = elem.attr("type").map_or(elem.pos, |a| a.value_pos);
+        return Err(ctx.err(
+            pos,
+            format!(
+                "shape '{ty}' is not supported yet (supported: {})",
+                KNOWN.join(", ")
+            ),
+        ));
+    }
     if !KNOWN.contains(&ty) {
         return Err(unknown_type(ctx, elem, "shape", KNOWN));
+    }
+    match ty {
+        "shapegroup" => return parse_shapegroup(ctx, elem),
+        "instance" => return parse_instance(ctx, elem),
+        _ => {}
     }
     let mut props = Props::new(ctx, elem, format!("shape '{ty}'"))?;
     ctx.register_id(elem, IdTarget::Other)?;
@@ -117,6 +289,7 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
             Geometry::Sphere { center, radius }
         }
         "rectangle" => Geometry::Rectangle,
+        "cube" => Geometry::Mesh(cube_mesh()),
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };
 
@@ -172,18 +345,42 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
                 ));
             }
             let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
+            if let Some(t) = e.children.iter().find(|c| {
+                c.attr_value("name") == Some("radiance") && (c.tag == "texture" || c.tag == "ref")
+            }) {
+                return Err(ctx.err(
+                    t.pos,
+                    "a textured area emitter radiance is not supported yet (give a colour)",
+                ));
+            }
             let radiance = ep.color(ctx, &["radiance"], Vec3::ONE)?;
             ep.finish(ctx);
             Some(radiance)
         }
     };
+    // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
+    // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
+    let bsdf = match bsdf {
+        None if emitter.is_some() && ctx.dialect == Dialect::Mitsuba3 => {
+            ctx.bsdfs.push(Bsdf {
+                id: None,
+                kind: BsdfKind::Diffuse {
+                    reflectance: ColorParam::Constant(Vec3::ZERO),
+                },
+                two_sided: false,
+                normal_map: None,
+            });
+            Some(ctx.bsdfs.len() - 1)
+        }
+        b => b,
+    };
     props.finish(ctx);
-    Ok(Shape {
+    Ok(vec![Shape {
         geometry,
         to_world,
         bsdf,
         emitter,
         flip_normals,
-        location: location(&ctx.file, elem.pos),
-    })
+        location: ctx.location(elem.pos),
+    }])
 }

@@ -44,7 +44,7 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let filename = ctx.resolve(&file.value);
+    let filename = ctx.resolve(&file.value, file.value_pos);
     if !filename.is_file() {
         return Err(ctx.err(
             file.value_pos,
@@ -104,7 +104,7 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
         raw,
         filter,
         wrap,
-        location: crate::xml::location(&ctx.file, file.value_pos),
+        location: ctx.location(file.value_pos),
     })
 }
 
@@ -121,6 +121,9 @@ pub(crate) fn bitmap_element(ctx: &mut Ctx, elem: &Element) -> Result<Bitmap> {
     Ok(b)
 }
 
+/// The texture types this parser reads.
+pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard"];
+
 /// Parses a `<texture>` (top level or inline), adds it to the scene and registers its id.
 ///
 /// `bitmap`: see [`parse_bitmap`]. `checkerboard`:
@@ -132,13 +135,8 @@ pub(crate) fn bitmap_element(ctx: &mut Ctx, elem: &Element) -> Result<Bitmap> {
 /// | `to_uv`, `uscale`, `vscale`, `uoffset`, `voffset`, `uvscale` | as bitmap | identity |
 pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> {
     let ty = plugin_type(ctx, elem)?;
-    if ty != "bitmap" && ty != "checkerboard" {
-        return Err(unknown_type(
-            ctx,
-            elem,
-            "texture",
-            &["bitmap", "checkerboard"],
-        ));
+    if !KNOWN.contains(&ty) {
+        return Err(unknown_type(ctx, elem, "texture", KNOWN));
     }
     let mut props = Props::new(ctx, elem, format!("texture '{ty}'"))?;
     let kind = if ty == "bitmap" {

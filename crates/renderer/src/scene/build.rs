@@ -4,7 +4,7 @@
 use super::{Material, RenderScene};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
-use crate::cameras::{Camera, PerspectiveCamera};
+use crate::cameras::{Camera, PerspectiveCamera, ThinLensCamera};
 use crate::lights::{AreaEmitter, AreaLight, ConstantLight, EnvLight, Light, PointLight};
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
@@ -203,13 +203,21 @@ fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, Bui
             c.fov_degrees
         )));
     }
-    Ok(Camera::Perspective(PerspectiveCamera::new(
-        c.to_world,
-        c.fov_degrees,
-        c.fov_axis,
-        width,
-        height,
-    )))
+    let pinhole = PerspectiveCamera::new(c.to_world, c.fov_degrees, c.fov_axis, width, height);
+    Ok(match c.kind {
+        desc::CameraKind::ThinLens {
+            aperture_radius,
+            focus_distance,
+        } => Camera::ThinLens(ThinLensCamera::new(
+            pinhole,
+            aperture_radius,
+            focus_distance,
+        )),
+        // Orthographic cameras are not rendered yet: the command line warns.
+        desc::CameraKind::Perspective | desc::CameraKind::Orthographic => {
+            Camera::Perspective(pinhole)
+        }
+    })
 }
 
 fn load_bitmap_image(

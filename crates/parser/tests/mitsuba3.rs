@@ -1,0 +1,491 @@
+//! Mitsuba 3 scene files as Mitsuba reads them: include/path/alias/default, dialect detection,
+//! Mitsuba's camera and film defaults, integrator wrappers, samplers. Expected numbers come from
+//! Mitsuba 3.9.1 where noted.
+
+mod common;
+
+use common::{assert_err, parse_in, parse_ok, pos_of, temp_dir};
+use glam::{Mat4, Vec3, Vec4};
+use torrey_parser::{
+    parse_scene_str_with, BsdfKind, CameraKind, ColorParam, Dialect, FovAxis, Light, LoadOptions,
+    PixelFilter,
+};
+
+fn write(dir: &std::path::Path, name: &str, text: &str) {
+    let p = dir.join(name);
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    std::fs::write(p, text).unwrap();
+}
+
+#[test]
+fn include_path_alias_and_defaults() {
+    let dir = temp_dir("include");
+    write(
+        &dir,
+        "parts/mats.xml",
+        r#"<scene version="3.0.0">
+  <bsdf type="diffuse" id="red"><rgb name="reflectance" value="$r, 0, 0"/></bsdf>
+  <default name="g" value="0.7"/>
+</scene>"#,
+    );
+    write(
+        &dir,
+        "parts/inner.xml",
+        r#"<scene version="3.0.0">
+  <bsdf type="diffuse"><rgb name="reflectance" value="0, $g, 0"/></bsdf>
+  <float name="radius" value="5"/>
+</scene>"#,
+    );
+    let xml = r#"<scene version="3.0.0">
+  <default name="r" value="0.9"/>
+  <path value="parts"/>
+  <include filename="mats.xml"/>
+  <alias id="red" as="crimson"/>
+  <shape type="sphere"><ref id="crimson"/></shape>
+  <shape type="sphere"><include filename="inner.xml"/></shape>
+  <default name="r" value="0.1"/>
+</scene>"#;
+    let s = parse_in(&dir, xml).unwrap_or_else(|e| panic!("{e}"));
+    let color = |i: usize| match &s.bsdfs[s.shapes[i].bsdf.unwrap()].kind {
+        BsdfKind::Diffuse {
+            reflectance: ColorParam::Constant(c),
+        } => *c,
+        k => panic!("{k:?}"),
+    };
+    // The first <default name="r"> wins; a default from an included file applies too.
+    assert_eq!(color(0), Vec3::new(0.9, 0.0, 0.0));
+    assert_eq!(color(1), Vec3::new(0.0, 0.7, 0.0));
+    // Inside an object, an included value tag is dropped with a warning (as Mitsuba).
+    assert!(matches!(
+        s.shapes[1].geometry,
+        torrey_parser::Geometry::Sphere { radius, .. } if radius == 1.0
+    ));
+    let w = s
+        .warnings
+        .iter()
+        .find(|w| w.message.contains("<float name=\"radius\">"))
+        .expect("warning about the dropped float");
+    assert!(w.location.file.ends_with("parts/inner.xml"), "{w}");
+    assert_eq!((w.location.line, w.location.column), (3, 3));
+    assert!(w.message.contains("included from"), "{w}");
+}
+
+#[test]
+fn errors_in_included_files_name_the_file_and_the_chain() {
+    let dir = temp_dir("include-errors");
+    write(
+        &dir,
+        "a.xml",
+        "<scene version=\"3.0.0\">\n  <include filename=\"b.xml\"/>\n</scene>",
+    );
+    write(
+        &dir,
+        "b.xml",
+        "<scene version=\"3.0.0\">\n\n  <shape type=\"cone\"/>\n</scene>",
+    );
+    let xml = "<scene version=\"3.0.0\">\n    <include filename=\"a.xml\"/>\n</scene>";
+    let e = parse_in(&dir, xml).unwrap_err();
+    assert!(e.location.file.ends_with("b.xml"), "{e}");
+    assert_err(&e, "unknown shape type 'cone'", (3, 16));
+    let main = dir.join("scene.xml");
+    assert!(
+        e.message.ends_with(&format!(
+            "(included from {}:2:3, included from {}:2:5)",
+            dir.join("a.xml").display(),
+            main.display()
+        )),
+        "{e}"
+    );
+
+    // Malformed XML inside an include, a missing include, a cycle, an unknown alias.
+    write(
+        &dir,
+        "bad.xml",
+        "<scene version=\"3.0.0\">\n  <shape>\n</scene>",
+    );
+    let e = parse_in(
+        &dir,
+        "<scene version=\"3.0.0\"><include filename=\"bad.xml\"/></scene>",
+    )
+    .unwrap_err();
+    assert!(
+        e.location.file.ends_with("bad.xml") && e.message.contains("included from"),
+        "{e}"
+    );
+    let xml = "<scene version=\"3.0.0\">\n  <include filename=\"nope.xml\"/></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "cannot read included file 'nope.xml'",
+        pos_of(xml, "nope.xml"),
+    );
+    write(
+        &dir,
+        "loop.xml",
+        "<scene version=\"3.0.0\"><include filename=\"loop.xml\"/></scene>",
+    );
+    let e = parse_in(
+        &dir,
+        "<scene version=\"3.0.0\"><include filename=\"loop.xml\"/></scene>",
+    )
+    .unwrap_err();
+    assert!(e.message.contains("include cycle"), "{e}");
+    let xml = "<scene version=\"3.0.0\">\n  <alias id=\"x\" as=\"y\"/></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "<alias> of undefined id 'x'",
+        pos_of(xml, "x\""),
+    );
+    let xml = "<scene version=\"3.0.0\">\n  <path value=\"missing\"/></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "<path> folder 'missing' does not exist",
+        pos_of(xml, "missing"),
+    );
+}
+
+#[test]
+fn dialect_detection_and_override() {
+    let plain06 = r#"<scene version="0.6.0"><shape type="sphere"/></scene>"#;
+    let s = parse_ok(plain06);
+    assert_eq!(s.dialect, Dialect::Mitsuba3, "{}", s.dialect_reason);
+    assert!(s.lights.is_empty(), "no grey sky in a Mitsuba 0.6 scene");
+    let course = r#"<scene version="0.6.0">
+  <shape type="sphere"><bsdf type="phong"/></shape>
+</scene>"#;
+    let s = parse_ok(course);
+    assert_eq!(s.dialect, Dialect::Torrey);
+    assert!(
+        s.dialect_reason.contains("bsdf 'phong'"),
+        "{}",
+        s.dialect_reason
+    );
+    assert_eq!(s.lights.len(), 1, "the course's 0.5 grey sky");
+    let s = parse_ok(r#"<scene version="0.5.0"><background/><shape type="sphere"/></scene>"#);
+    assert_eq!(s.dialect, Dialect::Torrey);
+    let s = parse_ok(
+        r#"<scene version="3.0.0"><shape type="sphere"><bsdf type="mirror"/></shape></scene>"#,
+    );
+    assert_eq!(s.dialect, Dialect::Mitsuba3);
+    let forced = parse_scene_str_with(
+        plain06,
+        std::path::Path::new("t.xml"),
+        &LoadOptions {
+            dialect: Some(Dialect::Torrey),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(forced.dialect, Dialect::Torrey);
+    assert!(forced.dialect_reason.starts_with("forced"));
+    assert_eq!(forced.lights.len(), 1);
+}
+
+#[test]
+fn mitsuba_camera_and_film_defaults() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0"><sensor type="perspective">
+  <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
+</sensor></scene>"#,
+    );
+    // 50 mm on 36 x 24 mm film, along the diagonal: Mitsuba's x_fov is 38.1848 at 64 x 48.
+    assert_eq!(s.camera.fov_axis, FovAxis::Diagonal);
+    assert!(
+        (s.camera.fov_degrees - 46.793).abs() < 1e-3,
+        "{}",
+        s.camera.fov_degrees
+    );
+    let t = (s.camera.fov_degrees.to_radians() / 2.0).tan() * 64.0 / 80.0;
+    assert!((2.0 * t.atan().to_degrees() - 38.18484).abs() < 1e-3);
+    assert_eq!(s.film.filter, PixelFilter::Gaussian { stddev: 0.5 });
+    // 35 mm: Mitsuba's x_fov 52.6225 at 64 x 48.
+    let s = parse_ok(
+        r#"<scene version="3.0.0"><sensor type="perspective"><string name="focal_length" value="35mm"/>
+  <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>
+  <rfilter type="lanczos"/></film></sensor></scene>"#,
+    );
+    let t = (s.camera.fov_degrees.to_radians() / 2.0).tan() * 64.0 / 80.0;
+    assert!((2.0 * t.atan().to_degrees() - 52.62254).abs() < 1e-3);
+    assert_eq!(s.film.filter, PixelFilter::Lanczos { lobes: 3 });
+    // The torrey dialect keeps the box filter and 45 degrees along x.
+    let s = parse_ok(r#"<scene version="0.6.0"><background/><sensor type="perspective"/></scene>"#);
+    assert_eq!(s.film.filter, PixelFilter::Box);
+    assert_eq!(
+        (s.camera.fov_degrees, s.camera.fov_axis),
+        (45.0, FovAxis::X)
+    );
+    // Thin lens, crop window.
+    let s = parse_ok(
+        r#"<scene version="3.0.0"><sensor type="thinlens">
+  <float name="aperture_radius" value="0.1"/><float name="focus_distance" value="4"/>
+  <film type="hdrfilm"><integer name="crop_offset_x" value="8"/><integer name="crop_width" value="16"/></film>
+</sensor></scene>"#,
+    );
+    assert_eq!(
+        s.camera.kind,
+        CameraKind::ThinLens {
+            aperture_radius: 0.1,
+            focus_distance: 4.0
+        }
+    );
+    let crop = s.film.crop.unwrap();
+    assert_eq!((crop.offset_x, crop.width, crop.height), (8, 16, 576));
+}
+
+/// `lookat` without `up`: the matrices Mitsuba 3.9.1 builds.
+#[test]
+fn lookat_without_up_matches_mitsuba() {
+    for (origin, target, mitsuba) in [
+        (
+            "1, 2, 3",
+            "0, 0, 0",
+            [
+                [-0.0792865, 0.960357, -0.267261, 1.0],
+                [0.841427, -0.0792865, -0.534522, 2.0],
+                [-0.534522, -0.267261, -0.801784, 3.0],
+            ],
+        ),
+        (
+            "0, 5, 0",
+            "0, 0, 0",
+            [
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, -1.0, 5.0],
+                [-1.0, 0.0, 0.0, 0.0],
+            ],
+        ),
+        (
+            "0, 0, 0",
+            "0, 0, -1",
+            [
+                [0.0, 1.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 0.0, -1.0, 0.0],
+            ],
+        ),
+    ] {
+        let s = parse_ok(&format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><transform name="to_world">
+  <lookat origin="{origin}" target="{target}"/></transform></sensor></scene>"#
+        ));
+        let m: Mat4 = s.camera.to_world;
+        for (r, row) in mitsuba.iter().enumerate() {
+            let got: Vec4 = m.row(r);
+            assert!(
+                (got - Vec4::from(*row)).abs().max_element() < 1e-5,
+                "{origin} -> {target}: row {r} {got} vs {row:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn integrators_and_samplers() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0">
+  <integrator type="moment"><integrator type="path"><integer name="max_depth" value="7"/>
+    <boolean name="hide_emitters" value="true"/></integrator></integrator>
+  <sensor type="perspective"><sampler type="stratified"><integer name="sample_count" value="10"/>
+    <integer name="seed" value="3"/></sampler></sensor>
+</scene>"#,
+    );
+    assert_eq!(
+        (s.integrator.kind.as_str(), s.integrator.max_depth),
+        ("path", 7)
+    );
+    assert!(s.integrator.hide_emitters);
+    assert_eq!((s.sampler.sample_count, s.sampler.seed), (16, 3));
+    assert_eq!(s.sampler.kind, "stratified");
+    assert_eq!(
+        s.warnings.len(),
+        1,
+        "one warning for the sampler: {:?}",
+        s.warnings
+    );
+    let s = parse_ok(
+        r#"<scene version="3.0.0"><integrator type="aov"><string name="aovs" value="nn:sh_normal"/>
+  <integrator type="direct"><integer name="emitter_samples" value="4"/></integrator></integrator>
+  <sensor type="perspective"><sampler type="orthogonal"><integer name="sample_count" value="10"/></sampler></sensor>
+</scene>"#,
+    );
+    assert_eq!(s.integrator.kind, "direct");
+    assert_eq!(
+        (s.integrator.emitter_samples, s.integrator.bsdf_samples),
+        (4, 1)
+    );
+    assert_eq!(s.sampler.sample_count, 25);
+    for ty in ["ptracer", "volpath"] {
+        let s = parse_ok(&format!(
+            r#"<scene version="3.0.0"><integrator type="{ty}"><integer name="max_depth" value="3"/></integrator></scene>"#
+        ));
+        assert_eq!(s.integrator.max_depth, 3);
+        assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    }
+}
+
+#[test]
+fn emitter_spectra_and_mitsuba06_names() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0">
+  <emitter type="point"><spectrum name="intensity" value="2"/></emitter>
+  <shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="0.25"/></bsdf></shape>
+</scene>"#,
+    );
+    let Light::Point { intensity, .. } = s.lights[0] else {
+        panic!()
+    };
+    assert!(
+        (intensity - 2.0 * Vec3::new(1.204794, 0.948291, 0.908916))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+    assert!(matches!(
+        s.bsdfs[0].kind,
+        BsdfKind::Diffuse { reflectance: ColorParam::Constant(c) } if c == Vec3::splat(0.25)
+    ));
+    let s = parse_ok(
+        r#"<scene version="0.6.0">
+  <sensor type="perspective"><transform name="toWorld"><lookAt origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+    <sampler type="ldsampler"><integer name="sampleCount" value="5"/></sampler>
+    <film type="ldrfilm"><integer name="width" value="8"/></film></sensor>
+  <shape type="sphere"><bsdf type="roughdiffuse"><float name="alpha" value="0.3"/></bsdf></shape>
+</scene>"#,
+    );
+    assert_eq!(s.dialect, Dialect::Mitsuba3);
+    assert_eq!(s.sampler.sample_count, 8);
+    assert!(s
+        .warnings
+        .iter()
+        .any(|w| w.message.contains("roughdiffuse")));
+}
+
+/// Media are not rendered: one warning for the whole scene, at the first medium.
+#[test]
+fn media_give_one_warning() {
+    let xml = r#"<scene version="3.0.0">
+  <medium type="homogeneous" id="fog"/>
+  <shape type="sphere"><medium name="interior" type="homogeneous"/></shape>
+  <phase type="hg"/>
+</scene>"#;
+    let s = parse_ok(xml);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    assert_eq!(
+        (w.location.line, w.location.column),
+        pos_of(xml, "<medium type")
+    );
+    assert!(w.message.contains("media are not rendered"), "{w}");
+}
+
+/// Mitsuba's cube (its vertex layout and uvs, from Mitsuba 3.9.1), and shapegroups placed by
+/// instances (read as copies).
+#[test]
+fn cube_shapegroup_and_instances() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0">
+  <shape type="cube"/>
+  <shape type="shapegroup" id="g">
+    <shape type="sphere"><float name="radius" value="0.5"/></shape>
+    <shape type="cube"><transform name="to_world"><translate x="2"/></transform></shape>
+  </shape>
+  <shape type="instance"><ref id="g"/><transform name="to_world"><translate y="3"/></transform></shape>
+  <shape type="instance"><ref id="g"/></shape>
+</scene>"#,
+    );
+    assert_eq!(s.shapes.len(), 5, "a cube and two instances of two shapes");
+    let torrey_parser::Geometry::Mesh(m) = &s.shapes[0].geometry else {
+        panic!()
+    };
+    assert_eq!((m.positions.len(), m.indices.len()), (24, 12));
+    // Mitsuba's first face: y = -1, vertices (1,-1,-1) (1,-1,1) (-1,-1,1) (-1,-1,-1), uvs
+    // (0,1) (1,1) (1,0) (0,0), triangles (0,1,2) (3,0,2).
+    assert_eq!(m.positions[1], Vec3::new(1.0, -1.0, 1.0));
+    assert_eq!(m.uvs[1], glam::Vec2::new(1.0, 1.0));
+    assert_eq!(m.normals[3], Vec3::new(0.0, -1.0, 0.0));
+    assert_eq!(m.indices[1], [3, 0, 2]);
+    // Every triangle winds counter-clockwise around its outward normal.
+    for t in &m.indices {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        let n = (b - a).cross(c - a).normalize();
+        assert!((n - m.normals[t[0] as usize]).length() < 1e-6, "{t:?}");
+    }
+    // The instance's transform follows the shape's own.
+    let moved = s.shapes[2].to_world.transform_point3(Vec3::ZERO);
+    assert_eq!(moved, Vec3::new(2.0, 3.0, 0.0));
+    assert_eq!(
+        s.shapes[4].to_world.transform_point3(Vec3::ZERO),
+        Vec3::new(2.0, 0.0, 0.0)
+    );
+}
+
+#[test]
+fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
+    for (xml, message, at) in [
+        (
+            "<scene version=\"3.0.0\">\n  <shape type=\"disk\"/></scene>",
+            "shape 'disk' is not supported yet",
+            "disk",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"/></scene>",
+            "emitter 'spot' is not supported yet",
+            "spot",
+        ),
+    ] {
+        let e = common::parse(xml).unwrap_err();
+        assert_err(&e, message, pos_of(xml, at));
+    }
+    let xml = r#"<scene version="3.0.0">
+  <shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance"/></emitter></shape>
+</scene>"#;
+    assert_err(
+        &common::parse(xml).unwrap_err(),
+        "a textured area emitter radiance is not supported yet",
+        pos_of(xml, "<texture"),
+    );
+    let xml =
+        "<scene version=\"3.0.0\">\n  <shape type=\"instance\"><ref id=\"nope\"/></shape></scene>";
+    assert_err(
+        &common::parse(xml).unwrap_err(),
+        "reference to undefined id 'nope'",
+        pos_of(xml, "nope"),
+    );
+}
+
+#[test]
+fn spectrum_errors_point_at_the_value_or_file() {
+    let xml = "<scene version=\"3.0.0\">\n  <emitter type=\"constant\"><spectrum name=\"radiance\" value=\"500:1, 400:2\"/></emitter></scene>";
+    assert_err(
+        &common::parse(xml).unwrap_err(),
+        "the wavelengths of a spectrum must increase",
+        pos_of(xml, "500:1"),
+    );
+    let dir = temp_dir("spd");
+    write(&dir, "bad.spd", "400 1\n500 x\n");
+    let xml = "<scene version=\"3.0.0\">\n  <emitter type=\"constant\"><spectrum name=\"radiance\" filename=\"bad.spd\"/></emitter></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "in spectrum file 'bad.spd': line 2:",
+        pos_of(xml, "bad.spd"),
+    );
+    let xml = "<scene version=\"3.0.0\">\n  <emitter type=\"constant\"><spectrum name=\"radiance\" filename=\"none.spd\"/></emitter></scene>";
+    assert_err(
+        &parse_in(&dir, xml).unwrap_err(),
+        "cannot read spectrum file 'none.spd'",
+        pos_of(xml, "none.spd"),
+    );
+    // Mitsuba 0.6's <blackbody> and Mitsuba 3's plugin form give the same colour.
+    let a = parse_ok(
+        r#"<scene version="3.0.0"><emitter type="constant"><blackbody name="radiance" temperature="4000" scale="2"/></emitter></scene>"#,
+    );
+    let b = parse_ok(
+        r#"<scene version="3.0.0"><emitter type="constant"><spectrum type="blackbody" name="radiance"><float name="temperature" value="4000"/><float name="scale" value="2"/></spectrum></emitter></scene>"#,
+    );
+    let (Light::Constant { radiance: ra }, Light::Constant { radiance: rb }) =
+        (&a.lights[0], &b.lights[0])
+    else {
+        panic!()
+    };
+    assert_eq!(ra, rb);
+    assert!(ra.x > ra.z, "a 4000 K blackbody is warm: {ra}");
+}

@@ -1,0 +1,133 @@
+#!/usr/bin/env python3
+"""Mitsuba 3 references for the statistical verdict (tests/mitsuba_verdict.rs).
+
+    tests/mitsuba/.venv/bin/python tests/mitsuba/make_verdict_references.py [--only a,b] [--spp N]
+
+Renders every scene tests/scenes/mitsuba/*.xml as Mitsuba 3.9.1 reads it (no conversion: the scenes
+are Mitsuba 3 syntax and wrap their integrator in `moment`), and writes, as Mitsuba's own
+src/render/tests/test_renders.py does:
+  tests/references/verdict/<name>.exr      the image, linear sRGB
+  tests/references/verdict/<name>_var.exr  the per-sample variance: the moment integrator's second
+                                           moment minus the squared mean, computed in XYZ and
+                                           written through Mitsuba's XYZ -> sRGB matrix (the test
+                                           converts it back with sRGB -> XYZ, recovering the XYZ
+                                           variance exactly)
+and tests/references/verdict/manifest.json (sizes, spp, the test's spp, render times).
+Also (re)writes the scenes' own sky texture tests/scenes/mitsuba/textures/gradient_sky.exr.
+Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
+"""
+import argparse
+import glob
+import json
+import os
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+SCENES = os.path.join(REPO, "tests", "scenes", "mitsuba")
+OUT = os.path.join(REPO, "tests", "references", "verdict")
+sys.path.insert(0, HERE)
+
+import numpy as np  # noqa: E402
+import mitsuba as mi  # noqa: E402
+
+# The reference's own noise is not part of the test (only its variance image is), so the reference
+# gets many more samples than the test's 2,000,000 / pixels: REF_SAMPLES / pixels per pixel.
+REF_SAMPLES = 48_000_000
+
+
+def pick_variant():
+    for v in ("llvm_ad_rgb", "scalar_rgb"):
+        try:
+            mi.set_variant(v)
+            return v
+        except Exception as e:  # noqa: BLE001
+            print("variant %s unavailable: %s" % (v, e), file=sys.stderr)
+    raise SystemExit("no usable Mitsuba variant")
+
+
+def gradient_sky(path, width=64, height=32):
+    """A smooth sky of our own: blue zenith, bright warm horizon band, a broad warm lobe (no sharp
+    sun, so that the verdict's per-pixel test is about the integrator, not about one texel)."""
+    from exr_zip import write_exr_zip
+    v, u = np.meshgrid((np.arange(height) + 0.5) / height, (np.arange(width) + 0.5) / width,
+                       indexing="ij")
+    theta, phi = np.pi * v, 2 * np.pi * u
+    up = np.cos(theta)
+    d = np.stack([np.sin(theta) * np.cos(phi), up, np.sin(theta) * np.sin(phi)], -1)
+    lobe_dir = np.array([0.6, 0.5, 0.3]) / np.linalg.norm([0.6, 0.5, 0.3])
+    lobe = np.exp(6.0 * (d @ lobe_dir - 1.0))
+    sky = np.where(up[..., None] > 0,
+                   np.array([0.35, 0.55, 1.0]) * (0.4 + 0.6 * up[..., None])
+                   + np.array([1.0, 0.85, 0.6]) * (1 - up[..., None]) ** 4,
+                   np.array([0.25, 0.22, 0.2]) * (1 + up[..., None]))
+    img = sky + np.array([3.0, 2.4, 1.6]) * lobe[..., None]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_exr_zip(path, img.astype(np.float32))
+
+
+def render(path, spp):
+    scene = mi.load_file(path, spp=spp)
+    t0 = time.time()
+    scene.integrator().render(scene, seed=0, spp=spp, develop=False)
+    seconds = time.time() - t0
+    bmp = scene.sensors()[0].film().bitmap(raw=False)
+    parts = dict(bmp.split())
+    keys = [k for k in parts if k != "<root>"]
+    if len(keys) != 2:
+        raise RuntimeError("%s: expected the moment integrator's two AOVs, found %s" % (path, keys))
+    m1 = np.array(parts[keys[0]], copy=True)
+    m2 = np.array(parts[keys[1]], copy=True)
+    var_xyz = m2 - m1 * m1
+
+    def to_rgb(a):
+        b = mi.Bitmap(np.ascontiguousarray(a, dtype=np.float32), mi.Bitmap.PixelFormat.XYZ)
+        return np.array(b.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False))
+
+    return to_rgb(m1), to_rgb(var_xyz), seconds
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--only", help="comma-separated scene names")
+    ap.add_argument("--samples", type=int, default=REF_SAMPLES, help="total samples per reference")
+    a = ap.parse_args()
+    variant = pick_variant()
+    from exr_zip import write_exr_zip
+    gradient_sky(os.path.join(SCENES, "textures", "gradient_sky.exr"))
+    os.makedirs(OUT, exist_ok=True)
+    manifest_path = os.path.join(OUT, "manifest.json")
+    manifest = {}
+    if os.path.exists(manifest_path):
+        with open(manifest_path) as f:
+            manifest = json.load(f).get("references", {})
+    only = set(a.only.split(",")) if a.only else None
+    for path in sorted(glob.glob(os.path.join(SCENES, "*.xml"))):
+        name = os.path.basename(path)[:-4]
+        if only and name not in only:
+            continue
+        probe = mi.load_file(path)
+        w, h = probe.sensors()[0].film().size()
+        pixels = int(w) * int(h)
+        spp = a.samples // pixels
+        img, var, seconds = render(path, spp)
+        write_exr_zip(os.path.join(OUT, name + ".exr"), img)
+        write_exr_zip(os.path.join(OUT, name + "_var.exr"), var)
+        manifest[name] = {"scene": os.path.relpath(path, REPO), "width": int(w), "height": int(h),
+                          "spp": spp, "test_spp": 2_000_000 // pixels, "variant": variant,
+                          "mitsuba_version": mi.__version__, "render_seconds": round(seconds, 1),
+                          "mean_rgb": [round(float(x), 6) for x in img.mean(axis=(0, 1))]}
+        print("%-32s %3dx%-3d %6d spp  %6.1fs  mean %s" % (
+            name, w, h, spp, seconds, manifest[name]["mean_rgb"]), flush=True)
+    with open(manifest_path, "w") as f:
+        json.dump({"generator": "tests/mitsuba/make_verdict_references.py",
+                   "notes": "Mitsuba 3 renders of tests/scenes/mitsuba/*.xml with the moment "
+                            "integrator; <name>_var.exr is the per-sample variance (XYZ variance "
+                            "written through XYZ->sRGB, as Mitsuba's test_renders.py stores it).",
+                   "references": dict(sorted(manifest.items()))}, f, indent=2)
+        f.write("\n")
+
+
+if __name__ == "__main__":
+    main()
