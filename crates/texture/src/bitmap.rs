@@ -2,6 +2,7 @@
 
 use glam::{Affine2, Vec2, Vec3};
 
+use crate::footprint::Footprint;
 use crate::mipmap::MipMap;
 
 /// A bitmap texture as the scene uses it: a pyramid plus the uv transform
@@ -42,6 +43,15 @@ impl BitmapTexture {
         self.to_uv
     }
 
+    /// The texture filtered over `fp`, an ellipse in the surface's own uv units (before to_uv):
+    /// its axes go through to_uv's linear part, so scales, rotations and shears of the uv
+    /// transform stretch the footprint exactly as they stretch the texture.
+    pub fn eval_footprint(&self, uv: Vec2, fp: Footprint) -> Vec3 {
+        let st = self.to_uv.transform_point2(uv);
+        self.mip
+            .lookup_aniso(st, fp.transformed(self.to_uv.matrix2))
+    }
+
     /// `footprint` in the surface's own uv units (before to_uv); the uv scale is applied here:
     /// level = log2(footprint * max(w, h) * max(uscale, vscale)) with the scales taken from to_uv.
     pub fn eval(&self, uv: Vec2, footprint: f32) -> Vec3 {
@@ -76,6 +86,20 @@ mod tests {
         let a = tex.eval(Vec2::new(0.03, 0.1), 0.0);
         let b = tex.eval(Vec2::new(0.28, 0.1), 0.0);
         assert!(a.abs_diff_eq(b, 1e-5));
+    }
+
+    #[test]
+    fn footprint_follows_the_uv_transform() {
+        // Stripes vary along x; with uscale 4 a footprint of 1/32 uv along u covers one texel
+        // (8 texels per 1/4 uv), so it is bilinear, while 1/8 uv covers 4 texels (filtered).
+        let tex = BitmapTexture::new(stripes(), Affine2::from_scale(Vec2::new(4.0, 1.0)));
+        let uv = Vec2::new(0.0625 / 4.0, 0.5); // centre of texel 0 (value 0)
+        let fp = |len: f32| Footprint::new(Vec2::new(len, 0.0), Vec2::ZERO);
+        assert_eq!(tex.eval_footprint(uv, fp(1.0 / 32.0)).x, 0.0);
+        assert!(tex.eval_footprint(uv, fp(1.0 / 8.0)).x > 0.3);
+        // Along v the stripes are constant: any footprint there leaves the value alone.
+        let along_v = Footprint::new(Vec2::new(0.0, 0.5), Vec2::ZERO);
+        assert!(tex.eval_footprint(uv, along_v).x.abs() < 1e-6);
     }
 
     #[test]

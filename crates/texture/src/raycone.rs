@@ -1,11 +1,20 @@
 //! Ray cones (Akenine-Möller et al., "Texture level of detail strategies for real-time ray
 //! tracing", Ray Tracing Gems, 2019): a cheap texture-filter width for any hit along a path.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+
+use crate::footprint::Footprint;
 
 /// Smallest |cos| between ray and surface normal used when projecting the cone onto a surface;
 /// caps the grazing-angle stretch at 1/0.01 = 100x so the footprint stays finite.
 pub const MIN_COS: f32 = 0.01;
+
+/// Semi-axis of a surface footprint per unit of cone width: the footprint ellipse's minor
+/// semi-axis is `RADIUS_PER_WIDTH * width` (its major one that over |cos|). With 1 the
+/// ellipse spans two pixel widths, as pbrt's EWA ellipse spans two pixel differentials, and the
+/// lookup's kernel (standard deviation about 0.35 of a semi-axis) is about a third of a pixel
+/// wide: the best 1-spp texture error on the grazing checkerboard (see docs/conventions.md).
+pub const RADIUS_PER_WIDTH: f32 = 1.0;
 
 /// Ray cone (Akenine-Möller et al., "Texture level of detail strategies for real-time ray tracing"):
 /// width and spread angle carried along a path.
@@ -32,6 +41,50 @@ impl RayCone {
         Self {
             width: self.width + self.spread * t,
             spread: self.spread,
+        }
+    }
+
+    /// The anisotropic footprint at a hit: the cone's circular cross-section projected along the
+    /// ray onto the surface, then mapped to uv by the inverse of the surface's Jacobian.
+    ///
+    /// On the surface the ellipse has its minor semi-axis `r = RADIUS_PER_WIDTH * width` across
+    /// the plane of incidence (along normal x ray) and its major semi-axis r / |cos| along the ray
+    /// direction projected onto the surface, cos between the ray and the geometric normal clamped
+    /// to [`MIN_COS`]. A world tangent vector w maps to the uv vector (du, dv) solving
+    /// dpdu du + dpdv dv = w in the least-squares sense (exact for w in the tangent plane).
+    /// Where dpdu and dpdv are (nearly) parallel or zero (sphere poles) the footprint falls back
+    /// to a circle of radius |major| / max(|dpdu|, |dpdv|); with no usable derivatives it is a
+    /// point. Never NaN.
+    pub fn footprint(&self, ray_dir: Vec3, normal: Vec3, dpdu: Vec3, dpdv: Vec3) -> Footprint {
+        let r = self.width.abs() * RADIUS_PER_WIDTH;
+        let (Some(d), Some(n)) = (ray_dir.try_normalize(), normal.try_normalize()) else {
+            return Footprint::POINT;
+        };
+        if !(r.is_finite() && r > 0.0) {
+            return Footprint::POINT;
+        }
+        let cos = d.dot(n);
+        // Across the plane of incidence, and the ray's direction within the surface.
+        let (across, along) = match n.cross(d).try_normalize() {
+            Some(across) => (across, n.cross(across)),
+            None => n.any_orthonormal_pair(),
+        };
+        let major = along * (r / cos.abs().max(MIN_COS));
+        let minor = across * r;
+        let (uu, uv, vv) = (dpdu.dot(dpdu), dpdu.dot(dpdv), dpdv.dot(dpdv));
+        let det = uu * vv - uv * uv;
+        if det > 1e-6 * uu * vv && det.is_finite() && det > 0.0 {
+            let to_uv = |w: Vec3| {
+                let (pu, pv) = (dpdu.dot(w), dpdv.dot(w));
+                Vec2::new(vv * pu - uv * pv, uu * pv - uv * pu) / det
+            };
+            return Footprint::new(to_uv(major), to_uv(minor));
+        }
+        let scale = uu.max(vv).sqrt();
+        if scale > 0.0 && scale.is_finite() {
+            Footprint::circle(major.length() / scale)
+        } else {
+            Footprint::POINT
         }
     }
 
@@ -136,6 +189,82 @@ mod tests {
             let want = uv_footprint_reference(&cone, d, n, du, dv);
             assert_eq!(got.to_bits(), want.to_bits(), "{cone:?} {d} {n} {du} {dv}");
         }
+    }
+
+    #[test]
+    fn ellipse_footprint_analytic_values() {
+        // Width 0.01 at the hit, so r = 0.01 * RADIUS_PER_WIDTH world units.
+        let c = RayCone::from_pixel(0.001).at_distance(10.0);
+        let r = 0.01 * RADIUS_PER_WIDTH;
+        let (du, dv) = (Vec3::X * 2.0, Vec3::Y * 2.0);
+        // Head-on on a plane of side 2: a circle of radius r / 2 in uv.
+        let (ma, mi) = c.footprint(-Vec3::Z, Vec3::Z, du, dv).axis_lengths();
+        assert!(
+            (ma - r / 2.0).abs() < 1e-7 && (mi - r / 2.0).abs() < 1e-7,
+            "{ma} {mi}"
+        );
+        // 60 degrees from the normal in the y-z plane: stretched by 1 / cos 60 = 2 along v only.
+        let a = 60f32.to_radians();
+        let dir = Vec3::new(0.0, a.sin(), -a.cos());
+        let fp = c.footprint(dir, Vec3::Z, du, dv);
+        let (major, minor) = fp.principal_axes();
+        assert!((major.length() - r).abs() < 1e-6, "{fp:?}");
+        assert!(major.x.abs() < 1e-7, "major along v: {major}");
+        assert!((minor.length() - r / 2.0).abs() < 1e-6, "{fp:?}");
+        // The back side gives the same ellipse.
+        let back = c.footprint(dir, -Vec3::Z, du, dv).axis_lengths();
+        assert!((back.0 - r).abs() < 1e-6 && (back.1 - r / 2.0).abs() < 1e-6);
+        // Anisotropic parametrisation: |dpdu| = 1, |dpdv| = 4: head-on the ellipse is r along u
+        // and r / 4 along v.
+        let (major, minor) = c
+            .footprint(-Vec3::Z, Vec3::Z, Vec3::X, Vec3::Y * 4.0)
+            .principal_axes();
+        assert!((major.length() - r).abs() < 1e-6 && major.y.abs() < 1e-7);
+        assert!((minor.length() - r / 4.0).abs() < 1e-6 && minor.x.abs() < 1e-7);
+        // Sheared parametrisation (dpdv not perpendicular to dpdu): axes map back exactly.
+        let (du, dv) = (Vec3::X, Vec3::new(1.0, 1.0, 0.0));
+        let fp = c.footprint(-Vec3::Z, Vec3::Z, du, dv);
+        for w in [fp.a, fp.b] {
+            let world = du * w.x + dv * w.y;
+            assert!((world.length() - r).abs() < 1e-6, "{w}");
+        }
+        assert!(
+            (du * fp.a.x + dv * fp.a.y)
+                .dot(du * fp.b.x + dv * fp.b.y)
+                .abs()
+                < 1e-9
+        );
+    }
+
+    #[test]
+    fn ellipse_footprint_grazing_and_degenerate_cases() {
+        let c = RayCone::from_pixel(0.001).at_distance(3.0);
+        let r = 0.003 * RADIUS_PER_WIDTH;
+        // Exactly grazing: the stretch is capped at 1 / MIN_COS.
+        let (ma, mi) = c
+            .footprint(Vec3::X, Vec3::Z, Vec3::X, Vec3::Y)
+            .axis_lengths();
+        assert!(
+            (ma - r / MIN_COS).abs() < 1e-5 && (mi - r).abs() < 1e-7,
+            "{ma} {mi}"
+        );
+        // Sphere pole: dpdu = 0 falls back to a circle of |major| / |dpdv|.
+        let pi = std::f32::consts::PI;
+        let (ma, mi) = c
+            .footprint(-Vec3::Z, Vec3::Z, Vec3::ZERO, Vec3::X * pi)
+            .axis_lengths();
+        assert!((ma - r / pi).abs() < 1e-7 && (mi - r / pi).abs() < 1e-7);
+        // No derivatives, no direction, NaN: a point or finite.
+        assert!(c
+            .footprint(-Vec3::Z, Vec3::Z, Vec3::ZERO, Vec3::ZERO)
+            .is_point());
+        assert!(c
+            .footprint(Vec3::ZERO, Vec3::Z, Vec3::X, Vec3::Y)
+            .is_point());
+        let nan = c.footprint(Vec3::splat(f32::NAN), Vec3::Z, Vec3::X, Vec3::Y);
+        assert!(nan.a.is_finite() && nan.b.is_finite());
+        let zero = RayCone::from_pixel(0.001).footprint(-Vec3::Z, Vec3::Z, Vec3::X, Vec3::Y);
+        assert!(zero.is_point());
     }
 
     #[test]

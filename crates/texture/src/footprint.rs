@@ -1,0 +1,197 @@
+//! Anisotropic texture footprints: the ellipse in texture space that one camera sample's filter
+//! covers, and how it shrinks as a pixel takes more samples.
+
+use glam::{Mat2, Vec2};
+
+/// An ellipse in texture space centred on the lookup point, given by two conjugate semi-axes
+/// (uv units). Any pair of conjugate semi-axes describes the same ellipse (they need not be
+/// perpendicular); lookups only use the quadratic form they define and their lengths.
+///
+/// A zero footprint ([`Footprint::POINT`]) means "no filtering": the finest level, bilinear.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Footprint {
+    /// First semi-axis (uv).
+    pub a: Vec2,
+    /// Second semi-axis (uv).
+    pub b: Vec2,
+}
+
+impl Footprint {
+    /// No filtering beyond bilinear reconstruction.
+    pub const POINT: Footprint = Footprint {
+        a: Vec2::ZERO,
+        b: Vec2::ZERO,
+    };
+
+    /// The ellipse with semi-axes `a` and `b`; non-finite axes make it a point (never NaN).
+    #[inline]
+    pub fn new(a: Vec2, b: Vec2) -> Self {
+        if a.is_finite() && b.is_finite() {
+            Self { a, b }
+        } else {
+            Self::POINT
+        }
+    }
+
+    /// A circle of radius `r` (uv units); a negative or non-finite radius gives a point.
+    pub fn circle(r: f32) -> Self {
+        let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
+        Self {
+            a: Vec2::new(r, 0.0),
+            b: Vec2::new(0.0, r),
+        }
+    }
+
+    /// Both axes multiplied by `s` (e.g. [`spp_scale`]); a non-finite or negative `s` gives a point.
+    #[inline]
+    pub fn scaled(self, s: f32) -> Self {
+        if s.is_finite() && s >= 0.0 {
+            Self::new(self.a * s, self.b * s)
+        } else {
+            Self::POINT
+        }
+    }
+
+    /// The footprint after the linear map `m` (e.g. a texture's uv transform, or uv to texels).
+    #[inline]
+    pub fn transformed(self, m: Mat2) -> Self {
+        Self::new(m * self.a, m * self.b)
+    }
+
+    /// The ellipse's principal semi-axes (major, minor) as perpendicular vectors: the singular
+    /// vectors of the 2x2 matrix [a b] scaled by its singular values, so exact also when `a` and
+    /// `b` are not perpendicular. A circle returns the x and y axes.
+    pub fn principal_axes(&self) -> (Vec2, Vec2) {
+        // M M^T = a a^T + b b^T = [[p, r], [r, q]]; its eigenvalues are the squared lengths.
+        // Scaled to a unit largest component so the squares neither overflow nor underflow.
+        let scale = self.a.abs().max_element().max(self.b.abs().max_element());
+        if !(scale > 0.0 && scale.is_finite()) {
+            return (Vec2::ZERO, Vec2::ZERO);
+        }
+        let (a, b) = (self.a / scale, self.b / scale);
+        let p = a.x * a.x + b.x * b.x;
+        let q = a.y * a.y + b.y * b.y;
+        let r = a.x * a.y + b.x * b.y;
+        let half_diff = 0.5 * (p - q);
+        let root = (half_diff * half_diff + r * r).sqrt();
+        let l1 = 0.5 * (p + q) + root;
+        // det^2 / l1 is the small eigenvalue without the cancellation of (p + q)/2 - root.
+        let det = a.perp_dot(b);
+        let l2 = if l1 > 0.0 {
+            (det * det / l1).min(l1)
+        } else {
+            0.0
+        };
+        let angle = 0.5 * (2.0 * r).atan2(p - q);
+        let (s, c) = angle.sin_cos();
+        let dir = Vec2::new(c, s);
+        let (major, minor) = (dir * (l1.sqrt() * scale), dir.perp() * (l2.sqrt() * scale));
+        if major.is_finite() && minor.is_finite() {
+            (major, minor)
+        } else {
+            (Vec2::ZERO, Vec2::ZERO)
+        }
+    }
+
+    /// The two semi-axis lengths of the ellipse, (major, minor).
+    pub fn axis_lengths(&self) -> (f32, f32) {
+        let (major, minor) = self.principal_axes();
+        (major.length(), minor.length())
+    }
+
+    /// True when both axes are zero (a plain bilinear lookup).
+    #[inline]
+    pub fn is_point(&self) -> bool {
+        self.a == Vec2::ZERO && self.b == Vec2::ZERO
+    }
+}
+
+/// How much a footprint shrinks when a pixel takes `spp` samples: 1 / sqrt(spp).
+///
+/// One sample per pixel is filtered over the pixel's whole footprint, which removes most of its
+/// texture aliasing. With `spp` samples the pixel integral itself averages the texture, and the
+/// filter only needs to cover the region one sample stands for, 1/spp of the pixel's area, i.e.
+/// 1/sqrt(spp) of its width. The filter's bias (a blur no sample count removes) then falls as the
+/// noise does, so high sample counts converge to the unfiltered (bilinear) image, which is what
+/// Mitsuba converges to. Below a texel the lookup is bilinear anyway (see `MipMap::lookup_aniso`).
+pub fn spp_scale(spp: u32) -> f32 {
+    1.0 / (spp.max(1) as f32).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_lengths_of_axis_aligned_rotated_and_sheared_ellipses() {
+        let e = Footprint::new(Vec2::new(3.0, 0.0), Vec2::new(0.0, 0.5));
+        let (m, n) = e.axis_lengths();
+        assert!((m - 3.0).abs() < 1e-6 && (n - 0.5).abs() < 1e-6, "{m} {n}");
+        // Rotation keeps the lengths.
+        let r = Mat2::from_angle(0.7);
+        let (m, n) = e.transformed(r).axis_lengths();
+        assert!((m - 3.0).abs() < 1e-5 && (n - 0.5).abs() < 1e-5, "{m} {n}");
+        // Conjugate semi-axes of the same ellipse: a shear of the parameter circle.
+        // a' = a cos t + b sin t, b' = -a sin t + b cos t describe the same ellipse.
+        let t = 0.4f32;
+        let (a, b) = (e.a, e.b);
+        let c = Footprint::new(a * t.cos() + b * t.sin(), -a * t.sin() + b * t.cos());
+        let (m, n) = c.axis_lengths();
+        assert!((m - 3.0).abs() < 1e-5 && (n - 0.5).abs() < 1e-5, "{m} {n}");
+        // Degenerate: a segment and a point.
+        let (m, n) = Footprint::new(Vec2::new(1.0, 1.0), Vec2::new(2.0, 2.0)).axis_lengths();
+        assert!((m - 10f32.sqrt()).abs() < 1e-5 && n.abs() < 1e-6, "{m} {n}");
+        assert_eq!(Footprint::POINT.axis_lengths(), (0.0, 0.0));
+    }
+
+    #[test]
+    fn principal_axes_are_perpendicular_and_span_the_same_ellipse() {
+        let mut rng = torrey_testkit::Rng::new(7);
+        for _ in 0..1000 {
+            let e = Footprint::new(
+                Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+                Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+            );
+            let (ma, mi) = e.principal_axes();
+            assert!(
+                ma.dot(mi).abs() < 1e-3 * (1.0 + ma.length_squared()),
+                "{e:?}"
+            );
+            assert!(ma.length() >= mi.length());
+            // Same quadratic form: a a^T + b b^T = ma ma^T + mi mi^T.
+            let form = |x: Vec2, y: Vec2| {
+                [
+                    x.x * x.x + y.x * y.x,
+                    x.x * x.y + y.x * y.y,
+                    x.y * x.y + y.y * y.y,
+                ]
+            };
+            let (f, g) = (form(e.a, e.b), form(ma, mi));
+            for k in 0..3 {
+                assert!(
+                    (f[k] - g[k]).abs() < 1e-3 * (1.0 + f[0] + f[2]),
+                    "{e:?} {f:?} {g:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn non_finite_inputs_give_a_point() {
+        assert!(Footprint::new(Vec2::NAN, Vec2::X).is_point());
+        assert!(Footprint::circle(f32::INFINITY).is_point());
+        assert!(Footprint::circle(-1.0).is_point());
+        assert!(Footprint::circle(1.0).scaled(f32::NAN).is_point());
+        assert!(Footprint::circle(1e30)
+            .transformed(Mat2::from_diagonal(Vec2::splat(1e30)))
+            .is_point());
+    }
+
+    #[test]
+    fn spp_scale_is_inverse_square_root() {
+        assert_eq!(spp_scale(0), 1.0);
+        assert_eq!(spp_scale(1), 1.0);
+        assert_eq!(spp_scale(4), 0.5);
+        assert_eq!(spp_scale(256), 1.0 / 16.0);
+    }
+}
