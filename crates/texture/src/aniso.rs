@@ -34,9 +34,10 @@ pub const MAX_ANISOTROPY: f32 = 16.0;
 pub const MAX_PROBES: usize = 2 * MAX_ANISOTROPY as usize + 1;
 
 impl MipMap {
-    /// The texture filtered over the elliptical footprint `fp` (uv units) centred at `uv`; see the
-    /// module documentation. [`FilterType::Nearest`] ignores the footprint.
+    /// The texture filtered over the elliptical footprint `fp` (uv units) centred at
+    /// `uv + fp.shift`; see the module documentation. [`FilterType::Nearest`] ignores the footprint.
     pub fn lookup_aniso(&self, uv: Vec2, fp: Footprint) -> Vec3 {
+        let uv = uv + fp.shift;
         if self.filter() == FilterType::Nearest || fp.is_point() {
             return self.lookup_level(0, uv);
         }

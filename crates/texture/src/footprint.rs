@@ -3,9 +3,9 @@
 
 use glam::{Mat2, Vec2};
 
-/// An ellipse in texture space centred on the lookup point, given by two conjugate semi-axes
-/// (uv units). Any pair of conjugate semi-axes describes the same ellipse (they need not be
-/// perpendicular); lookups only use the quadratic form they define and their lengths.
+/// An ellipse in texture space, given by two conjugate semi-axes (uv units), centred `shift` away
+/// from the lookup point. Any pair of conjugate semi-axes describes the same ellipse (they need
+/// not be perpendicular); lookups only use the quadratic form they define and their lengths.
 ///
 /// A zero footprint ([`Footprint::POINT`]) means "no filtering": the finest level, bilinear.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -14,6 +14,9 @@ pub struct Footprint {
     pub a: Vec2,
     /// Second semi-axis (uv).
     pub b: Vec2,
+    /// Where the filter is centred, relative to the lookup point (uv); see
+    /// [`crate::RayCone::toward_pixel_centre`]. Zero unless set.
+    pub shift: Vec2,
 }
 
 impl Footprint {
@@ -21,13 +24,18 @@ impl Footprint {
     pub const POINT: Footprint = Footprint {
         a: Vec2::ZERO,
         b: Vec2::ZERO,
+        shift: Vec2::ZERO,
     };
 
     /// The ellipse with semi-axes `a` and `b`; non-finite axes make it a point (never NaN).
     #[inline]
     pub fn new(a: Vec2, b: Vec2) -> Self {
         if a.is_finite() && b.is_finite() {
-            Self { a, b }
+            Self {
+                a,
+                b,
+                shift: Vec2::ZERO,
+            }
         } else {
             Self::POINT
         }
@@ -39,14 +47,25 @@ impl Footprint {
         Self {
             a: Vec2::new(r, 0.0),
             b: Vec2::new(0.0, r),
+            shift: Vec2::ZERO,
         }
     }
 
-    /// Both axes multiplied by `s` (e.g. [`spp_scale`]); a non-finite or negative `s` gives a point.
+    /// The same ellipse centred `shift` (uv) away from the lookup point; a non-finite shift is
+    /// dropped.
+    #[inline]
+    pub fn with_shift(self, shift: Vec2) -> Self {
+        Self {
+            shift: if shift.is_finite() { shift } else { Vec2::ZERO },
+            ..self
+        }
+    }
+
+    /// Both axes (not the shift) multiplied by `s`; a non-finite or negative `s` gives a point.
     #[inline]
     pub fn scaled(self, s: f32) -> Self {
         if s.is_finite() && s >= 0.0 {
-            Self::new(self.a * s, self.b * s)
+            Self::new(self.a * s, self.b * s).with_shift(self.shift)
         } else {
             Self::POINT
         }
@@ -55,7 +74,7 @@ impl Footprint {
     /// The footprint after the linear map `m` (e.g. a texture's uv transform, or uv to texels).
     #[inline]
     pub fn transformed(self, m: Mat2) -> Self {
-        Self::new(m * self.a, m * self.b)
+        Self::new(m * self.a, m * self.b).with_shift(m * self.shift)
     }
 
     /// The ellipse's principal semi-axes (major, minor) as perpendicular vectors: the singular
@@ -104,6 +123,19 @@ impl Footprint {
     pub fn is_point(&self) -> bool {
         self.a == Vec2::ZERO && self.b == Vec2::ZERO
     }
+}
+
+/// How far a first-hit texture lookup moves from the sample towards the pixel centre when a
+/// pixel takes `spp` samples: 1 - sqrt(1 - 1/spp) (1 at one sample, about 1/(2 spp) for many).
+///
+/// With the footprint scaled by [`spp_scale`], the lookup positions of the pixel's samples spread
+/// over sqrt(1 - 1/spp) of the pixel and each filters 1/sqrt(spp) of it, so their variances add
+/// up to the pixel's own: in expectation every sample count filters the texture over one pixel,
+/// the exact answer. At one sample the lookup is the pixel's filtered texture at its centre (what
+/// a rasteriser computes), with no noise from where in the pixel the sample fell.
+pub fn centre_weight(spp: u32) -> f32 {
+    let n = spp.max(1) as f32;
+    1.0 - (1.0 - 1.0 / n).sqrt()
 }
 
 /// How much a footprint shrinks when a pixel takes `spp` samples: 1 / sqrt(spp).
@@ -185,6 +217,27 @@ mod tests {
         assert!(Footprint::circle(1e30)
             .transformed(Mat2::from_diagonal(Vec2::splat(1e30)))
             .is_point());
+    }
+
+    #[test]
+    fn centre_weight_and_scale_keep_a_pixel_of_variance() {
+        assert_eq!(centre_weight(1), 1.0);
+        assert_eq!(centre_weight(0), 1.0);
+        for spp in [2, 3, 4, 16, 256, 4096] {
+            let (f, s) = (centre_weight(spp), spp_scale(spp));
+            // Lookup positions spread over (1 - f) of the pixel, each filtering s of it.
+            assert!(((1.0 - f) * (1.0 - f) + s * s - 1.0).abs() < 1e-5, "{spp}");
+        }
+        assert!((centre_weight(256) - 1.0 / 512.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn shift_follows_linear_maps() {
+        let fp = Footprint::circle(0.1).with_shift(Vec2::new(0.2, -0.1));
+        let m = Mat2::from_cols(Vec2::new(2.0, 0.0), Vec2::new(1.0, 3.0));
+        assert_eq!(fp.transformed(m).shift, m * fp.shift);
+        assert_eq!(fp.scaled(0.5).shift, fp.shift);
+        assert_eq!(fp.with_shift(Vec2::NAN).shift, Vec2::ZERO);
     }
 
     #[test]

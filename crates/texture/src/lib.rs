@@ -18,7 +18,7 @@ pub mod raycone;
 pub use aniso::{MAX_ANISOTROPY, MAX_PROBES};
 pub use bitmap::BitmapTexture;
 pub use color::{linear_to_srgb, srgb_to_linear, Chromaticities, WhiteAdaptation};
-pub use footprint::{spp_scale, Footprint};
+pub use footprint::{centre_weight, spp_scale, Footprint};
 pub use image::Image;
 pub use io::{load_image, write_exr, write_png_srgb, LoadedImage, TextureError};
 pub use mipmap::{FilterType, MipMap, WrapMode};
