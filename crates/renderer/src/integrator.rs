@@ -4,10 +4,12 @@
 //! Depth counts path segments like Mitsuba's `max_depth`: 1 shows only emitters seen directly,
 //! 2 adds direct lighting, -1 is unbounded. Russian roulette starts at `rr_depth`.
 //!
-//! Ray cones: every camera ray starts with the pixel's spread angle; the cone's width grows with
-//! distance and picks the texture mip level. Delta (mirror) bounces keep the spread; a rough bounce
-//! adds its lobe width (`BsdfModel::roughness`, about one radian for diffuse), so textures seen
-//! through diffuse interreflection are looked up prefiltered. Environment maps are filtered by the
+//! Ray cones: every camera ray starts with the pixel's spread angle times 1/sqrt(spp) (the share
+//! of the pixel one sample stands for); the cone's width grows with distance, and its elliptical
+//! footprint on a surface filters textures anisotropically. Delta (mirror) bounces keep the spread;
+//! a rough bounce adds its lobe width (`BsdfModel::roughness`, about one radian for diffuse) times
+//! the same 1/sqrt(spp), so textures seen through diffuse interreflection are looked up prefiltered
+//! and every filter vanishes as the sample count grows. Environment maps are filtered by the
 //! cone only along purely specular chains; after a rough bounce they are read at full resolution so
 //! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
 
@@ -15,7 +17,7 @@ use crate::geometry::{offset_origin, Ray};
 use crate::sampling::{power_heuristic, Frame};
 use crate::scene::{RenderScene, SurfaceHit};
 use glam::{Vec2, Vec3A};
-use torrey_texture::RayCone;
+use torrey_texture::{Footprint, RayCone};
 
 /// A source of uniform numbers in [0, 1).
 pub trait Sampler {
@@ -41,6 +43,8 @@ pub struct PathSettings {
     /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
     /// as Mitsuba does; used to measure what mip-mapping changes.
     pub mipmapping: bool,
+    /// Scale of every ray-cone spread: `torrey_texture::spp_scale(spp)` = 1/sqrt(spp).
+    pub footprint_scale: f32,
     /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
     pub env_strategy: EnvStrategy,
 }
@@ -189,14 +193,14 @@ pub fn radiance(
         cone = cone.at_distance(hit.t);
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
-            cone.uv_footprint(
+            cone.footprint(
                 ray.dir.into(),
                 hit.ng.into(),
                 hit.dpdu.into(),
                 hit.dpdv.into(),
             )
         } else {
-            0.0
+            Footprint::POINT
         };
         let Some(frame) = shading_frame(scene, &hit, wo, material, footprint) else {
             break; // the back of a one-sided bsdf is black
@@ -257,7 +261,7 @@ pub fn radiance(
         throughput *= bs.weight;
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta {
-            cone.spread += model.roughness();
+            cone.spread += model.roughness() * settings.footprint_scale;
             specular_chain = false;
         }
         prev_bsdf_pdf = bs.pdf;
@@ -325,7 +329,7 @@ fn shading_frame(
     hit: &SurfaceHit,
     wo: Vec3A,
     material: &crate::scene::Material,
-    footprint: f32,
+    footprint: Footprint,
 ) -> Option<Frame> {
     let Some(tex) = material.normal_map else {
         // The common case, inline in the path loop; normal maps take the call below.
@@ -346,7 +350,7 @@ fn normal_mapped_frame(
     wo: Vec3A,
     material: &crate::scene::Material,
     tex: u32,
-    footprint: f32,
+    footprint: Footprint,
 ) -> Option<Frame> {
     let front = hit.ng.dot(wo) >= 0.0;
     if !front && !material.two_sided {

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use torrey_parser::PixelFilter;
-use torrey_texture::{Image, RayCone};
+use torrey_texture::{centre_weight, spp_scale, Image, RayCone};
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -71,6 +71,7 @@ pub fn render(
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
         mipmapping: settings.mipmapping,
+        footprint_scale: spp_scale(settings.spp),
         env_strategy: settings.env_strategy,
     };
     let spp = settings.spp.max(1);
@@ -163,7 +164,13 @@ fn render_pixel<S: Sampler>(
     let mut bad = 0;
     let spp = settings.spp.max(1);
     let filter = settings.filter;
-    let cone = RayCone::from_pixel(scene.camera.pixel_spread);
+    // One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel centre.
+    let centre = scene
+        .camera
+        .generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+        .1;
+    let cone = RayCone::from_pixel(scene.camera.pixel_spread * path.footprint_scale)
+        .toward_pixel_centre(centre.into(), centre_weight(spp));
     let camera_ray = |sampler: &mut S| {
         let offset = sample_filter(filter, sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;

@@ -1,8 +1,8 @@
-//! Colour sources as the renderer evaluates them at a hit: constants, bitmaps (mip-mapped, filtered
-//! by the ray cone's footprint) and Mitsuba's procedural checkerboard.
+//! Colour sources as the renderer evaluates them at a hit: constants, bitmaps (filtered over the
+//! ray cone's anisotropic footprint) and Mitsuba's procedural checkerboard.
 
 use glam::{Affine2, Vec2, Vec3A};
-use torrey_texture::BitmapTexture;
+use torrey_texture::{BitmapTexture, Footprint};
 
 pub enum Texture {
     Bitmap(BitmapTexture),
@@ -14,9 +14,9 @@ pub enum Texture {
 }
 
 impl Texture {
-    /// Value at `uv` for a filter `footprint` wide in the surface's uv units.
+    /// Value at `uv` filtered over `footprint`, an ellipse in the surface's uv units.
     #[inline]
-    pub fn eval(&self, uv: Vec2, footprint: f32) -> Vec3A {
+    pub fn eval(&self, uv: Vec2, footprint: Footprint) -> Vec3A {
         match self {
             Texture::Bitmap(b) => b.eval(uv, footprint).into(),
             Texture::Checkerboard {
@@ -48,7 +48,7 @@ pub enum ColorSource {
 
 impl ColorSource {
     #[inline]
-    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: f32) -> Vec3A {
+    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: Footprint) -> Vec3A {
         match *self {
             ColorSource::Constant(c) => c,
             ColorSource::Texture(i) => textures[i as usize].eval(uv, footprint),
