@@ -50,14 +50,14 @@ impl MipMap {
         }
         let (major, minor) = texels.principal_axes();
         let major_len = major.length();
-        if !(major_len > 1.0) {
+        if major_len.is_nan() || major_len <= 1.0 {
             // Within a texel (NaN too): bilinear.
             return self.lookup_level(0, uv);
         }
         let minor_len = minor.length().max(major_len / MAX_ANISOTROPY);
         let rho = minor_len.max(1.0);
         let lod = rho.log2();
-        if !(lod < top as f32) {
+        if lod >= top as f32 {
             // Wider than the whole image: the coarsest level (1x1, the mean).
             return self.lookup_level(top, uv);
         }
@@ -97,7 +97,7 @@ mod tests {
                 Vec3::new(
                     (x * 0.37 + y * 1.3).sin().abs(),
                     ((x * y) as u32 % 7) as f32 / 7.0,
-                    if (x as u32 + y as u32) % 2 == 0 {
+                    if (x as u32 + y as u32).is_multiple_of(2) {
                         1.0
                     } else {
                         0.1
@@ -217,10 +217,7 @@ mod tests {
                 }
             }
             let mean = sum / (g * g) as f64;
-            assert!(
-                (mean - m as f64).abs() < 2e-3 * m as f64,
-                "{fp:?}: {mean} vs {m}"
-            );
+            assert!((mean - m).abs() < 2e-3 * m, "{fp:?}: {mean} vs {m}");
         }
     }
 
