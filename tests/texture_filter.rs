@@ -4,7 +4,7 @@
 //! depth 2 twice with the same seed: textured, and with a white albedo. Both share every sample's
 //! shading estimate, so textured / white is the texture value the pixel's samples looked up; its
 //! RMSE against the same ratio from an unfiltered many-sample render is the texture error.
-//! Anisotropic filtering must cut the 1-spp error well below unfiltered (Mitsuba-like) lookups,
+//! Anisotropic filtering must cut the 1-spp error to 0.4x that of unfiltered (Mitsuba-like) lookups,
 //! and, because its footprint shrinks as 1/sqrt(spp), must add no error beyond the noise of an
 //! unfiltered render at a high sample count.
 
@@ -74,8 +74,8 @@ fn anisotropic_filtering_antialiases_one_spp_and_converges_unbiased() {
     }
     println!("1 spp texture RMSE: filtered {e_filtered:.4}, unfiltered {e_plain:.4} (sums of 4)");
     assert!(
-        e_filtered < 0.5 * e_plain,
-        "1 spp: anisotropic filtering must at least halve the texture error: {e_filtered} vs {e_plain}"
+        e_filtered < 0.4 * e_plain,
+        "1 spp: filtering must cut the texture error to 0.4x unfiltered: {e_filtered} vs {e_plain}"
     );
 
     // 256 spp: the footprint is 1/16 of a pixel; whatever blur is left must stay within the

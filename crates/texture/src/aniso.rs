@@ -48,6 +48,11 @@ impl MipMap {
             // Only a footprint so large that it overflowed in texels gets here.
             return self.lookup_level(top, uv);
         }
+        // The major semi-axis is at most sqrt(|a|^2 + |b|^2): most lookups at high sample
+        // counts stop here without the eigen-decomposition.
+        if texels.a.length_squared() + texels.b.length_squared() <= 1.0 {
+            return self.lookup_level(0, uv);
+        }
         let (major, minor) = texels.principal_axes();
         let major_len = major.length();
         if major_len.is_nan() || major_len <= 1.0 {

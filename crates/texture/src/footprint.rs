@@ -101,9 +101,14 @@ impl Footprint {
         } else {
             0.0
         };
-        let angle = 0.5 * (2.0 * r).atan2(p - q);
-        let (s, c) = angle.sin_cos();
-        let dir = Vec2::new(c, s);
+        // The eigenvector of l1: (l1 - q, r) or (r, l1 - p), whichever is longer (both are
+        // non-negative sums here, so neither cancels); a circle takes the x axis.
+        let v = if half_diff >= 0.0 {
+            Vec2::new(half_diff + root, r)
+        } else {
+            Vec2::new(r, root - half_diff)
+        };
+        let dir = v.try_normalize().unwrap_or(Vec2::X);
         let (major, minor) = (dir * (l1.sqrt() * scale), dir.perp() * (l2.sqrt() * scale));
         if major.is_finite() && minor.is_finite() {
             (major, minor)

@@ -86,12 +86,12 @@ impl RayCone {
     /// point. Never NaN.
     pub fn footprint(&self, ray_dir: Vec3, normal: Vec3, dpdu: Vec3, dpdv: Vec3) -> Footprint {
         let r = self.width.abs() * RADIUS_PER_WIDTH;
-        let (Some(d), Some(n)) = (ray_dir.try_normalize(), normal.try_normalize()) else {
-            return Footprint::POINT;
-        };
         if !(r.is_finite() && r > 0.0) {
             return Footprint::POINT;
         }
+        let (Some(d), Some(n)) = (ray_dir.try_normalize(), normal.try_normalize()) else {
+            return Footprint::POINT;
+        };
         let cos = d.dot(n);
         // Across the plane of incidence, and the ray's direction within the surface.
         let (across, along) = match n.cross(d).try_normalize() {
@@ -103,9 +103,10 @@ impl RayCone {
         let (uu, uv, vv) = (dpdu.dot(dpdu), dpdu.dot(dpdv), dpdv.dot(dpdv));
         let det = uu * vv - uv * uv;
         if det > 1e-6 * uu * vv && det.is_finite() && det > 0.0 {
+            let inv_det = 1.0 / det;
             let to_uv = |w: Vec3| {
                 let (pu, pv) = (dpdu.dot(w), dpdv.dot(w));
-                Vec2::new(vv * pu - uv * pv, uu * pv - uv * pu) / det
+                Vec2::new(vv * pu - uv * pv, uu * pv - uv * pu) * inv_det
             };
             let fp = Footprint::new(to_uv(major), to_uv(minor));
             return match self.centre_offset(ray_dir, n, major, minor) {
