@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use torrey_parser::PixelFilter;
-use torrey_texture::{Image, RayCone};
+use torrey_texture::{centre_weight, spp_scale, Image, RayCone};
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -75,6 +75,7 @@ pub fn render(
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
         mipmapping: settings.mipmapping,
+        footprint_scale: spp_scale(settings.spp),
         env_strategy: settings.env_strategy,
     };
     let spp = settings.spp.max(1);
@@ -168,7 +169,16 @@ fn render_pixel<S: Sampler>(
     let spp = settings.spp.max(1);
     let filter = settings.filter;
     let camera = scene.camera();
-    let cone = RayCone::from_pixel(camera.pixel_spread());
+    // One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel centre
+    // (the ray through the film's and the lens's centres).
+    let centre = camera
+        .generate_ray(&CameraSample {
+            film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+            lens: Vec2::splat(0.5),
+        })
+        .1;
+    let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
+        .toward_pixel_centre(centre.into(), centre_weight(spp));
     // The camera's sampler draws: the film position, then its lens (if it has one).
     let camera_requests = 1 + camera.lens_requests();
     // Mitsuba places samples inside the film only (hdrfilm's sample_border is false) and divides
@@ -463,6 +473,7 @@ mod tests {
                     max_depth: 5,
                     rr_depth: 5,
                     mipmapping: true,
+                    footprint_scale: spp_scale(12),
                     env_strategy: EnvStrategy::default(),
                 };
                 let mut rays = RayCount::default();

@@ -1,9 +1,9 @@
-//! Textures as the renderer evaluates them at a hit: bitmaps (mip-mapped, filtered by the ray
-//! cone's footprint) and Mitsuba's procedural checkerboard; and the textured parameters of
+//! Textures as the renderer evaluates them at a hit: bitmaps (filtered over the ray cone's
+//! anisotropic footprint) and Mitsuba's procedural checkerboard; and the textured parameters of
 //! materials ([`ColorSource`], [`FloatSource`]), resolved at a hit through a [`TextureQuery`].
 
 use glam::{Affine2, Vec2, Vec3A};
-use torrey_texture::BitmapTexture;
+use torrey_texture::{BitmapTexture, Footprint};
 
 /// A texture of the scene.
 pub enum Texture {
@@ -16,9 +16,9 @@ pub enum Texture {
 }
 
 impl Texture {
-    /// Value at `uv` for a filter `footprint` wide in the surface's uv units.
+    /// Value at `uv` filtered over `footprint`, an ellipse in the surface's uv units.
     #[inline]
-    pub fn eval(&self, uv: Vec2, footprint: f32) -> Vec3A {
+    pub fn eval(&self, uv: Vec2, footprint: Footprint) -> Vec3A {
         match self {
             Texture::Bitmap(b) => b.eval(uv, footprint).into(),
             Texture::Checkerboard {
@@ -50,7 +50,7 @@ pub enum ColorSource {
 
 impl ColorSource {
     #[inline]
-    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: f32) -> Vec3A {
+    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: Footprint) -> Vec3A {
         match *self {
             ColorSource::Constant(c) => c,
             ColorSource::Texture(i) => textures[i as usize].eval(uv, footprint),
@@ -69,7 +69,7 @@ pub enum FloatSource {
 
 impl FloatSource {
     #[inline]
-    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: f32) -> f32 {
+    pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: Footprint) -> f32 {
         match *self {
             FloatSource::Constant(c) => c,
             FloatSource::Texture(i) => textures[i as usize].eval(uv, footprint).x,
@@ -95,8 +95,9 @@ impl ColorSource {
 pub struct TextureQuery<'a> {
     pub textures: &'a [Texture],
     pub uv: Vec2,
-    /// Filter width in the surface's uv units (0: the finest level).
-    pub footprint: f32,
+    /// The filter's footprint, an ellipse in the surface's uv units ([`Footprint::POINT`]: the
+    /// finest level, bilinear).
+    pub footprint: Footprint,
 }
 
 impl TextureQuery<'_> {

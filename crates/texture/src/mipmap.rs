@@ -298,7 +298,13 @@ impl MipMap {
         if self.filter == FilterType::Nearest {
             return self.lookup_level(0, uv);
         }
-        let level = self.level_for_footprint(footprint);
+        self.lookup_lod(uv, self.level_for_footprint(footprint))
+    }
+
+    /// Trilinear lookup at a continuous pyramid `level`, finite and in [0, levels - 1].
+    #[inline]
+    pub fn lookup_lod(&self, uv: Vec2, level: f32) -> Vec3 {
+        debug_assert!(level >= 0.0 && level <= (self.levels.len() - 1) as f32);
         // `level` is finite and in [0, levels - 1], so truncation is floor.
         let l0 = level as usize;
         let t = level - l0 as f32;

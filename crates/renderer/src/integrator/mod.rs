@@ -12,6 +12,8 @@ pub struct PathSettings {
     /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
     /// as Mitsuba does; used to measure what mip-mapping changes.
     pub mipmapping: bool,
+    /// Scale of every ray-cone spread: `torrey_texture::spp_scale(spp)` = 1/sqrt(spp).
+    pub footprint_scale: f32,
     /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
     pub env_strategy: EnvStrategy,
 }

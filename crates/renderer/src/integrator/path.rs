@@ -4,10 +4,12 @@
 //! Depth counts path segments like Mitsuba's `max_depth`: 1 shows only emitters seen directly,
 //! 2 adds direct lighting, -1 is unbounded. Russian roulette starts at `rr_depth`.
 //!
-//! Ray cones: every camera ray starts with the pixel's spread angle; the cone's width grows with
-//! distance and picks the texture mip level. Delta (mirror) bounces keep the spread; a rough bounce
-//! adds its lobe width (`BsdfModel::roughness`, about one radian for diffuse), so textures seen
-//! through diffuse interreflection are looked up prefiltered. Environment maps are filtered by the
+//! Ray cones: every camera ray starts with the pixel's spread angle times 1/sqrt(spp) (the share
+//! of the pixel one sample stands for); the cone's width grows with distance, and its elliptical
+//! footprint on a surface filters textures anisotropically. Delta (mirror) bounces keep the spread;
+//! a rough bounce adds its lobe width (`Bsdf::roughness`, about one radian for diffuse) times
+//! the same 1/sqrt(spp), so textures seen through diffuse interreflection are looked up prefiltered
+//! and every filter vanishes as the sample count grows. Environment maps are filtered by the
 //! cone only along purely specular chains; after a rough bounce they are read at full resolution so
 //! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
 
@@ -19,7 +21,7 @@ use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
 use glam::Vec3A;
-use torrey_texture::RayCone;
+use torrey_texture::{Footprint, RayCone};
 
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
 /// `first_hit`, when given, is the primary ray's closest hit, already traced (in a packet with
@@ -148,14 +150,14 @@ pub fn radiance(
         cone = cone.at_distance(hit.t);
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
-            cone.uv_footprint(
+            cone.footprint(
                 ray.dir.into(),
                 hit.ng.into(),
                 hit.dpdu.into(),
                 hit.dpdv.into(),
             )
         } else {
-            0.0
+            Footprint::POINT
         };
         let frame = material.shading_frame(&scene.textures, &hit, wo, footprint);
         let wo_local = frame.to_local(wo);
@@ -212,7 +214,7 @@ pub fn radiance(
         throughput *= bs.weight;
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta() {
-            cone.spread += bsdf.roughness(wo_local);
+            cone.spread += bsdf.roughness(wo_local) * settings.footprint_scale;
             specular_chain = false;
         }
         prev_bsdf_pdf = bs.pdf;

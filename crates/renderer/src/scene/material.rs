@@ -7,6 +7,7 @@ use crate::shapes::SurfaceHit;
 use crate::textures::{Texture, TextureQuery};
 use glam::Vec3A;
 use torrey_parser as desc;
+use torrey_texture::Footprint;
 
 /// A material ready to shade.
 #[derive(Clone, Copy, Debug)]
@@ -57,7 +58,7 @@ impl Material {
         textures: &[Texture],
         hit: &SurfaceHit,
         wo: Vec3A,
-        footprint: f32,
+        footprint: Footprint,
     ) -> Frame {
         let Some(tex) = self.normal_map else {
             // The common case, inline in the path loop; normal maps take the call below.
@@ -74,7 +75,7 @@ impl Material {
         hit: &SurfaceHit,
         wo: Vec3A,
         tex: u32,
-        footprint: f32,
+        footprint: Footprint,
     ) -> Frame {
         let front = hit.ng.dot(wo) >= 0.0;
         let rgb = textures[tex as usize].eval(hit.uv, footprint);
