@@ -97,6 +97,7 @@ verdict_tests!(
     instances_cube_direct,
     mitsuba06_indoor,
     no_fov,
+    thinlens,
 );
 
 /// The textured plane under the default gaussian filter passes, and the same render made 3%
@@ -140,6 +141,7 @@ fn every_scene_has_a_reference() {
         "mitsuba06_indoor",
         "no_fov",
         "textured_plane_gaussian",
+        "thinlens",
     ];
     assert_eq!(listed, tested.map(String::from).to_vec());
 }
