@@ -26,6 +26,6 @@ pub mod triangle4;
 
 pub use accel::BvhWidth;
 pub use integrator::EnvStrategy;
-pub use render::{render, RenderOutput, RenderSettings};
+pub use render::{render, render_slice, RenderOutput, RenderSettings, RenderSlice};
 pub use sampler::SamplerKind;
 pub use scene::{BuildError, RenderScene};
