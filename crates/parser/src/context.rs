@@ -23,6 +23,8 @@ pub(crate) struct Ctx {
     pub warnings: Vec<Warning>,
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
+    /// Every file name resolved so far, in order: [`crate::Scene::files`].
+    pub files: std::cell::RefCell<Vec<PathBuf>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
 }
 
@@ -37,6 +39,7 @@ impl Ctx {
             warnings: Vec::new(),
             textures: Vec::new(),
             bsdfs: Vec::new(),
+            files: Default::default(),
             ids: HashMap::new(),
         }
     }
@@ -91,14 +94,16 @@ impl Ctx {
             })
     }
 
-    /// Resolves a file name from the scene against the scene file's folder.
+    /// Resolves a file name from the scene against the scene file's folder (and records it).
     pub fn resolve(&self, name: &str) -> PathBuf {
         let p = Path::new(name);
-        if p.is_absolute() {
+        let resolved = if p.is_absolute() {
             p.to_path_buf()
         } else {
             self.dir.join(p)
-        }
+        };
+        self.files.borrow_mut().push(resolved.clone());
+        resolved
     }
 }
 

@@ -64,6 +64,9 @@ pub struct Scene {
     pub shapes: Vec<Shape>,
     /// Point lights, environment maps and constant backgrounds. Area lights live on their shapes.
     pub lights: Vec<Light>,
+    /// Every file the scene refers to (meshes, images), resolved, in the order named: what a
+    /// copy of the scene must carry along, and what its content hash covers.
+    pub files: Vec<PathBuf>,
     pub warnings: Vec<Warning>,
 }
 

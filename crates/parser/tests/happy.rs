@@ -489,3 +489,25 @@ fn serialized_roundtrip() {
         "{e}"
     );
 }
+
+/// `Scene::files` lists every file the scene names, resolved against its folder, in order (a
+/// mesh named twice is listed twice): what a copy of the scene must carry.
+#[test]
+fn scene_lists_the_files_it_refers_to() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let scene = torrey_parser::load_scene(&dir.join("textured_mesh.xml"), &[]).unwrap();
+    let names: Vec<String> = scene
+        .files
+        .iter()
+        .map(|f| {
+            assert!(f.is_absolute(), "{}", f.display());
+            let canon = f.canonicalize().unwrap();
+            let root = dir.join("..").canonicalize().unwrap();
+            canon.strip_prefix(root).unwrap().display().to_string()
+        })
+        .collect();
+    assert_eq!(names, ["textures/checker.png", "scenes/meshes/torus.obj"]);
+    let cbox = torrey_parser::load_scene(&dir.join("cbox.xml"), &[]).unwrap();
+    assert_eq!(cbox.files.len(), 2);
+    assert!(cbox.files.iter().all(|f| f.ends_with("meshes/cube.obj")));
+}
