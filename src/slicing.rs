@@ -48,7 +48,7 @@ pub fn part_meta(
 ) -> Result<PartMeta, String> {
     Ok(PartMeta {
         scene: scene.path.display().to_string(),
-        scene_hash: torrey_parts::scene_hash(&scene.path, &scene.files, defines)?,
+        scene_hash: torrey_parts::scene_hash(scene, defines)?,
         settings: torrey_parts::settings_text(settings),
         width,
         height,

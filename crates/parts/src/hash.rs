@@ -1,7 +1,8 @@
 //! The scene content hash: which scene a part was rendered from, whatever folder it was read in.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use torrey_parser::{Light, Scene, TextureKind};
 
 /// 64-bit FNV-1a: simple, stable across builds and platforms (unlike std's `DefaultHasher`), and
 /// fast enough for scene files (about 1 GB/s).
@@ -22,18 +23,22 @@ impl Fnv {
 }
 
 /// Hash of a scene's contents, as 16 hex digits: the scene file's text, the `-D` overrides and the
-/// bytes of every file it names (`torrey_parser::Scene::files`, in order), but no paths, so a copy
-/// of the scene in another folder (a worker's) hashes the same.
-pub fn scene_hash(
-    scene_file: &Path,
-    files: &[PathBuf],
-    defines: &[(String, String)],
-) -> Result<String, String> {
+/// bytes of every file it names (`Scene::files`, in order), but no paths, so a copy of the scene
+/// in another folder (a worker's) hashes the same. A missing image is reported at the place in
+/// the scene file that names it.
+pub fn scene_hash(scene: &Scene, defines: &[(String, String)]) -> Result<String, String> {
     let read = |p: &Path| {
-        std::fs::read(p).map_err(|e| format!("cannot read {} to hash it: {e}", p.display()))
+        std::fs::read(p).map_err(|e| match named_at(scene, p) {
+            Some(location) => format!(
+                "{location}: error: cannot read image file '{}': {e}",
+                p.display()
+            ),
+            None => format!("cannot read {}: {e}", p.display()),
+        })
     };
+    let files = &scene.files;
     let mut h = Fnv::new();
-    let text = read(scene_file)?;
+    let text = read(&scene.path)?;
     h.u64(text.len() as u64);
     h.bytes(&text);
     h.u64(defines.len() as u64);
@@ -62,6 +67,22 @@ pub fn scene_hash(
     Ok(format!("{:016x}", h.0))
 }
 
+/// Where the scene names image `file` (a bitmap texture or an environment map).
+fn named_at(scene: &Scene, file: &Path) -> Option<String> {
+    let textures = scene.textures.iter().filter_map(|t| match &t.kind {
+        TextureKind::Bitmap(b) => Some(b),
+        _ => None,
+    });
+    let envmaps = scene.lights.iter().filter_map(|l| match l {
+        Light::Envmap { bitmap, .. } => Some(bitmap),
+        _ => None,
+    });
+    textures
+        .chain(envmaps)
+        .find(|b| b.filename == file)
+        .map(|b| b.location.to_string())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -70,21 +91,30 @@ mod tests {
     fn hash_covers_contents_and_defines_but_not_the_folder() {
         let dir = std::env::temp_dir().join(format!("torrey-hash-{}", std::process::id()));
         let (a, b) = (dir.join("a"), dir.join("b"));
+        let xml = r#"<scene version="0.6.0">
+  <texture type="bitmap" id="t"><string name="filename" value="t.png"/></texture>
+</scene>"#;
         for d in [&a, &b] {
             std::fs::create_dir_all(d).unwrap();
-            std::fs::write(d.join("s.xml"), "<scene/>").unwrap();
-            std::fs::write(d.join("m.obj"), "v 0 0 0").unwrap();
+            std::fs::write(d.join("s.xml"), xml).unwrap();
+            std::fs::write(d.join("t.png"), "not really a png").unwrap();
         }
-        let h = |d: &Path, defines: &[(String, String)]| {
-            scene_hash(&d.join("s.xml"), &[d.join("m.obj")], defines).unwrap()
-        };
+        let load = |d: &Path| torrey_parser::load_scene(&d.join("s.xml"), &[]).unwrap();
+        let h = |d: &Path, defines: &[(String, String)]| scene_hash(&load(d), defines).unwrap();
         assert_eq!(h(&a, &[]), h(&b, &[]));
         assert_eq!(h(&a, &[]).len(), 16);
         assert_ne!(h(&a, &[]), h(&a, &[("spp".into(), "4".into())]));
-        std::fs::write(b.join("m.obj"), "v 0 0 1").unwrap();
+        std::fs::write(b.join("t.png"), "another image").unwrap();
         assert_ne!(h(&a, &[]), h(&b, &[]));
-        let missing = scene_hash(&a.join("s.xml"), &[a.join("gone.png")], &[]).unwrap_err();
-        assert!(missing.contains("gone.png"), "{missing}");
+        // (The parser checks that images exist; one removed after parsing is found when hashing.)
+        let scene = load(&b);
+        std::fs::remove_file(b.join("t.png")).unwrap();
+        let missing = scene_hash(&scene, &[]).unwrap_err();
+        let expected = format!(
+            "{}:2:64: error: cannot read image file",
+            b.join("s.xml").display()
+        );
+        assert!(missing.starts_with(&expected), "{missing}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
