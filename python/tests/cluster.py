@@ -23,21 +23,26 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+def use_fresh_auth_token() -> None:
+    """Ray's token authentication for this process and the nodes and drivers it starts: a fresh
+    token in the environment. Must run before `import ray` (Ray reads the mode when imported)."""
+    os.environ["RAY_AUTH_MODE"] = "token"
+    os.environ.setdefault("RAY_AUTH_TOKEN", secrets.token_hex(32))
+    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
+
+
 class LocalCluster:
     def __init__(self) -> None:
+        use_fresh_auth_token()
         # Short: Ray's unix socket paths under it must stay below 107 characters.
         self.temp = tempfile.mkdtemp(prefix="trc-", dir="/tmp")
         self.port = _free_port()
         self.address = f"127.0.0.1:{self.port}"
         self.env = dict(
             os.environ,
-            # A fresh token for this cluster (Ray's token authentication), shared by the nodes
-            # and the driver.
-            RAY_AUTH_TOKEN=secrets.token_hex(32),
             # The tests' tasks are small; do not let Ray's memory monitor kill workers because
             # other programs on this machine use memory.
             RAY_memory_monitor_refresh_ms="0",
-            RAY_USAGE_STATS_ENABLED="0",
         )
         self.nodes: List[subprocess.Popen] = []
         self.ray_bin = os.path.join(os.path.dirname(sys.executable), "ray")
@@ -70,7 +75,6 @@ class LocalCluster:
         """Connects this process as the driver once `nodes` nodes are alive."""
         import ray
 
-        os.environ.update({k: self.env[k] for k in ("RAY_AUTH_TOKEN", "RAY_USAGE_STATS_ENABLED")})
         deadline = time.monotonic() + timeout
         while not ray.is_initialized():
             try:
@@ -89,6 +93,23 @@ class LocalCluster:
             if time.monotonic() > deadline:
                 raise TimeoutError(f"{nodes} Ray nodes not alive after {timeout} s: {self.logs()}")
             time.sleep(0.3)
+
+    def warm_up(self) -> None:
+        """Runs a task on every alive node, so each has a worker process started (a node's first
+        worker takes about a second to start: without this, short renders finish on the nodes
+        that were warm)."""
+        import ray
+        from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+        @ray.remote(num_cpus=1)
+        def ping() -> int:
+            return os.getpid()
+
+        nodes = [n["NodeID"] for n in ray.nodes() if n["Alive"]]
+        ray.get([
+            ping.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n, soft=False)).remote()
+            for n in nodes
+        ])
 
     def kill_node(self, proc: subprocess.Popen) -> None:
         """SIGKILL to every process of one node (its process group)."""

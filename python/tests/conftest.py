@@ -7,6 +7,10 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 
+from cluster import use_fresh_auth_token  # noqa: E402
+
+use_fresh_auth_token()  # before anything imports ray
+
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 
 

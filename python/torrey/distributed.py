@@ -217,9 +217,13 @@ def render_distributed(
     # Ray runs as many tasks at once on a node as its CPUs allow; each renders with its share of
     # threads (the parts are the same whatever the thread count). Tasks whose worker process or
     # node dies are resubmitted up to max_retries times; exceptions (scene errors) are not.
-    task = ray.remote(num_cpus=threads_per_task, max_retries=max_retries, retry_exceptions=False)(
-        render_slice_task
-    )
+    # SPREAD: slices go to all nodes from the start instead of filling the driver's node first.
+    task = ray.remote(
+        num_cpus=threads_per_task,
+        max_retries=max_retries,
+        retry_exceptions=False,
+        scheduling_strategy="SPREAD",
+    )(render_slice_task)
     pending = {}
     for crop, samples in pieces:
         ref = task.remote(
@@ -289,8 +293,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     def progress(done: int, total: int) -> None:
         if not a.quiet:
-            end = "" if sys.stderr.isatty() else "\n"
-            print(f"\r[{time.monotonic() - start:7.1f} s] {done}/{total} slices", end=end, file=sys.stderr, flush=True)
+            line = f"[{time.monotonic() - start:7.1f} s] {done}/{total} slices"
+            if sys.stderr.isatty():
+                print(f"\r{line}", end="", file=sys.stderr, flush=True)
+            else:
+                print(line, file=sys.stderr, flush=True)
 
     try:
         merged, per_node = render_distributed(
