@@ -47,6 +47,9 @@ fn scene_error(message: String) -> PyErr {
     err
 }
 
+/// A film size and the render scene built for it.
+type Built = Option<((u32, u32), Arc<RenderScene>)>;
+
 /// A parsed scene (meshes loaded), with its last built acceleration structure kept for the
 /// next render of the same size.
 #[pyclass(frozen, module = "torrey._native")]
@@ -54,7 +57,7 @@ struct Scene {
     desc: Arc<torrey_parser::Scene>,
     defines: Vec<(String, String)>,
     hash: String,
-    built: Mutex<Option<((u32, u32), Arc<RenderScene>)>>,
+    built: Mutex<Built>,
 }
 
 #[pymethods]
