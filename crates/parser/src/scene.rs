@@ -98,6 +98,9 @@ pub struct Film {
     /// Output file name from the scene, if it names one.
     pub filename: Option<String>,
     pub filter: PixelFilter,
+    /// Mitsuba's crop window `(x, y, width, height)` in film pixels, if the film sets one: only
+    /// that window is rendered (the camera is the full film's).
+    pub crop: Option<(u32, u32, u32, u32)>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,7 +5,7 @@ use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::props::Props;
 use crate::scene::{Camera, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler};
-use crate::xml::Element;
+use crate::xml::{Element, Pos};
 use glam::Mat4;
 
 /// The camera used when a scene has no sensor (and the fov when a sensor gives none):
@@ -30,6 +30,7 @@ pub(crate) fn default_film() -> Film {
         height: 576,
         filename: None,
         filter: PixelFilter::Box,
+        crop: None,
     }
 }
 
@@ -74,6 +75,8 @@ fn positive(ctx: &Ctx, props: &mut Props, name: &str, default: i64) -> Result<u3
 /// | `width`, `height` | integer | 768, 576 |
 /// | `filename` | string | none |
 /// | nested `<rfilter>` | `box`, `gaussian` (`stddev` 0.5), `tent` (`radius` 1) | box |
+/// | `crop_offset_x`, `crop_offset_y` | integer | 0, 0 |
+/// | `crop_width`, `crop_height` | integer | `width`, `height` |
 /// | `pixel_format`, `component_format`, `file_format`, `banner`, `high_quality_edges`, `attach_log`, `sample_border` | any | accepted, no effect |
 fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     let ty = plugin_type(ctx, elem)?;
@@ -85,6 +88,7 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     film.width = positive(ctx, &mut props, "width", 768)?;
     film.height = positive(ctx, &mut props, "height", 576)?;
     film.filename = props.string(ctx, &["filename"])?.map(|a| a.value.clone());
+    film.crop = parse_crop(ctx, &mut props, elem, film.width, film.height)?;
     props.ignore(&[
         "pixel_format",
         "component_format",
@@ -119,6 +123,43 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     }
     props.finish(ctx);
     Ok(film)
+}
+
+/// Mitsuba's film crop: a window of `crop_width` x `crop_height` pixels at
+/// (`crop_offset_x`, `crop_offset_y`), which must lie inside the film. `None` when none is given.
+fn parse_crop(
+    ctx: &Ctx,
+    props: &mut Props,
+    elem: &Element,
+    width: u32,
+    height: u32,
+) -> Result<Option<(u32, u32, u32, u32)>> {
+    let mut get = |name: &str| props.opt_int_pos(ctx, &[name]);
+    let (x, y, w, h) = (
+        get("crop_offset_x")?,
+        get("crop_offset_y")?,
+        get("crop_width")?,
+        get("crop_height")?,
+    );
+    if x.is_none() && y.is_none() && w.is_none() && h.is_none() {
+        return Ok(None);
+    }
+    let pos = [x, y, w, h]
+        .iter()
+        .flatten()
+        .map(|(_, p)| *p)
+        .next()
+        .unwrap_or(elem.pos);
+    let value = |v: Option<(i64, Pos)>, default: u32| v.map_or(default as i64, |(v, _)| v);
+    let (x, y) = (value(x, 0), value(y, 0));
+    let (w, h) = (value(w, width), value(h, height));
+    if x < 0 || y < 0 || w <= 0 || h <= 0 || x + w > width as i64 || y + h > height as i64 {
+        return Err(ctx.err(
+            pos,
+            format!("crop window {x},{y},{w},{h} (offset x, y, width, height) does not fit the {width}x{height} film"),
+        ));
+    }
+    Ok(Some((x as u32, y as u32, w as u32, h as u32)))
 }
 
 /// Sampler: any type is read as `independent` (others get a warning).
