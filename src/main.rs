@@ -206,7 +206,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let slice = torrey_renderer::RenderSlice {
-        crop: args.crop.unwrap_or((0, 0, width, height)),
+        crop: slicing::default_crop(args.crop, &scene.film, args.size),
         samples: args.sample_range.map_or(0..settings.spp, |(a, b)| a..b),
     };
     slice.validate(width, height, settings.spp)?;

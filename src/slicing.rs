@@ -37,6 +37,25 @@ pub fn parse_sample_range(s: &str) -> Result<(u32, u32), String> {
     Ok((a, b))
 }
 
+/// The window to render: `--crop`, else the film's crop parameters (unless `--size` changed the
+/// film, which drops them with a warning), else the whole film.
+pub fn default_crop(
+    crop: Option<(u32, u32, u32, u32)>,
+    film: &torrey_parser::Film,
+    size: Option<(u32, u32)>,
+) -> (u32, u32, u32, u32) {
+    let (width, height) = size.unwrap_or((film.width, film.height));
+    match (crop, film.crop) {
+        (Some(c), _) => c,
+        (None, Some(c)) if size.is_none() => c,
+        (None, Some(_)) => {
+            eprintln!("warning: the film's crop window is ignored: --size changes the film");
+            (0, 0, width, height)
+        }
+        (None, None) => (0, 0, width, height),
+    }
+}
+
 /// The metadata of a render part: the scene (path and content hash), the settings, the film and
 /// the slice.
 pub fn part_meta(

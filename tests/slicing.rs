@@ -224,3 +224,69 @@ fn merge_refuses_parts_that_do_not_belong_together() {
     assert!(!Path::new(out).exists(), "no output on error");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Mitsuba's film crop parameters render the window, as `--crop` does; `--size` drops them.
+#[test]
+fn film_crop_parameters_render_a_window() {
+    let dir = temp_dir("filmcrop");
+    let scene = |crop: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="20"/><integer name="height" value="16"/>{crop}</film>
+  </sensor>
+  <shape type="sphere"><bsdf type="diffuse"/></shape>
+  <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+</scene>"#
+        )
+    };
+    let cropped = dir.join("cropped.xml");
+    std::fs::write(
+        &cropped,
+        scene(
+            r#"<integer name="crop_offset_x" value="3"/><integer name="crop_offset_y" value="5"/>
+    <integer name="crop_width" value="9"/><integer name="crop_height" value="7"/>"#,
+        ),
+    )
+    .unwrap();
+    let plain = dir.join("plain.xml");
+    std::fs::write(&plain, scene("")).unwrap();
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    run(&[&s(&cropped), "--quiet", "--spp", "4", "-o", &s(&a)]);
+    run(&[
+        &s(&plain),
+        "--quiet",
+        "--spp",
+        "4",
+        "--crop",
+        "3,5,9,7",
+        "-o",
+        &s(&b),
+    ]);
+    let (a, b) = (read_part(&a).unwrap(), read_part(&b).unwrap());
+    assert_eq!(a.meta.crop, (3, 5, 9, 7));
+    assert_eq!(a.mean, b.mean);
+    assert!(a.mean.iter().any(|p| p.max_element() > 0.0));
+    let out = Command::new(env!("CARGO_BIN_EXE_torrey"))
+        .args([
+            &s(&cropped),
+            "--quiet",
+            "--spp",
+            "1",
+            "--size",
+            "10x8",
+            "-o",
+            &s(&dir.join("c.exr")),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("crop window is ignored"));
+    assert_eq!(
+        read_part(&dir.join("c.exr")).unwrap().meta.crop,
+        (0, 0, 10, 8)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -292,8 +292,10 @@ fn render(
         mipmapping: true,
         packets: true,
     };
+    // The film's crop parameters apply to the film they were written for.
+    let film_crop = desc.film.crop.filter(|_| size.is_none());
     let slice = RenderSlice {
-        crop: crop.unwrap_or((0, 0, width, height)),
+        crop: crop.or(film_crop).unwrap_or((0, 0, width, height)),
         samples: sample_range.map_or(0..settings.spp, |(a, b)| a..b),
     };
     slice
