@@ -91,6 +91,11 @@ impl Scene {
     fn size(&self) -> (u32, u32) {
         (self.desc.film.width, self.desc.film.height)
     }
+    /// The film's crop window (x, y, width, height), if it sets one (Mitsuba's crop parameters).
+    #[getter]
+    fn crop(&self) -> Option<(u32, u32, u32, u32)> {
+        self.desc.film.crop
+    }
     /// The scene's sample count.
     #[getter]
     fn spp(&self) -> u32 {

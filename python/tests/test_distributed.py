@@ -167,3 +167,19 @@ def test_scene_error_on_a_worker_reaches_the_driver(cluster, tmp_path):
     assert isinstance(e.value.cause, torrey.SceneError)
     assert e.value.cause.line == 3 and "t.png" in str(e.value.cause)
     shutil.rmtree(folder)
+
+
+def test_film_crop_window_is_rendered_as_the_command_line_does(cluster, torrey_bin, tmp_path):
+    xml = tmp_path / "cropped.xml"
+    xml.write_text(open(scene_path("cbox.xml")).read().replace(
+        '<integer name="height" value="256"/>',
+        '<integer name="height" value="256"/><integer name="crop_offset_x" value="100"/>'
+        '<integer name="crop_offset_y" value="60"/><integer name="crop_width" value="20"/>'
+        '<integer name="crop_height" value="12"/>'))
+    (tmp_path / "meshes").symlink_to(os.path.join(os.path.dirname(scene_path("cbox.xml")), "meshes"))
+    part, _ = dist.render_distributed(str(xml), str(tmp_path / "d.exr"), slices=3, spp=24)
+    out = str(tmp_path / "cli.exr")
+    run_cli(torrey_bin, str(xml), "--spp", "24", "-o", out)
+    reference = torrey.Part.read(out)
+    assert part.meta == reference.meta and part.meta["crop"] == (100, 60, 20, 12)
+    assert max_relative_difference(torrey.part_to_array(part), torrey.part_to_array(reference)) < 1e-4

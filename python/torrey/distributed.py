@@ -206,7 +206,12 @@ def render_distributed(
         sampler=sampler,
         threads=threads_per_task,
     )
-    pieces = plan(width, height, total_spp, slices)
+    if size is None and scene.crop is not None:
+        # The film's crop window (as the command line renders it): split by sample ranges only,
+        # so that the parts share the window and merge into it.
+        pieces = [(scene.crop, r) for r in split_samples(total_spp, slices)]
+    else:
+        pieces = plan(width, height, total_spp, slices)
 
     if not ray.is_initialized():
         ray.init(address=address, log_to_driver=False, configure_logging=False)
