@@ -1,6 +1,8 @@
 //! `torrey`: render a Mitsuba-style XML scene to a linear EXR and a tonemapped PNG.
 
 mod compare;
+mod merge;
+mod slicing;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -26,6 +28,8 @@ struct Cli {
 enum Command {
     /// Compare two images: RMSE, relative MSE, mean ratios; optional heatmap and side-by-side.
     Compare(compare::CompareArgs),
+    /// Merge render parts (crops and sample ranges of one render) into one EXR and PNG.
+    Merge(merge::MergeArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -77,6 +81,14 @@ struct RenderArgs {
     /// 8-wide nodes). The same hits; this is for comparing their speed.
     #[arg(long)]
     no_packets: bool,
+    /// Render only this film window, X,Y,WIDTH,HEIGHT in pixels of the full film (a part for
+    /// `torrey merge`; the EXR records the crop).
+    #[arg(long, value_parser = slicing::parse_crop)]
+    crop: Option<(u32, u32, u32, u32)>,
+    /// Render only samples FIRST..END-1 of every pixel, by their global index (a part for
+    /// `torrey merge`; the EXR records the range).
+    #[arg(long, value_parser = slicing::parse_sample_range)]
+    sample_range: Option<(u32, u32)>,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -160,6 +172,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Compare(args)) => compare::run(args),
+        Some(Command::Merge(args)) => merge::run(args),
         None => render_command(&cli.render),
     };
     match result {
@@ -244,31 +257,27 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
-    let out = pool.install(|| torrey_renderer::render(&render_scene, &settings, &progress));
+    let slice = torrey_renderer::RenderSlice {
+        crop: slicing::default_crop(args.crop, &scene.film, args.size),
+        samples: args.sample_range.map_or(0..settings.spp, |(a, b)| a..b),
+    };
+    slice.validate(width, height, settings.spp)?;
+    let meta = slicing::part_meta(&scene, &args.define, &settings, (width, height), &slice)?;
+    let out = pool
+        .install(|| torrey_renderer::render_slice(&render_scene, &settings, &slice, &progress))?;
     bar.finish_and_clear();
 
-    torrey_texture::write_exr(&output, &out.image).map_err(|e| e.to_string())?;
-    let png = output.with_extension("png");
-    let tonemapped = torrey_texture::Image::new(
-        out.image.width,
-        out.image.height,
-        out.image
-            .pixels
-            .iter()
-            .map(|p| p.max(glam::Vec3::ZERO))
-            .collect(),
-    );
-    torrey_texture::write_png_srgb(&png, &tonemapped).map_err(|e| e.to_string())?;
+    let png = slicing::write_outputs(&output, &torrey_parts::Part::from_output(meta, &out))?;
 
-    let samples = width as u64 * height as u64 * out.spp as u64;
+    let samples = out.image.width as u64 * out.image.height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
         "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH ({})",
         scene_path.display(),
         scene.dialect,
         scene.dialect_reason,
-        width,
-        height,
+        out.image.width,
+        out.image.height,
         out.spp,
         settings.max_depth,
         render_scene.triangle_count(),

@@ -28,6 +28,8 @@ pub(crate) struct Ctx {
     pub bsdfs: Vec<Bsdf>,
     /// The shapes of each `shapegroup`, placed by `instance`s.
     pub shape_groups: Vec<Vec<crate::scene::Shape>>,
+    /// Every file name resolved so far, in order: [`crate::Scene::files`].
+    pub files: std::cell::RefCell<Vec<PathBuf>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
     media_warned: bool,
 }
@@ -41,6 +43,7 @@ impl Ctx {
             textures: Vec::new(),
             bsdfs: Vec::new(),
             shape_groups: Vec::new(),
+            files: Default::default(),
             ids: HashMap::new(),
             media_warned: false,
         }
@@ -145,9 +148,11 @@ impl Ctx {
     }
 
     /// Resolves a file name given at `pos`: see [`Sources::resolve`] (the naming file's folder,
-    /// the `<path>` folders, the scene file's folder).
+    /// the `<path>` folders, the scene file's folder), and records it in [`Ctx::files`].
     pub fn resolve(&self, name: &str, pos: Pos) -> PathBuf {
-        self.sources.resolve(name, pos)
+        let resolved = self.sources.resolve(name, pos);
+        self.files.borrow_mut().push(resolved.clone());
+        resolved
     }
 }
 

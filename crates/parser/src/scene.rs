@@ -80,6 +80,9 @@ pub struct Scene {
     pub shapes: Vec<Shape>,
     /// Point lights, environment maps and constant backgrounds. Area lights live on their shapes.
     pub lights: Vec<Light>,
+    /// Every file the scene refers to (meshes, images), resolved, in the order named: what a
+    /// copy of the scene must carry along, and what its content hash covers.
+    pub files: Vec<PathBuf>,
     pub warnings: Vec<Warning>,
 }
 
@@ -140,6 +143,13 @@ pub struct CropWindow {
     pub offset_y: u32,
     pub width: u32,
     pub height: u32,
+}
+
+impl CropWindow {
+    /// `(offset x, offset y, width, height)`.
+    pub fn rect(&self) -> (u32, u32, u32, u32) {
+        (self.offset_x, self.offset_y, self.width, self.height)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

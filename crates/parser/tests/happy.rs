@@ -492,3 +492,60 @@ fn serialized_roundtrip() {
         "{e}"
     );
 }
+
+/// `Scene::files` lists every file the scene names, resolved against its folder, in order (a
+/// mesh named twice is listed twice): what a copy of the scene must carry.
+#[test]
+fn scene_lists_the_files_it_refers_to() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let scene = torrey_parser::load_scene(&dir.join("textured_mesh.xml"), &[]).unwrap();
+    let names: Vec<String> = scene
+        .files
+        .iter()
+        .map(|f| {
+            assert!(f.is_absolute(), "{}", f.display());
+            let canon = f.canonicalize().unwrap();
+            let root = dir.join("..").canonicalize().unwrap();
+            canon.strip_prefix(root).unwrap().display().to_string()
+        })
+        .collect();
+    assert_eq!(names, ["textures/checker.png", "scenes/meshes/torus.obj"]);
+    let cbox = torrey_parser::load_scene(&dir.join("cbox.xml"), &[]).unwrap();
+    assert_eq!(cbox.files.len(), 2);
+    assert!(cbox.files.iter().all(|f| f.ends_with("meshes/cube.obj")));
+}
+
+/// Mitsuba's film crop parameters give a crop window (offsets default to 0, sizes to the film's);
+/// a window outside the film is an error at the first crop parameter.
+#[test]
+fn film_crop_parameters_give_a_window() {
+    let film = |params: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm">
+  <integer name="width" value="64"/><integer name="height" value="48"/>{params}
+</film></sensor></scene>"#
+        )
+    };
+    assert_eq!(parse_ok(&film("")).film.crop, None);
+    let xml = film(
+        r#"<integer name="crop_offset_x" value="8"/><integer name="crop_offset_y" value="4"/>
+  <integer name="crop_width" value="16"/><integer name="crop_height" value="20"/>"#,
+    );
+    assert_eq!(
+        parse_ok(&xml).film.crop.map(|c| c.rect()),
+        Some((8, 4, 16, 20))
+    );
+    let xml = film(r#"<integer name="crop_height" value="10"/>"#);
+    assert_eq!(
+        parse_ok(&xml).film.crop.map(|c| c.rect()),
+        Some((0, 0, 64, 10))
+    );
+    let xml = film(r#"<integer name="crop_offset_x" value="8"/>"#);
+    let e = parse(&xml).unwrap_err();
+    assert!(
+        e.message
+            .contains("the crop window (8, 0) + 64 x 48 does not fit the 64 x 48 film"),
+        "{e}"
+    );
+    assert_eq!(e.location.line, 1); // the film element
+}

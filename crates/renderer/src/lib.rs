@@ -30,6 +30,6 @@ pub use accel::{Accel, BvhWidth, ClosestHit, Simd};
 pub use cameras::{Camera, CameraSample};
 pub use integrator::EnvStrategy;
 pub use ray::{offset_origin, Ray};
-pub use render::{render, RenderOutput, RenderSettings};
+pub use render::{render, render_slice, RenderOutput, RenderSettings, RenderSlice};
 pub use sampler::SamplerKind;
 pub use scene::{BuildError, RenderScene};

@@ -1,6 +1,8 @@
-//! The render loop: the film is cut into tiles that rayon renders in parallel; each pixel draws
-//! its samples from its own PCG stream (seeded by the render seed and the pixel index), so a
-//! render is deterministic for a given seed whatever the thread count or tile order.
+//! The render loop: the film is cut into tiles that rayon renders in parallel; each pixel sample
+//! draws its numbers from the sampler by (seed, pixel index, global sample index), so a render is
+//! deterministic for a given seed whatever the thread count or tile order, and a render split into
+//! film windows and sample ranges ([`RenderSlice`]) draws exactly the samples of the one-piece
+//! render.
 
 use crate::accel::ClosestHit;
 use crate::cameras::CameraSample;
@@ -10,6 +12,7 @@ use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use torrey_parser::PixelFilter;
@@ -27,8 +30,9 @@ pub struct RenderSettings {
     pub mipmapping: bool,
     pub env_strategy: EnvStrategy,
     pub sampler: SamplerKind,
-    /// Trace each pixel's camera rays in packets of eight ([`crate::packet`]; on by default,
-    /// used with eight-wide BVH nodes). Off, every ray is traced alone: the same hits, slower.
+    /// Trace each pixel's camera rays in packets (on by default; used with eight-wide BVH nodes
+    /// and cameras whose rays share an origin). Off, every ray is traced alone: the same hits,
+    /// slower.
     pub packets: bool,
 }
 
@@ -38,6 +42,9 @@ pub struct RenderOutput {
     /// Per-pixel variance of the mean (sample variance / spp): the noise level of `image`.
     pub variance: Image,
     pub spp: u32,
+    /// Samples that counted in each pixel, row by row: those whose filter offset stayed inside
+    /// the film (all `spp` of them with a box filter). Exact merging of sample ranges weighs by it.
+    pub counts: Vec<u32>,
     /// Samples whose value was NaN or infinite; they were dropped (counted as zero).
     pub nonfinite_samples: u64,
     pub elapsed: Duration,
@@ -50,8 +57,52 @@ pub struct RenderOutput {
 /// The most camera rays a packet holds (the widest any layout traces).
 const MAX_PACKET: usize = 16;
 
-/// A tile's origin and its pixels' (mean, variance of the mean), row by row.
-type RenderedTile = ((u32, u32), Vec<(Vec3A, Vec3A)>);
+/// A tile's origin and its pixels' (mean, variance of the mean, samples counted), row by row.
+type RenderedTile = ((u32, u32), Vec<(Vec3A, Vec3A, u32)>);
+
+/// One piece of a render: a window of the film and a range of every pixel's samples. Pixel and
+/// sample indices stay those of the whole film and of `0..spp`, so pieces rendered apart (other
+/// processes, other machines) hold exactly the samples of the one-piece render and merge into it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RenderSlice {
+    /// Film window `(x, y, width, height)` in pixels of the full film.
+    pub crop: (u32, u32, u32, u32),
+    /// Global sample indices to render in every pixel of the window (within `0..spp`).
+    pub samples: Range<u32>,
+}
+
+impl RenderSlice {
+    /// The whole film and all `spp` samples: the one-piece render.
+    pub fn full(width: u32, height: u32, spp: u32) -> Self {
+        Self {
+            crop: (0, 0, width, height),
+            samples: 0..spp.max(1),
+        }
+    }
+
+    /// Checks the window against the film and the range against the render's `spp`.
+    pub fn validate(&self, width: u32, height: u32, spp: u32) -> Result<(), String> {
+        let (x, y, w, h) = self.crop;
+        if w == 0 || h == 0 {
+            return Err(format!("crop {x},{y},{w},{h} is empty"));
+        }
+        if x as u64 + w as u64 > width as u64 || y as u64 + h as u64 > height as u64 {
+            return Err(format!(
+                "crop {x},{y},{w},{h} reaches outside the {width}x{height} film"
+            ));
+        }
+        let (first, end) = (self.samples.start, self.samples.end);
+        if first >= end {
+            return Err(format!("sample range {first}..{end} is empty"));
+        }
+        if end > spp.max(1) {
+            return Err(format!(
+                "sample range {first}..{end} reaches beyond the render's {spp} spp"
+            ));
+        }
+        Ok(())
+    }
+}
 
 /// Renders the scene. `progress(done, total)` is called after each tile from worker threads.
 pub fn render(
@@ -59,11 +110,31 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> RenderOutput {
+    let full = RenderSlice::full(
+        scene.camera().width(),
+        scene.camera().height(),
+        settings.spp,
+    );
+    render_slice(scene, settings, &full, progress).expect("the full film is a valid slice")
+}
+
+/// Renders one [`RenderSlice`] of the scene: an image of the crop's size whose pixels average the
+/// slice's samples (`RenderOutput::spp` is their count). Errors if the slice does not fit the film
+/// or the render's `spp`.
+pub fn render_slice(
+    scene: &RenderScene,
+    settings: &RenderSettings,
+    slice: &RenderSlice,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<RenderOutput, String> {
     let start = Instant::now();
-    let (width, height) = (scene.camera().width(), scene.camera().height());
+    let width = scene.camera().width();
+    slice.validate(width, scene.camera().height(), settings.spp)?;
+    let (cx, cy, cw, ch) = slice.crop;
+    let samples = slice.samples.clone();
     let ts = settings.tile_size.max(1);
-    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(ts))
-        .flat_map(|ty| (0..width.div_ceil(ts)).map(move |tx| (tx * ts, ty * ts)))
+    let tiles: Vec<(u32, u32)> = (0..ch.div_ceil(ts))
+        .flat_map(|ty| (0..cw.div_ceil(ts)).map(move |tx| (cx + tx * ts, cy + ty * ts)))
         .collect();
     let total = tiles.len() as u64;
     let done = AtomicU64::new(0);
@@ -75,27 +146,28 @@ pub fn render(
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
         mipmapping: settings.mipmapping,
+        // The footprint is the whole render's (its spp), whatever range this slice holds.
         footprint_scale: spp_scale(settings.spp),
         env_strategy: settings.env_strategy,
     };
-    let spp = settings.spp.max(1);
 
     let rendered: Vec<RenderedTile> = tiles
         .par_iter()
         .map(|&(x0, y0)| {
-            let x1 = (x0 + ts).min(width);
-            let y1 = (y0 + ts).min(height);
+            let x1 = (x0 + ts).min(cx + cw);
+            let y1 = (y0 + ts).min(cy + ch);
             let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             let mut bad = 0u64;
             let mut rays = RayCount::default();
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
-                    let (mean, var_of_mean, dropped) = match settings.sampler {
+                    let (mean, var_of_mean, dropped, counted) = match settings.sampler {
                         SamplerKind::Independent => render_pixel(
                             scene,
                             (x, y),
                             settings,
+                            samples.clone(),
                             path,
                             &mut PcgSampler::new(settings.seed, pixel_index),
                             &mut rays,
@@ -104,13 +176,14 @@ pub fn render(
                             scene,
                             (x, y),
                             settings,
+                            samples.clone(),
                             path,
                             &mut SobolSampler::new(settings.seed, pixel_index),
                             &mut rays,
                         ),
                     };
                     bad += dropped;
-                    out.push((mean, var_of_mean));
+                    out.push((mean, var_of_mean, counted));
                 }
             }
             nonfinite.fetch_add(bad, Ordering::Relaxed);
@@ -123,23 +196,26 @@ pub fn render(
         })
         .collect();
 
-    let mut image = Image::filled(width, height, glam::Vec3::ZERO);
-    let mut variance = Image::filled(width, height, glam::Vec3::ZERO);
+    let mut image = Image::filled(cw, ch, glam::Vec3::ZERO);
+    let mut variance = Image::filled(cw, ch, glam::Vec3::ZERO);
+    let mut counts = vec![0; (cw * ch) as usize];
     for ((x0, y0), pixels) in rendered {
-        let x1 = (x0 + ts).min(width);
+        let x1 = (x0 + ts).min(cx + cw);
         let tile_w = (x1 - x0) as usize;
-        for (i, (m, v)) in pixels.into_iter().enumerate() {
-            let x = x0 as usize + i % tile_w;
-            let y = y0 as usize + i / tile_w;
-            image.pixels[y * width as usize + x] = m.into();
-            variance.pixels[y * width as usize + x] = v.into();
+        for (i, (m, v, n)) in pixels.into_iter().enumerate() {
+            let x = (x0 - cx) as usize + i % tile_w;
+            let y = (y0 - cy) as usize + i / tile_w;
+            image.pixels[y * cw as usize + x] = m.into();
+            variance.pixels[y * cw as usize + x] = v.into();
+            counts[y * cw as usize + x] = n;
         }
     }
     let elapsed = start.elapsed();
-    RenderOutput {
+    Ok(RenderOutput {
         image,
         variance,
-        spp,
+        spp: samples.end - samples.start,
+        counts,
         nonfinite_samples: nonfinite.into_inner(),
         elapsed,
         rays: RayCount {
@@ -147,26 +223,26 @@ pub fn render(
             shadow: shadow_rays.into_inner(),
         },
         first_tile: Duration::from_nanos(first_tile_ns.into_inner()).min(elapsed),
-    }
+    })
 }
 
-/// Renders one pixel's `spp` samples; returns the mean, the variance of the mean (from the sample
-/// variance; an overestimate for correlated low-discrepancy samples) and the count of dropped
-/// non-finite samples.
+/// Renders one pixel's samples `samples` (global indices); returns their mean, the variance of the
+/// mean (from the sample variance; an overestimate for correlated low-discrepancy samples), the
+/// count of dropped non-finite samples and the count of samples that counted (inside the film).
 #[inline]
 fn render_pixel<S: Sampler>(
     scene: &RenderScene,
     (x, y): (u32, u32),
     settings: &RenderSettings,
+    samples: Range<u32>,
     path: PathSettings,
     sampler: &mut S,
     rays: &mut RayCount,
-) -> (Vec3A, Vec3A, u64) {
+) -> (Vec3A, Vec3A, u64, u32) {
     // Welford's running mean and variance per channel.
     let mut mean = Vec3A::ZERO;
     let mut m2 = Vec3A::ZERO;
     let mut bad = 0;
-    let spp = settings.spp.max(1);
     let filter = settings.filter;
     let camera = scene.camera();
     // One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel centre
@@ -178,7 +254,7 @@ fn render_pixel<S: Sampler>(
         })
         .1;
     let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
-        .toward_pixel_centre(centre.into(), centre_weight(spp));
+        .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
     // The camera's sampler draws: the film position, then its lens (if it has one).
     let camera_requests = 1 + camera.lens_requests();
     // Mitsuba places samples inside the film only (hdrfilm's sample_border is false) and divides
@@ -211,11 +287,13 @@ fn render_pixel<S: Sampler>(
         mean += delta / n;
         m2 += delta * (l - mean);
     };
-    // Camera rays go in packets of eight, traced together, while whole packets fit: each
-    // packet's rays are drawn first, then their paths are followed one by one from the hits.
-    // (Drawing a packet's camera rays first changes which of an independent stream's numbers
-    // each path gets, not their distribution; low-discrepancy samples resume their dimensions.)
-    // Packets need a layout that traces them and a camera whose rays share their origin.
+    // Camera rays go in packets, traced together, for every group of `lanes` global sample
+    // indices (k lanes .. (k+1) lanes) that lies whole in the range: each packet's rays are drawn
+    // first, then their paths are followed one by one from the hits. Samplers resume a sample's
+    // numbers where its camera ray left them, so each sample is the same with or without
+    // packets, and a range that cuts a group renders that group's samples one by one with the
+    // same numbers. Packets need a layout that traces them and a camera whose rays share their
+    // origin.
     let lanes = if settings.packets && camera.rays_share_origin() {
         scene.accel().packet_width().min(MAX_PACKET)
     } else {
@@ -226,14 +304,17 @@ fn render_pixel<S: Sampler>(
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut packed = false;
-    let packed_samples = if lanes > 0 {
-        spp - spp % lanes as u32
-    } else {
-        0
-    };
-    for s in 0..spp {
-        let (o, d, first_hit, inside) = if s < packed_samples {
-            let lane = s as usize % lanes;
+    for s in samples.clone() {
+        let group = lanes as u32;
+        let in_packet = group > 0 && {
+            let group_start = s - s % group;
+            group_start >= samples.start
+                && group_start
+                    .checked_add(group)
+                    .is_some_and(|end| end <= samples.end)
+        };
+        let (o, d, first_hit, inside) = if in_packet {
+            let lane = (s % group) as usize;
             if lane == 0 {
                 for (k, (dir, inside)) in dirs[..lanes]
                     .iter_mut()
@@ -270,7 +351,7 @@ fn render_pixel<S: Sampler>(
     } else {
         Vec3A::ZERO
     };
-    (mean, var_of_mean, bad)
+    (mean, var_of_mean, bad, counted)
 }
 
 /// Offset from the pixel centre, drawn from the pixel filter (filter importance sampling: every
@@ -340,12 +421,7 @@ mod tests {
         assert!(chi2 < 24.3, "chi2 = {chi2}"); // 7 dof, 0.999 quantile
     }
 
-    /// Camera rays traced in packets give the image traced ray by ray, bit for bit, with the
-    /// Sobol sampler (whose samples resume their dimensions): meshes, a sphere, an area light;
-    /// 12 spp, so a whole packet and four single samples per pixel. (With the independent
-    /// sampler a packet draws its eight camera rays first, so each path gets other numbers of
-    /// the stream: a different image of the same expectation, which the reference tests check.)
-    /// A small scene of meshes, a sphere and an area light (24 x 20 pixels).
+    /// A small scene with meshes, a sphere and an area light (24x20).
     fn packet_scene() -> RenderScene {
         let xml = r#"<scene version="0.6.0">
             <integrator type="path"><integer name="maxDepth" value="5"/></integrator>
@@ -375,9 +451,9 @@ mod tests {
         RenderScene::build(&desc, 24, 20).unwrap()
     }
 
-    fn settings(packets: bool) -> RenderSettings {
+    fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
         RenderSettings {
-            spp: 12,
+            spp,
             max_depth: 5,
             rr_depth: 5,
             seed: 3,
@@ -385,30 +461,154 @@ mod tests {
             tile_size: 8,
             mipmapping: true,
             env_strategy: EnvStrategy::default(),
-            sampler: SamplerKind::Sobol,
+            sampler,
             packets,
         }
     }
 
-    fn assert_same_image(a: &RenderOutput, b: &RenderOutput) {
-        assert!(a.image.pixels.iter().any(|p| p.max_element() > 0.0));
-        assert_eq!(a.rays.closest, b.rays.closest);
-        for (a, b) in a.image.pixels.iter().zip(&b.image.pixels) {
+    fn assert_bits_eq(a: &Image, b: &Image, what: &str) {
+        assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
+        for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
             assert_eq!(
-                a.to_array().map(f32::to_bits),
-                b.to_array().map(f32::to_bits)
+                p.to_array().map(f32::to_bits),
+                q.to_array().map(f32::to_bits),
+                "{what}: pixel {i}"
             );
         }
     }
 
+    /// Camera rays traced in packets give the image traced ray by ray, bit for bit, with both
+    /// samplers (each resumes a sample's numbers where its camera ray left them): meshes, a
+    /// sphere, an area light; 12 spp, so a whole packet and four single samples per pixel.
     #[test]
     fn packets_render_the_image_of_single_rays() {
         let scene = packet_scene();
-        let (packed, single) = (
-            render(&scene, &settings(true), &|_, _| {}),
-            render(&scene, &settings(false), &|_, _| {}),
-        );
-        assert_same_image(&packed, &single);
+        for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+            let packed = render(&scene, &settings(12, sampler, true), &|_, _| {});
+            let single = render(&scene, &settings(12, sampler, false), &|_, _| {});
+            assert!(packed.image.pixels.iter().any(|p| p.max_element() > 0.0));
+            assert_eq!(packed.rays.closest, single.rays.closest);
+            assert_bits_eq(&packed.image, &single.image, &format!("{sampler:?}"));
+            assert_bits_eq(&packed.variance, &single.variance, &format!("{sampler:?}"));
+        }
+    }
+
+    /// Slices hold the samples of the one-piece render: crop windows give its pixels bit for
+    /// bit; sample ranges that cut packet groups (0..5, 5..13, 13..20 of 20 spp) give, merged
+    /// by count-weighted mean and the parallel variance formula, its mean and variance to float
+    /// rounding; a range rendered with and without packets is bit-identical. Both samplers.
+    #[test]
+    fn slices_hold_the_samples_of_the_one_piece_render() {
+        let scene = packet_scene();
+        // A gaussian filter's offsets can leave the film at its border: those samples do not
+        // count, so border pixels hold fewer, and the merge weighs each pixel by its count.
+        for (sampler, filter) in [
+            (SamplerKind::Sobol, PixelFilter::Box),
+            (SamplerKind::Independent, PixelFilter::Box),
+            (SamplerKind::Sobol, PixelFilter::Gaussian { stddev: 0.5 }),
+        ] {
+            let set = RenderSettings {
+                filter,
+                ..settings(20, sampler, true)
+            };
+            let full = render(&scene, &set, &|_, _| {});
+            if filter != PixelFilter::Box {
+                assert!(
+                    full.counts.iter().any(|&n| n < 20),
+                    "some samples leave the film"
+                );
+            }
+            // Crops: a window's pixels are the full render's pixels.
+            let crop = RenderSlice {
+                crop: (5, 3, 11, 9),
+                samples: 0..20,
+            };
+            let part = render_slice(&scene, &set, &crop, &|_, _| {}).unwrap();
+            let window = Image::new(
+                11,
+                9,
+                (3..12)
+                    .flat_map(|y| (5..16).map(move |x| (x, y)))
+                    .map(|(x, y)| full.image.get(x, y))
+                    .collect(),
+            );
+            assert_bits_eq(&part.image, &window, &format!("{sampler:?} crop"));
+            // Sample ranges.
+            let parts: Vec<RenderOutput> = [0..5, 5..13, 13..20]
+                .into_iter()
+                .map(|samples| {
+                    let slice = RenderSlice {
+                        crop: (0, 0, 24, 20),
+                        samples,
+                    };
+                    render_slice(&scene, &set, &slice, &|_, _| {}).unwrap()
+                })
+                .collect();
+            let mut worst = 0.0f64;
+            for i in 0..full.image.pixels.len() {
+                let (mut n, mut mean, mut m2) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
+                for p in &parts {
+                    let nb = p.counts[i] as f64;
+                    if nb == 0.0 {
+                        continue;
+                    }
+                    let (mb, vb) = (p.image.pixels[i], p.variance.pixels[i]);
+                    for c in 0..3 {
+                        let m2b = vb[c] as f64 * nb * (nb - 1.0);
+                        let delta = mb[c] as f64 - mean[c];
+                        let total = n + nb;
+                        mean[c] += delta * nb / total;
+                        m2[c] += m2b + delta * delta * n * nb / total;
+                    }
+                    n += nb;
+                }
+                for c in 0..3 {
+                    let var = m2[c] / (n * (n - 1.0));
+                    for (merged, one) in [
+                        (mean[c], full.image.pixels[i][c]),
+                        (var, full.variance.pixels[i][c]),
+                    ] {
+                        let one = one as f64;
+                        let rel = (merged - one).abs() / merged.abs().max(one.abs()).max(1e-30);
+                        worst = worst.max(rel);
+                    }
+                }
+            }
+            assert!(
+                worst < 1e-5,
+                "{sampler:?}: merged ranges differ by {worst:e}"
+            );
+            // A range that cuts groups renders the same with and without packets.
+            let slice = RenderSlice {
+                crop: (0, 0, 24, 20),
+                samples: 3..19,
+            };
+            let packed = render_slice(&scene, &set, &slice, &|_, _| {}).unwrap();
+            let unpacked = RenderSettings {
+                packets: false,
+                ..set.clone()
+            };
+            let single = render_slice(&scene, &unpacked, &slice, &|_, _| {}).unwrap();
+            assert_bits_eq(&packed.image, &single.image, &format!("{sampler:?} 3..19"));
+        }
+    }
+
+    #[test]
+    fn bad_slices_are_refused() {
+        let scene = packet_scene();
+        let set = settings(8, SamplerKind::Sobol, true);
+        for (crop, samples, message) in [
+            ((20, 0, 5, 4), 0..8, "outside the 24x20 film"),
+            ((0, 0, 0, 4), 0..8, "is empty"),
+            ((0, 0, 4, 4), 4..4, "sample range 4..4 is empty"),
+            ((0, 0, 4, 4), 0..9, "beyond the render's 8 spp"),
+        ] {
+            let slice = RenderSlice { crop, samples };
+            let err = render_slice(&scene, &set, &slice, &|_, _| {})
+                .err()
+                .expect("refused");
+            assert!(err.contains(message), "{err}");
+        }
     }
 
     /// A sampler that records, for every draw, the sample it belongs to and its dimension (the
@@ -480,7 +680,8 @@ mod tests {
                 render_pixel(
                     &scene,
                     (12, 10),
-                    &settings(packets),
+                    &settings(12, SamplerKind::Sobol, packets),
+                    0..12,
                     path,
                     &mut recorder,
                     &mut rays,
@@ -510,20 +711,12 @@ mod tests {
         };
         scene.camera = Camera::ThinLens(ThinLensCamera::new(pinhole, 0.1, 3.5));
         assert!(!scene.camera().rays_share_origin());
-        let (packed, single) = (
-            render(&scene, &settings(true), &|_, _| {}),
-            render(&scene, &settings(false), &|_, _| {}),
-        );
-        assert_same_image(&packed, &single);
-        // The independent sampler too: with packets off, the camera ray is drawn right before
-        // its path either way.
-        let independent = |packets| RenderSettings {
-            sampler: SamplerKind::Independent,
-            ..settings(packets)
-        };
-        assert_same_image(
-            &render(&scene, &independent(true), &|_, _| {}),
-            &render(&scene, &independent(false), &|_, _| {}),
-        );
+        for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+            let packed = render(&scene, &settings(12, sampler, true), &|_, _| {});
+            let single = render(&scene, &settings(12, sampler, false), &|_, _| {});
+            assert!(packed.image.pixels.iter().any(|p| p.max_element() > 0.0));
+            assert_eq!(packed.rays.closest, single.rays.closest);
+            assert_bits_eq(&packed.image, &single.image, &format!("{sampler:?}"));
+        }
     }
 }

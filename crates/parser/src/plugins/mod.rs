@@ -195,6 +195,7 @@ pub(crate) fn parse_scene(
         bsdfs: ctx.bsdfs,
         shapes,
         lights,
+        files: ctx.files.into_inner(),
         warnings: ctx.warnings,
     })
 }

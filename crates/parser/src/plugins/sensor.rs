@@ -199,8 +199,9 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
         let crop = CropWindow {
             offset_x: x,
             offset_y: y,
-            width: cw.unwrap_or(film.width.saturating_sub(x)),
-            height: ch.unwrap_or(film.height.saturating_sub(y)),
+            // Mitsuba's defaults: the film's size (an offset without a size does not fit).
+            width: cw.unwrap_or(film.width),
+            height: ch.unwrap_or(film.height),
         };
         if crop.width == 0
             || crop.height == 0

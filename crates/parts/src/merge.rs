@@ -1,0 +1,285 @@
+//! Merging parts: crops go side by side, sample ranges combine by their sample counts.
+
+use crate::part::Part;
+use glam::Vec3;
+use std::collections::BTreeMap;
+
+/// Merges named parts (`(name, part)`; names label errors) into one: the whole film, or the one
+/// crop window all parts share, with all `0..spp` samples. For every crop window, its parts'
+/// sample ranges must not overlap and must cover `0..spp`; the windows must not overlap and must
+/// cover the film. The mean is the sample-count-weighted mean of the parts' means, and the
+/// variance comes from Chan et al.'s parallel formula (M2 = M2_a + M2_b + delta^2 n_a n_b / n),
+/// both in f64: the one-piece render's values to float rounding.
+pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
+    let Some((first_name, first)) = parts.first() else {
+        return Err("no parts to merge".into());
+    };
+    let meta = &first.meta;
+    let (fw, fh, spp) = (meta.width, meta.height, meta.spp);
+    for (name, part) in parts {
+        if let Some(why) = meta.mismatch(&part.meta) {
+            return Err(format!("{name} does not belong with {first_name}: {why}"));
+        }
+        let m = &part.meta;
+        let (x, y, w, h) = m.crop;
+        if w == 0 || h == 0 || x as u64 + w as u64 > fw as u64 || y as u64 + h as u64 > fh as u64 {
+            return Err(format!(
+                "{name}: crop {x},{y},{w},{h} does not fit the {fw}x{fh} film"
+            ));
+        }
+        if m.samples.0 >= m.samples.1 || m.samples.1 > spp {
+            return Err(format!(
+                "{name}: sample range {}..{} is not a part of 0..{spp}",
+                m.samples.0, m.samples.1
+            ));
+        }
+        if part.mean.len() != (w * h) as usize
+            || part.variance.len() != part.mean.len()
+            || part.count.len() != part.mean.len()
+        {
+            return Err(format!("{name}: pixel count does not match its crop"));
+        }
+    }
+
+    // Sample ranges, per crop window.
+    let mut by_crop: BTreeMap<(u32, u32, u32, u32), Vec<usize>> = BTreeMap::new();
+    for (i, (_, part)) in parts.iter().enumerate() {
+        by_crop.entry(part.meta.crop).or_default().push(i);
+    }
+    for (crop, members) in by_crop.iter_mut() {
+        members.sort_by_key(|&i| parts[i].1.meta.samples);
+        let (x, y, w, h) = *crop;
+        let mut next = 0u32;
+        let mut prev: Option<usize> = None;
+        for &i in members.iter() {
+            let (a, b) = parts[i].1.meta.samples;
+            if a < next {
+                let p = prev.expect("a range starts before 0 only after another");
+                return Err(format!(
+                    "{} and {} overlap: both hold samples {}..{} of crop {x},{y},{w},{h}",
+                    parts[p].0,
+                    parts[i].0,
+                    a,
+                    next.min(b)
+                ));
+            }
+            if a > next {
+                return Err(format!(
+                    "missing samples {next}..{a} of crop {x},{y},{w},{h}: no part holds them"
+                ));
+            }
+            next = b;
+            prev = Some(i);
+        }
+        if next < spp {
+            return Err(format!(
+                "missing samples {next}..{spp} of crop {x},{y},{w},{h}: no part holds them"
+            ));
+        }
+    }
+
+    // Crop windows: one shared window, or the whole film tiled without gaps or overlaps.
+    let out_crop = if by_crop.len() == 1 {
+        *by_crop.keys().next().expect("one crop")
+    } else {
+        (0, 0, fw, fh)
+    };
+    let (ox, oy, ow, oh) = out_crop;
+    let mut owner: Vec<u32> = vec![u32::MAX; ow as usize * oh as usize];
+    for (&(x, y, w, h), members) in &by_crop {
+        let rep = members[0] as u32;
+        for py in y..y + h {
+            for px in x..x + w {
+                let o = &mut owner[((py - oy) * ow + (px - ox)) as usize];
+                if *o != u32::MAX {
+                    let c = parts[*o as usize].1.meta.crop;
+                    return Err(format!(
+                        "{} (crop {x},{y},{w},{h}) and {} (crop {},{},{},{}) overlap at pixel {px},{py}",
+                        parts[rep as usize].0, parts[*o as usize].0, c.0, c.1, c.2, c.3
+                    ));
+                }
+                *o = rep;
+            }
+        }
+    }
+    if let Some(hole) = owner.iter().position(|&o| o == u32::MAX) {
+        let missing = owner.iter().filter(|&&o| o == u32::MAX).count();
+        return Err(format!(
+            "missing pixels: no part covers {missing} pixels of the {ow}x{oh} film, the first at {},{}",
+            ox + hole as u32 % ow,
+            oy + hole as u32 / ow
+        ));
+    }
+
+    let mut mean = vec![Vec3::ZERO; owner.len()];
+    let mut variance = vec![Vec3::ZERO; owner.len()];
+    let mut count = vec![0u32; owner.len()];
+    for (&(x, y, w, h), members) in &by_crop {
+        for i in 0..(w * h) as usize {
+            let (mut n, mut m, mut m2) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
+            for &k in members {
+                let part = &parts[k].1;
+                // Per-pixel counts: samples whose filter offset left the film do not count.
+                let nb = part.count[i] as f64;
+                if nb == 0.0 {
+                    continue;
+                }
+                let total = n + nb;
+                for c in 0..3 {
+                    let mb = part.mean[i][c] as f64;
+                    let m2b = part.variance[i][c] as f64 * nb * (nb - 1.0);
+                    let delta = mb - m[c];
+                    m[c] += delta * nb / total;
+                    m2[c] += m2b + delta * delta * n * nb / total;
+                }
+                n = total;
+            }
+            let (px, py) = (x + i as u32 % w, y + i as u32 / w);
+            let o = ((py - oy) * ow + (px - ox)) as usize;
+            mean[o] = Vec3::from_array(m.map(|v| v as f32));
+            count[o] = n as u32;
+            variance[o] = if n > 1.0 {
+                Vec3::from_array(m2.map(|v| (v / (n * (n - 1.0))) as f32))
+            } else {
+                Vec3::ZERO
+            };
+        }
+    }
+    let mut out_meta = meta.clone();
+    out_meta.samples = (0, spp);
+    out_meta.crop = out_crop;
+    out_meta.nonfinite = parts.iter().map(|(_, p)| p.meta.nonfinite).sum();
+    Ok(Part {
+        meta: out_meta,
+        mean,
+        variance,
+        count,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::PartMeta;
+
+    fn part(crop: (u32, u32, u32, u32), samples: (u32, u32), value: f32) -> Part {
+        let n = (crop.2 * crop.3) as usize;
+        Part {
+            meta: PartMeta {
+                scene: "s.xml".into(),
+                scene_hash: "0123456789abcdef".into(),
+                settings: "seed=0".into(),
+                width: 4,
+                height: 2,
+                spp: 8,
+                samples,
+                crop,
+                nonfinite: 1,
+            },
+            mean: vec![Vec3::splat(value); n],
+            variance: vec![Vec3::ZERO; n],
+            count: vec![samples.1 - samples.0; n],
+        }
+    }
+
+    fn named(parts: Vec<Part>) -> Vec<(String, Part)> {
+        parts
+            .into_iter()
+            .enumerate()
+            .map(|(i, p)| (format!("part{i}"), p))
+            .collect()
+    }
+
+    /// Two sample ranges of constant values 1 (3 samples) and 3 (5 samples): mean 2.25, and the
+    /// variance of the mean from the between-range spread: M2 = 4 * 3 * 5 / 8 = 7.5, 7.5 / 56.
+    #[test]
+    fn ranges_merge_by_count_and_crops_by_place() {
+        let parts = named(vec![
+            part((0, 0, 2, 2), (3, 8), 3.0),
+            part((0, 0, 2, 2), (0, 3), 1.0),
+            part((2, 0, 2, 2), (0, 8), 5.0),
+        ]);
+        let m = merge(&parts).unwrap();
+        assert_eq!(m.meta.crop, (0, 0, 4, 2));
+        assert_eq!(m.meta.samples, (0, 8));
+        assert_eq!(m.meta.nonfinite, 3);
+        assert_eq!(m.mean[0], Vec3::splat(2.25));
+        assert_eq!(m.mean[3], Vec3::splat(5.0));
+        assert!((m.variance[4].x - 7.5 / 56.0).abs() < 1e-7);
+        assert_eq!(m.variance[2], Vec3::ZERO);
+    }
+
+    #[test]
+    fn parts_that_do_not_fit_together_are_refused() {
+        let cases: Vec<(Vec<Part>, &str)> = vec![
+            (
+                vec![
+                    part((0, 0, 4, 2), (0, 5), 1.0),
+                    part((0, 0, 4, 2), (4, 8), 1.0),
+                ],
+                "part0 and part1 overlap: both hold samples 4..5 of crop 0,0,4,2",
+            ),
+            (
+                vec![
+                    part((0, 0, 4, 2), (0, 3), 1.0),
+                    part((0, 0, 4, 2), (4, 8), 1.0),
+                ],
+                "missing samples 3..4 of crop 0,0,4,2",
+            ),
+            (
+                vec![part((0, 0, 4, 2), (0, 6), 1.0)],
+                "missing samples 6..8 of crop 0,0,4,2",
+            ),
+            (
+                vec![
+                    part((0, 0, 2, 2), (0, 8), 1.0),
+                    part((2, 0, 2, 1), (0, 8), 1.0),
+                ],
+                "missing pixels: no part covers 2 pixels of the 4x2 film, the first at 2,1",
+            ),
+            (
+                vec![
+                    part((0, 0, 3, 2), (0, 8), 1.0),
+                    part((2, 0, 2, 2), (0, 8), 1.0),
+                ],
+                "overlap at pixel 2,0",
+            ),
+            (vec![], "no parts"),
+        ];
+        for (parts, message) in cases {
+            let err = merge(&named(parts)).unwrap_err();
+            assert!(err.contains(message), "{err}\nexpected: {message}");
+        }
+        let mut other = part((0, 0, 4, 2), (4, 8), 1.0);
+        other.meta.scene_hash = "fedcba9876543210".into();
+        let err = merge(&named(vec![part((0, 0, 4, 2), (0, 4), 1.0), other])).unwrap_err();
+        assert!(
+            err.contains("part1 does not belong with part0: other scene contents"),
+            "{err}"
+        );
+        let mut other = part((0, 0, 4, 2), (4, 8), 1.0);
+        other.meta.settings = "seed=1".into();
+        let err = merge(&named(vec![part((0, 0, 4, 2), (0, 4), 1.0), other])).unwrap_err();
+        assert!(
+            err.contains("other settings ('seed=1' vs 'seed=0')"),
+            "{err}"
+        );
+    }
+
+    /// A part survives the EXR round trip: pixels bit for bit, metadata field for field.
+    #[test]
+    fn part_exr_round_trip() {
+        let mut p = part((1, 0, 3, 2), (2, 7), 0.1);
+        p.mean[4] = Vec3::new(1e-7, 3.5, 1e9);
+        p.variance[1] = Vec3::new(0.25, 1e-12, 7.0);
+        p.meta.scene = "/tmp/scènes/a b.xml".into();
+        let bytes = crate::write_part_bytes(&p).unwrap();
+        let q = crate::read_part_bytes(&bytes, "mem").unwrap();
+        assert_eq!(q.meta, p.meta);
+        assert_eq!(q.mean, p.mean);
+        assert_eq!(q.variance, p.variance);
+        assert_eq!(q.count, p.count);
+        let err = crate::read_part_bytes(b"not an exr", "junk.exr").unwrap_err();
+        assert!(err.starts_with("junk.exr: not a readable EXR"), "{err}");
+    }
+}

@@ -1,0 +1,41 @@
+//! `torrey merge`: puts render parts (crops and sample ranges) back together.
+
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub struct MergeArgs {
+    /// Part EXRs written by `torrey --crop ... --sample-range ...` (or the distributed renderer).
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// The merged EXR; a PNG is written beside it.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+pub fn run(args: &MergeArgs) -> Result<(), String> {
+    let parts = args
+        .parts
+        .iter()
+        .map(|p| Ok((p.display().to_string(), torrey_parts::read_part(p)?)))
+        .collect::<Result<Vec<_>, String>>()?;
+    let merged = torrey_parts::merge(&parts)?;
+    let png = crate::slicing::write_outputs(&args.output, &merged)?;
+    let m = &merged.meta;
+    eprintln!(
+        "merged {} parts of {}: {}x{} px, {} spp; wrote {} and {}",
+        parts.len(),
+        m.scene,
+        m.crop.2,
+        m.crop.3,
+        m.spp,
+        args.output.display(),
+        png.display()
+    );
+    if m.nonfinite > 0 {
+        eprintln!(
+            "warning: {} samples were NaN or infinite and were dropped",
+            m.nonfinite
+        );
+    }
+    Ok(())
+}
