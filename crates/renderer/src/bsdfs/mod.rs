@@ -267,14 +267,24 @@ impl BsdfParams {
     }
 }
 
-/// A BSDF at a hit with its sidedness: `back` is what a viewer behind the surface (wo.z < 0)
-/// sees, evaluated with both directions mirrored to the front (Mitsuba's `twosided`; the same
-/// BSDF on both sides for every material of a torrey-dialect scene). Without `back`, the front
-/// BSDF itself decides what its back side does.
+/// What a viewer behind a surface (wo.z < 0) sees.
+#[derive(Clone, Copy, Debug)]
+pub enum BackSide {
+    /// The front BSDF itself decides (black for the reflection-only models; a dielectric
+    /// refracts).
+    Front,
+    /// The front BSDF with both directions mirrored to the front (Mitsuba's `twosided` with one
+    /// BSDF, every material of a torrey-dialect scene).
+    Mirrored,
+    /// Another BSDF, mirrored to the front (Mitsuba's `twosided` with two).
+    Other(Bsdf),
+}
+
+/// A BSDF at a hit with its sidedness.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceBsdf {
     pub front: Bsdf,
-    pub back: Option<Bsdf>,
+    pub back: BackSide,
 }
 
 /// `w` mirrored through the tangent plane.
@@ -287,10 +297,14 @@ impl SurfaceBsdf {
     /// The BSDF facing `wo`, and whether directions must be mirrored for it.
     #[inline(always)]
     fn side(&self, wo: Vec3A) -> (&Bsdf, bool) {
-        match &self.back {
-            Some(back) if wo.z < 0.0 => (back, true),
-            _ => (&self.front, false),
+        if wo.z < 0.0 {
+            match &self.back {
+                BackSide::Front => {}
+                BackSide::Mirrored => return (&self.front, true),
+                BackSide::Other(back) => return (back, true),
+            }
         }
+        (&self.front, false)
     }
 
     #[inline(always)]

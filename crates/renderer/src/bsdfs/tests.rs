@@ -669,11 +669,11 @@ fn two_sided_mirrors_the_back_to_the_front() {
         let bsdf = model.at(Vec3A::new(0.3, 0.6, 0.9));
         let two = SurfaceBsdf {
             front: bsdf,
-            back: Some(bsdf),
+            back: BackSide::Mirrored,
         };
         let one = SurfaceBsdf {
             front: bsdf,
-            back: None,
+            back: BackSide::Front,
         };
         let wo = flip(wo_at(35.0));
         for _ in 0..200 {

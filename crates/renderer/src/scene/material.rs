@@ -1,7 +1,7 @@
 //! Materials as the integrator sees them: a BSDF's (possibly textured) parameters, the
 //! material's sidedness, and an optional normal map.
 
-use crate::bsdfs::{BsdfParams, SurfaceBsdf};
+use crate::bsdfs::{BackSide, BsdfParams, SurfaceBsdf};
 use crate::sampling::Frame;
 use crate::shapes::SurfaceHit;
 use crate::textures::{Texture, TextureQuery};
@@ -37,10 +37,13 @@ impl Material {
     /// The BSDF at a hit, its textured parameters looked up through `q`.
     #[inline(always)]
     pub fn bsdf(&self, q: &TextureQuery) -> SurfaceBsdf {
-        let front = self.bsdf.resolve(q);
         SurfaceBsdf {
-            front,
-            back: self.two_sided.then_some(front),
+            front: self.bsdf.resolve(q),
+            back: if self.two_sided {
+                BackSide::Mirrored
+            } else {
+                BackSide::Front
+            },
         }
     }
 
