@@ -276,8 +276,6 @@ pub enum BackSide {
     /// The front BSDF with both directions mirrored to the front (Mitsuba's `twosided` with one
     /// BSDF, every material of a torrey-dialect scene).
     Mirrored,
-    /// Another BSDF, mirrored to the front (Mitsuba's `twosided` with two).
-    Other(Bsdf),
 }
 
 /// A BSDF at a hit with its sidedness.
@@ -301,7 +299,6 @@ impl SurfaceBsdf {
             match &self.back {
                 BackSide::Front => {}
                 BackSide::Mirrored => return (&self.front, true),
-                BackSide::Other(back) => return (back, true),
             }
         }
         (&self.front, false)
