@@ -2,6 +2,7 @@
 //! paths), the growing texture and bsdf tables, the id namespace, and the warnings.
 
 use crate::error::{ParseError, Result};
+use crate::limits::Limits;
 use crate::scene::{Bsdf, BsdfId, Dialect, Texture, TextureId, Warning};
 use crate::xml::{location, Element, Pos};
 use std::collections::HashMap;
@@ -24,10 +25,14 @@ pub(crate) struct Ctx {
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
+    pub limits: Limits,
+    /// Triangles and vertices of the meshes loaded so far, against `limits`.
+    pub triangles: u64,
+    pub vertices: u64,
 }
 
 impl Ctx {
-    pub fn new(file: &Path, dialect: Dialect) -> Self {
+    pub fn new(file: &Path, dialect: Dialect, limits: &Limits) -> Self {
         let parent = file.parent().unwrap_or(Path::new(""));
         let dir = std::path::absolute(parent).unwrap_or_else(|_| parent.to_path_buf());
         Ctx {
@@ -38,6 +43,9 @@ impl Ctx {
             textures: Vec::new(),
             bsdfs: Vec::new(),
             ids: HashMap::new(),
+            limits: limits.clone(),
+            triangles: 0,
+            vertices: 0,
         }
     }
 

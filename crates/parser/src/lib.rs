@@ -7,6 +7,8 @@
 
 mod context;
 mod error;
+mod files;
+mod limits;
 mod mesh;
 mod plugins;
 mod props;
@@ -16,6 +18,7 @@ mod values;
 mod xml;
 
 pub use error::ParseError;
+pub use limits::Limits;
 pub use mesh::smooth_normals;
 pub use scene::*;
 
@@ -24,15 +27,34 @@ use std::path::Path;
 /// Reads a scene file; `overrides` are `-D name=value` pairs that replace `<default>` values.
 /// Relative file names inside are resolved against the scene file's folder.
 pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, ParseError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ParseError {
+    load_scene_with_limits(path, overrides, &Limits::default())
+}
+
+/// [`load_scene`] with caps other than the default ones.
+pub fn load_scene_with_limits(
+    path: &Path,
+    overrides: &[(String, String)],
+    limits: &Limits,
+) -> Result<Scene, ParseError> {
+    let fail = |message: String| ParseError {
         location: SourceLocation {
             file: path.to_path_buf(),
             line: 1,
             column: 1,
         },
-        message: format!("cannot read scene file: {e}"),
-    })?;
-    parse_scene_str(&text, path, overrides)
+        message,
+    };
+    let size =
+        files::regular_file_size(path).map_err(|m| fail(format!("cannot read scene file: {m}")))?;
+    if size > limits.scene_bytes {
+        return Err(fail(format!(
+            "the scene file is {size} bytes, more than the limit of {} (raise with --limit scene_bytes=N)",
+            limits.scene_bytes
+        )));
+    }
+    let text =
+        std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read scene file: {e}")))?;
+    parse_scene_str_with_limits(&text, path, overrides, limits)
 }
 
 /// Same, from a string; `path` names the file for messages and resolving relative file names.
@@ -41,6 +63,16 @@ pub fn parse_scene_str(
     path: &Path,
     overrides: &[(String, String)],
 ) -> Result<Scene, ParseError> {
-    let root = xml::parse_document(xml, path)?;
-    plugins::parse_scene(root, path, overrides)
+    parse_scene_str_with_limits(xml, path, overrides, &Limits::default())
+}
+
+/// [`parse_scene_str`] with caps other than the default ones.
+pub fn parse_scene_str_with_limits(
+    xml: &str,
+    path: &Path,
+    overrides: &[(String, String)],
+    limits: &Limits,
+) -> Result<Scene, ParseError> {
+    let root = xml::parse_document(xml, path, limits.nesting_depth)?;
+    plugins::parse_scene(root, path, overrides, limits)
 }

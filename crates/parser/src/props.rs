@@ -72,6 +72,9 @@ impl<'a> Props<'a> {
     /// unsupported-but-harmless ones (media) are warned about and dropped.
     pub fn new(ctx: &mut Ctx, elem: &'a Element, owner: String) -> Result<Self> {
         let mut items: Vec<Item<'a>> = Vec::new();
+        // First position of each value name: a hash, so that a plugin with 100,000 parameters
+        // is not checked pairwise.
+        let mut seen: std::collections::HashMap<String, Pos> = std::collections::HashMap::new();
         for child in &elem.children {
             let tag = child.tag.as_str();
             let name = child.attr_value("name").map(values::snake_case);
@@ -82,17 +85,16 @@ impl<'a> Props<'a> {
                         format!("missing required attribute 'name' on <{tag}>"),
                     ));
                 };
-                if let Some(first) = items.iter().find(|i| {
-                    i.name.as_deref() == Some(&name) && VALUE_TAGS.contains(&i.elem.tag.as_str())
-                }) {
+                if let Some(first) = seen.get(&name) {
                     return Err(ctx.err(
                         child.pos,
                         format!(
                             "parameter '{name}' of {owner} is given twice (first at line {}, column {})",
-                            first.elem.pos.line, first.elem.pos.column
+                            first.line, first.column
                         ),
                     ));
                 }
+                seen.insert(name.clone(), child.pos);
                 items.push(Item {
                     name: Some(name),
                     elem: child,
@@ -288,15 +290,53 @@ impl<'a> Props<'a> {
         Ok(v)
     }
 
-    /// Reads a constant colour from an `rgb`, `srgb`, `spectrum` or `float` element.
+    /// Reads a constant colour from an `rgb`, `srgb`, `spectrum` or `float` element. Colours
+    /// are reflectances, radiances or intensities: a negative channel is an error.
     pub fn color_of(&self, ctx: &Ctx, e: &Element) -> Result<Vec3> {
         let a = value_attr(ctx, e)?;
-        match e.tag.as_str() {
+        let c = match e.tag.as_str() {
             "rgb" => self.parse_attr(ctx, e, a, values::vec3),
             "srgb" => self.parse_attr(ctx, e, a, values::srgb),
             "spectrum" => self.parse_attr(ctx, e, a, values::spectrum),
             "float" => self.parse_attr(ctx, e, a, values::float).map(Vec3::splat),
             _ => Err(self.wrong_type(ctx, e, "a colour (<rgb>, <srgb>, <spectrum> or <float>)")),
+        }?;
+        if c.min_element() < 0.0 {
+            return Err(ctx.err(
+                a.value_pos,
+                format!(
+                    "parameter '{}' of {} must not be negative, found {} {} {}",
+                    e.attr_value("name").unwrap_or(&e.tag),
+                    self.owner,
+                    c.x,
+                    c.y,
+                    c.z
+                ),
+            ));
+        }
+        Ok(c)
+    }
+
+    /// A float parameter that must satisfy `ok` (described by `what`, e.g. "positive"); the
+    /// error points at the value.
+    pub fn float_where(
+        &mut self,
+        ctx: &Ctx,
+        names: &[&str],
+        default: f32,
+        what: &str,
+        ok: impl Fn(f32) -> bool,
+    ) -> Result<f32> {
+        match self.opt_float_pos(ctx, names)? {
+            None => Ok(default),
+            Some((v, _)) if ok(v) => Ok(v),
+            Some((v, pos)) => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{}' of {} must be {what}, found {v}",
+                    names[0], self.owner
+                ),
+            )),
         }
     }
 
@@ -309,13 +349,23 @@ impl<'a> Props<'a> {
 
     /// A `<transform>` parameter (`uv` selects the 2D reading used by `to_uv`).
     pub fn transform(&mut self, ctx: &Ctx, names: &[&str], uv: bool) -> Result<Option<Mat4>> {
+        Ok(self.transform_pos(ctx, names, uv)?.map(|(m, _)| m))
+    }
+
+    /// Like [`Props::transform`], also returning where the `<transform>` is.
+    pub fn transform_pos(
+        &mut self,
+        ctx: &Ctx,
+        names: &[&str],
+        uv: bool,
+    ) -> Result<Option<(Mat4, Pos)>> {
         let Some(e) = self.take_any(names) else {
             return Ok(None);
         };
         if e.tag != "transform" {
             return Err(self.wrong_type(ctx, e, "a <transform>"));
         }
-        parse_transform(ctx, e, uv).map(Some)
+        Ok(Some((parse_transform(ctx, e, uv)?, e.pos)))
     }
 
     /// Marks parameters as accepted without effect (e.g. `focus_distance`).

@@ -202,7 +202,7 @@ fn negative_radius() {
     let e = parse(xml).unwrap_err();
     assert_err(
         &e,
-        "sphere radius must not be negative, found -2",
+        "sphere radius must be positive, found -2",
         pos_of(xml, "-2"),
     );
 }

@@ -4,6 +4,7 @@
 //! `vertex_indices`/`vertex_index` list (any count and index types; polygons are split into
 //! fans, so quads become two triangles). Every other element and property is skipped.
 
+use crate::mesh::Budget;
 use crate::scene::TriangleMesh;
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -220,13 +221,22 @@ fn header(data: &[u8]) -> Result<(Format, Vec<ElementDef>, usize), String> {
 }
 
 /// Reads a PLY mesh file.
-pub(crate) fn load(path: &Path) -> Result<TriangleMesh, String> {
+pub(crate) fn load(path: &Path, budget: &Budget) -> Result<TriangleMesh, String> {
     let data = std::fs::read(path).map_err(|e| e.to_string())?;
-    parse(&data)
+    parse(&data, budget)
 }
 
-pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
+/// Parses PLY bytes. The declared vertex and face counts are checked against `budget` before
+/// reading them, and polygons are counted as they are split.
+pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String> {
     let (format, elements, start) = header(data)?;
+    for el in &elements {
+        match el.name.as_str() {
+            "vertex" => budget.check(el.count, 0)?,
+            "face" => budget.check(0, el.count)?,
+            _ => {}
+        }
+    }
     let header_lines = data[..start].iter().filter(|&&b| b == b'\n').count();
     let mut body = match format {
         Format::Ascii => {
@@ -319,6 +329,7 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
                         list.len()
                     ));
                 }
+                budget.check(0, mesh.indices.len() + list.len() - 2)?;
                 for k in 1..list.len() - 1 {
                     mesh.indices.push([list[0], list[k], list[k + 1]]);
                 }
@@ -332,10 +343,29 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
 mod tests {
     use super::*;
 
+    const UNLIMITED: Budget = Budget {
+        vertices: u64::MAX,
+        triangles: u64::MAX,
+    };
+
+    #[test]
+    fn declared_counts_are_checked_before_reading() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+        let small = Budget {
+            vertices: 1000,
+            triangles: 1000,
+        };
+        let e = parse(text.as_bytes(), &small).unwrap_err();
+        assert!(
+            e.starts_with("4000000000 vertices are more than the 1000"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn ascii_quad_with_extra_properties() {
         let text = "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty float confidence\nproperty float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1 0 0\n1 0 0 1 1 0\n1 1 0 1 1 1\n0 1 0 1 0 1\n4 0 1 2 3\n";
-        let m = parse(text.as_bytes()).unwrap();
+        let m = parse(text.as_bytes(), &UNLIMITED).unwrap();
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(m.uvs[2], Vec2::new(1.0, 1.0));
@@ -345,7 +375,7 @@ mod tests {
     #[test]
     fn ascii_error_names_line() {
         let text = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 zero 0\n";
-        let e = parse(text.as_bytes()).unwrap_err();
+        let e = parse(text.as_bytes(), &UNLIMITED).unwrap_err();
         assert!(e.starts_with("line 8: cannot parse 'zero'"), "{e}");
     }
 
@@ -353,7 +383,7 @@ mod tests {
     fn truncated_binary() {
         let mut d = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec();
         d.extend_from_slice(&1.0f32.to_le_bytes());
-        let e = parse(&d).unwrap_err();
+        let e = parse(&d, &UNLIMITED).unwrap_err();
         assert!(e.contains("unexpected end of file"), "{e}");
         assert!(e.contains("property 'y' of vertex 0"), "{e}");
     }

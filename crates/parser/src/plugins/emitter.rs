@@ -39,8 +39,15 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
             let to_world = props
                 .transform(ctx, &["to_world"], false)?
                 .unwrap_or(Mat4::IDENTITY);
+            let position = to_world.transform_point3(position);
+            if !position.is_finite() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "the point light's position, moved by its to_world, is not finite",
+                ));
+            }
             Light::Point {
-                position: to_world.transform_point3(position),
+                position,
                 intensity,
             }
         }
@@ -60,8 +67,27 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                 };
                 bitmap_element(ctx, t)?
             };
-            let scale =
-                props.float(ctx, &["scale"], 1.0)? * props.float(ctx, &["intensity_scale"], 1.0)?;
+            let mut scale = 1.0;
+            for name in ["scale", "intensity_scale"] {
+                if let Some((v, pos)) = props.opt_float_pos(ctx, &[name])? {
+                    if v < 0.0 {
+                        return Err(ctx.err(
+                            pos,
+                            format!("parameter '{name}' of emitter 'envmap' must not be negative, found {v}"),
+                        ));
+                    }
+                    if v == 0.0 {
+                        ctx.warn(pos, format!("parameter '{name}' of emitter 'envmap' is 0: the environment is black"));
+                    }
+                    scale *= v;
+                }
+            }
+            if !scale.is_finite() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "emitter 'envmap': scale times intensity_scale is too large for a 32-bit float",
+                ));
+            }
             let to_world = props
                 .transform(ctx, &["to_world"], false)?
                 .unwrap_or(Mat4::IDENTITY);

@@ -75,6 +75,7 @@ pub(crate) fn parse_scene(
     mut root: Element,
     path: &Path,
     overrides: &[(String, String)],
+    limits: &crate::limits::Limits,
 ) -> Result<Scene> {
     if root.tag != "scene" {
         return Err(ParseError {
@@ -83,7 +84,9 @@ pub(crate) fn parse_scene(
         });
     }
     let dialect = dialect(&root, path)?;
-    let mut defaults = HashMap::new();
+    let mut ctx = Ctx::new(path, dialect, limits);
+    // A name defined twice keeps its first value, as in Mitsuba 3, with a warning.
+    let mut defaults: HashMap<String, String> = HashMap::new();
     for d in root.children.iter().filter(|c| c.tag == "default") {
         let get = |n: &str| {
             d.attr_value(n).ok_or_else(|| ParseError {
@@ -91,14 +94,22 @@ pub(crate) fn parse_scene(
                 message: format!("missing required attribute '{n}' on <default>"),
             })
         };
-        defaults.insert(get("name")?.to_string(), get("value")?.to_string());
+        let name = get("name")?;
+        let value = get("value")?;
+        if defaults.contains_key(name) {
+            ctx.warn(
+                d.pos,
+                format!("<default name=\"{name}\"> is given again; the first value is used"),
+            );
+        } else {
+            defaults.insert(name.to_string(), value.to_string());
+        }
     }
     for (k, v) in overrides {
         defaults.insert(k.clone(), v.clone());
     }
     substitute_tree(&mut root, &defaults, path)?;
 
-    let mut ctx = Ctx::new(path, dialect);
     let mut camera_parts = None;
     let mut integrator = None;
     let mut shapes = Vec::new();

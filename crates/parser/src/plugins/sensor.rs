@@ -5,6 +5,7 @@ use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::props::Props;
 use crate::scene::{Camera, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler};
+use crate::transform::frame_problem;
 use crate::xml::Element;
 use glam::Mat4;
 
@@ -53,14 +54,31 @@ fn focal_length_fov(mm: f32) -> f32 {
     2.0 * (18.0 / mm).atan().to_degrees()
 }
 
-fn positive(ctx: &Ctx, props: &mut Props, name: &str, default: i64) -> Result<u32> {
+/// An integer parameter in 1..=`max`; `limit` names the `--limit` that raises `max`, if any.
+fn positive(
+    ctx: &Ctx,
+    props: &mut Props,
+    name: &str,
+    default: i64,
+    max: u64,
+    limit: Option<&str>,
+) -> Result<u32> {
+    let max = max.min(u32::MAX as u64) as i64;
     match props.opt_int_pos(ctx, &[name])? {
         None => Ok(default as u32),
-        Some((v, pos)) if v <= 0 || v > u32::MAX as i64 => Err(ctx.err(
+        Some((v, pos)) if v <= 0 => Err(ctx.err(
             pos,
             format!(
                 "parameter '{name}' of {} must be positive, found {v}",
                 props.owner
+            ),
+        )),
+        Some((v, pos)) if v > max => Err(ctx.err(
+            pos,
+            format!(
+                "parameter '{name}' of {} must be at most {max}, found {v}{}",
+                props.owner,
+                limit.map_or(String::new(), |l| format!(" (raise with --limit {l}=N)"))
             ),
         )),
         Some((v, _)) => Ok(v as u32),
@@ -82,8 +100,19 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     }
     let mut props = Props::new(ctx, elem, format!("film '{ty}'"))?;
     let mut film = default_film();
-    film.width = positive(ctx, &mut props, "width", 768)?;
-    film.height = positive(ctx, &mut props, "height", 576)?;
+    let max = ctx.limits.film_pixels;
+    let pixels = Some("film_pixels");
+    film.width = positive(ctx, &mut props, "width", 768, max, pixels)?;
+    film.height = positive(ctx, &mut props, "height", 576, max, pixels)?;
+    if film.width as u64 * film.height as u64 > max {
+        return Err(ctx.err(
+            elem.pos,
+            format!(
+                "the film has {} x {} pixels, more than the limit of {max} (raise with --limit film_pixels=N)",
+                film.width, film.height
+            ),
+        ));
+    }
     film.filename = props.string(ctx, &["filename"])?.map(|a| a.value.clone());
     props.ignore(&[
         "pixel_format",
@@ -101,10 +130,10 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
         film.filter = match fty {
             "box" => PixelFilter::Box,
             "gaussian" => PixelFilter::Gaussian {
-                stddev: fp.float(ctx, &["stddev"], 0.5)?,
+                stddev: fp.float_where(ctx, &["stddev"], 0.5, "positive", |v| v > 0.0)?,
             },
             "tent" => PixelFilter::Tent {
-                radius: fp.float(ctx, &["radius"], 1.0)?,
+                radius: fp.float_where(ctx, &["radius"], 1.0, "positive", |v| v > 0.0)?,
             },
             _ => {
                 return Err(unknown_type(
@@ -134,7 +163,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
         ctx.warn(pos, format!("sampler '{ty}' is treated as 'independent'"));
     }
     let mut props = Props::new(ctx, elem, format!("sampler '{ty}'"))?;
-    let sample_count = positive(ctx, &mut props, "sample_count", 4)?;
+    let sample_count = positive(ctx, &mut props, "sample_count", 4, u32::MAX as u64, None)?;
     let seed = match props.opt_int_pos(ctx, &["seed"])? {
         None => 0,
         Some((s, pos)) if s < 0 => {
@@ -212,11 +241,27 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
             }
         };
     }
-    if let Some(m) = props.transform(ctx, &["to_world"], false)? {
+    if let Some((m, pos)) = props.transform_pos(ctx, &["to_world"], false)? {
+        if let Some(problem) = frame_problem(m) {
+            return Err(ctx.err(
+                pos,
+                format!("the camera's to_world cannot place a camera: {problem}"),
+            ));
+        }
         camera.to_world = m;
     }
-    camera.near_clip = props.float(ctx, &["near_clip"], camera.near_clip)?;
-    camera.far_clip = props.float(ctx, &["far_clip"], camera.far_clip)?;
+    camera.near_clip =
+        props.float_where(ctx, &["near_clip"], camera.near_clip, "positive", |v| {
+            v > 0.0
+        })?;
+    let near = camera.near_clip;
+    camera.far_clip = props.float_where(
+        ctx,
+        &["far_clip"],
+        camera.far_clip,
+        "greater than near_clip",
+        |v| v > near,
+    )?;
     props.ignore(&["focus_distance"]);
     let film = match props.take_tag("film").first() {
         Some(f) => parse_film(ctx, f)?,

@@ -2,7 +2,8 @@
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
-use crate::mesh::{obj, ply, serialized, smooth_normals, validate};
+use crate::files::input_file;
+use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
 use crate::scene::{BsdfId, Geometry, Shape, TriangleMesh};
@@ -19,17 +20,7 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let path = ctx.resolve(&file.value);
-    if !path.is_file() {
-        return Err(ctx.err(
-            file.value_pos,
-            format!(
-                "mesh file '{}' not found (looked for '{}')",
-                file.value,
-                path.display()
-            ),
-        ));
-    }
+    let path = input_file(ctx, file, "mesh")?;
     let face_normals = props.boolean(ctx, &["face_normals"], false)?;
     let flip_v = props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
     let shape_index = match props.opt_int_pos(ctx, &["shape_index"])? {
@@ -46,17 +37,26 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             0
         }
     };
-    let loaded = match ty {
-        "obj" => obj::load(&path, flip_v),
-        "ply" => ply::load(&path),
-        _ => serialized::load(&path, shape_index),
+    let budget = Budget {
+        vertices: ctx.limits.mesh_vertices.saturating_sub(ctx.vertices),
+        triangles: ctx.limits.mesh_triangles.saturating_sub(ctx.triangles),
     };
-    let mut mesh = loaded.and_then(|m| validate(&m).map(|_| m)).map_err(|m| {
-        ctx.err(
-            file.value_pos,
-            format!("in mesh file '{}': {m}", file.value),
-        )
-    })?;
+    let loaded = match ty {
+        "obj" => obj::load(&path, flip_v, &budget),
+        "ply" => ply::load(&path, &budget),
+        _ => serialized::load(&path, shape_index, &budget),
+    };
+    let mut mesh = loaded
+        .and_then(|m| budget.check(m.positions.len(), m.indices.len()).map(|_| m))
+        .and_then(|m| validate(&m).map(|_| m))
+        .map_err(|m| {
+            ctx.err(
+                file.value_pos,
+                format!("in mesh file '{}': {m}", file.value),
+            )
+        })?;
+    ctx.vertices += mesh.positions.len() as u64;
+    ctx.triangles += mesh.indices.len() as u64;
     if mesh.indices.is_empty() {
         return Err(ctx.err(
             file.value_pos,
@@ -76,6 +76,28 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
     Ok(mesh)
 }
 
+/// Why a shape cannot be placed in world space, if it cannot: its vertices (or its sphere's
+/// extent) moved by `to_world` must stay finite, so that every primitive has finite bounds.
+fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
+    let finite = match geometry {
+        Geometry::Mesh(m) => m
+            .positions
+            .iter()
+            .all(|&p| to_world.transform_point3(p).is_finite()),
+        Geometry::Sphere { center, radius } => {
+            let c = to_world.transform_point3(*center);
+            let r = to_world.transform_vector3(Vec3::splat(*radius));
+            let axes = [to_world.x_axis, to_world.y_axis, to_world.z_axis]
+                .map(|a| a.truncate().length() * radius);
+            c.is_finite() && r.is_finite() && axes.iter().all(|a| a.is_finite())
+        }
+        Geometry::Rectangle => to_world.is_finite(),
+    };
+    (!finite).then(|| {
+        "moved to world space by its to_world, the geometry is no longer finite (coordinates beyond 3.4e38)".to_string()
+    })
+}
+
 /// Parses a `<shape>`; inline bsdfs are added to the scene.
 ///
 /// | shapes | name | type | default |
@@ -89,7 +111,7 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
 /// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
 /// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
 /// | sphere | `center` | point | 0 |
-/// | sphere | `radius` | float | 1 (negative is an error) |
+/// | sphere | `radius` | float | 1 (must be positive) |
 pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
@@ -106,11 +128,8 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
             let center = props.point(ctx, &["center"])?.unwrap_or(Vec3::ZERO);
             let radius = match props.opt_float_pos(ctx, &["radius"])? {
                 None => 1.0,
-                Some((r, pos)) if r < 0.0 => {
-                    return Err(ctx.err(
-                        pos,
-                        format!("sphere radius must not be negative, found {r}"),
-                    ))
+                Some((r, pos)) if r <= 0.0 => {
+                    return Err(ctx.err(pos, format!("sphere radius must be positive, found {r}")))
                 }
                 Some((r, _)) => r,
             };
@@ -119,6 +138,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Shape> {
         "rectangle" => Geometry::Rectangle,
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };
+
+    if let Some(problem) = world_problem(&geometry, to_world) {
+        return Err(ctx.err(elem.pos, format!("{}: {problem}", props.owner)));
+    }
 
     let mut candidates: Vec<&Element> = props.take_tag("bsdf");
     for r in props.take_tag("ref") {
