@@ -1,6 +1,8 @@
 //! `torrey`: render a Mitsuba-style XML scene to a linear EXR and a tonemapped PNG.
 
 mod compare;
+mod limits;
+mod output;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -64,6 +66,10 @@ struct RenderArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Change a safety cap, NAME=VALUE (repeatable): film_pixels, image_pixels, mesh_triangles,
+    /// mesh_vertices, scene_bytes, nesting_depth, threads. See docs/robustness.md.
+    #[arg(long = "limit", value_parser = limits::parse_limit)]
+    limits: Vec<(String, u64)>,
     /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4` or `8` (8 needs AVX2 and FMA,
     /// else 4 is used). Both find the same hits; this is for comparing their speed.
     #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
@@ -131,8 +137,28 @@ fn main() -> ExitCode {
 
 fn render_command(args: &RenderArgs) -> Result<(), String> {
     let scene_path = args.scene.as_ref().ok_or("no scene file given")?;
+    let limits = limits::Limits::from_args(&args.limits)?;
+    torrey_texture::set_image_pixel_limit(limits.image_pixels);
+    if let Some((w, h)) = args.size {
+        if w as u64 * h as u64 > limits.parser.film_pixels {
+            return Err(format!(
+                "--size {w}x{h} is {} pixels, more than the limit of {} (raise with --limit film_pixels=N)",
+                w as u64 * h as u64,
+                limits.parser.film_pixels
+            ));
+        }
+    }
+    if let Some(t) = args.threads {
+        if t as u64 > limits.threads {
+            return Err(format!(
+                "--threads {t} is more than the limit of {} (raise with --limit threads=N)",
+                limits.threads
+            ));
+        }
+    }
     let load_start = Instant::now();
-    let scene = torrey_parser::load_scene(scene_path, &args.define).map_err(|e| e.to_string())?;
+    let scene = torrey_parser::load_scene_with_limits(scene_path, &args.define, &limits.parser)
+        .map_err(|e| e.to_string())?;
     for w in &scene.warnings {
         eprintln!("{w}");
     }
@@ -195,7 +221,6 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let out = pool.install(|| torrey_renderer::render(&render_scene, &settings, &progress));
     bar.finish_and_clear();
 
-    torrey_texture::write_exr(&output, &out.image).map_err(|e| e.to_string())?;
     let png = output.with_extension("png");
     let tonemapped = torrey_texture::Image::new(
         out.image.width,
@@ -206,7 +231,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             .map(|p| p.max(glam::Vec3::ZERO))
             .collect(),
     );
-    torrey_texture::write_png_srgb(&png, &tonemapped).map_err(|e| e.to_string())?;
+    output::write_all(&output::exr_and_png(&output, &out.image, &png, &tonemapped))?;
 
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();

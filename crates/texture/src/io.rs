@@ -140,7 +140,7 @@ fn load_unchecked(path: &Path, raw: bool) -> Result<Decoded, TextureError> {
     // back as an error naming the file.
     let decoded = catch_unwind(AssertUnwindSafe(|| {
         if bytes.starts_with(&EXR_MAGIC) {
-            check_exr_header(&bytes, limit).map_err(|r| decode_err(r))?;
+            check_exr_header(&bytes, limit).map_err(decode_err)?;
             decode_exr(&bytes, path)
         } else {
             decode_with_image_crate(&bytes, raw, path, limit)

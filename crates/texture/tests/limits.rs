@@ -60,7 +60,7 @@ fn lying_png(name: &str, w: u32, h: u32) -> PathBuf {
     path
 }
 
-fn error_of(path: &PathBuf) -> String {
+fn error_of(path: &std::path::Path) -> String {
     match load_image(path, false) {
         Ok(img) => panic!(
             "{} loaded as {}x{}",
