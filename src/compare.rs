@@ -43,6 +43,9 @@ pub struct CompareArgs {
     /// Write a PNG with A | B | heatmap side by side (A and B clamped and sRGB-encoded).
     #[arg(long)]
     pub side_by_side: Option<PathBuf>,
+    /// Change a safety cap, NAME=VALUE; here only image_pixels applies (docs/robustness.md).
+    #[arg(long = "limit", value_parser = crate::limits::parse_limit)]
+    pub limits: Vec<(String, u64)>,
 }
 
 /// Difference metrics between an image A and a reference B, over the pixels where both (and
@@ -333,6 +336,8 @@ fn load(path: &Path) -> Result<Image, String> {
 /// (so that a failed write is reported before any number), then prints the report to stdout.
 /// NaN or infinite pixels in any input fail the comparison after the report.
 pub fn run(args: &CompareArgs) -> Result<(), String> {
+    let limits = crate::limits::Limits::from_args(&args.limits)?;
+    torrey_texture::set_image_pixel_limit(limits.image_pixels);
     let a = load(&args.a)?;
     let b = load(&args.b)?;
     let variance = match &args.variance {

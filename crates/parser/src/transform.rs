@@ -154,15 +154,15 @@ pub(crate) fn frame_problem(m: Mat4) -> Option<String> {
     if !m.is_finite() {
         return Some("it is not finite".into());
     }
-    if m.row(3) != Vec4::new(0.0, 0.0, 0.0, 1.0) {
-        return Some("it is projective (the last row is not 0 0 0 1)".into());
-    }
     let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.truncate().as_dvec3());
     let lengths = cols.map(|c| c.length());
     if let Some(l) = lengths.iter().find(|l| !(1e-6..=1e6).contains(*l)) {
         return Some(format!(
-            "it scales an axis by {l:e} (a camera or environment transform may scale by 1e-6 to 1e6)"
+            "it scales an axis by {l:.3e} (a camera or environment transform may scale by 1e-6 to 1e6)"
         ));
+    }
+    if m.row(3) != Vec4::new(0.0, 0.0, 0.0, 1.0) {
+        return Some("it is projective (the last row is not 0 0 0 1)".into());
     }
     let volume = cols[0].dot(cols[1].cross(cols[2])).abs();
     if volume < 1e-6 * lengths.iter().product::<f64>() {
