@@ -35,32 +35,45 @@ fn temporary(path: &Path, index: usize) -> PathBuf {
 }
 
 /// Writes every output to its temporary file, then renames them all into place. If any write
-/// fails, the temporaries are removed and nothing is renamed: all or none.
+/// fails, the temporaries are removed and nothing is renamed; if a rename fails (a target that
+/// is a folder is refused before any), the images already moved are removed: all or none.
 pub fn write_all(outputs: &[Output]) -> Result<(), String> {
+    let remove_all = |paths: &[PathBuf]| {
+        for p in paths {
+            let _ = std::fs::remove_file(p);
+        }
+    };
+    for out in outputs {
+        if out.path.is_dir() {
+            return Err(format!(
+                "{}: cannot write image: it is a folder (no image was written)",
+                out.path.display()
+            ));
+        }
+    }
     let mut written: Vec<PathBuf> = Vec::new();
     for (i, out) in outputs.iter().enumerate() {
         let tmp = temporary(&out.path, i);
         if let Err(e) = out.write(&tmp) {
             let _ = std::fs::remove_file(&tmp);
-            for t in &written {
-                let _ = std::fs::remove_file(t);
-            }
+            remove_all(&written);
             // Name the file the user asked for, not the temporary.
             let e = e.replace(&tmp.display().to_string(), &out.path.display().to_string());
             return Err(format!("{e} (no image was written)"));
         }
         written.push(tmp);
     }
+    let mut moved: Vec<PathBuf> = Vec::new();
     for (out, tmp) in outputs.iter().zip(&written) {
-        std::fs::rename(tmp, &out.path).map_err(|e| {
-            for t in &written {
-                let _ = std::fs::remove_file(t);
-            }
-            format!(
-                "{}: cannot move the finished image into place: {e}",
+        if let Err(e) = std::fs::rename(tmp, &out.path) {
+            remove_all(&written);
+            remove_all(&moved);
+            return Err(format!(
+                "{}: cannot move the finished image into place: {e} (no image was written)",
                 out.path.display()
-            )
-        })?;
+            ));
+        }
+        moved.push(out.path.clone());
     }
     Ok(())
 }
