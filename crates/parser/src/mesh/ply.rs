@@ -281,6 +281,9 @@ pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String
         if is_face && el.count > 0 && fi.is_none() {
             return Err("face element has no vertex_indices list".into());
         }
+        if el.props.is_empty() {
+            continue; // nothing to read, however many it declares
+        }
         let mut values = vec![0.0f64; el.props.len()];
         let mut list: Vec<u32> = Vec::new();
         for r in 0..el.count {
@@ -347,6 +350,13 @@ mod tests {
         vertices: u64::MAX,
         triangles: u64::MAX,
     };
+
+    #[test]
+    fn elements_without_properties_take_no_time() {
+        let text = "ply\nformat ascii 1.0\nelement nothing 18446744073709551615\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        let m = parse(text.as_bytes(), &UNLIMITED).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
+    }
 
     #[test]
     fn declared_counts_are_checked_before_reading() {

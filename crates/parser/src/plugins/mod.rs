@@ -47,25 +47,34 @@ fn dialect(root: &Element, file: &Path) -> Result<Dialect> {
 }
 
 /// Applies `$name` substitution to every attribute below `elem`, except `<default>`s' own.
+/// `growth` is how many bytes substitution may still add to the document: a long default
+/// referenced a million times must not inflate a small file into gigabytes.
 fn substitute_tree(
     elem: &mut Element,
     defaults: &HashMap<String, String>,
     file: &Path,
+    growth: &mut u64,
 ) -> Result<()> {
     for child in &mut elem.children {
         if child.tag == "default" {
             continue;
         }
         for a in &mut child.attrs {
-            a.value = values::substitute(&a.value, defaults).map_err(|name| ParseError {
+            let value = values::substitute(&a.value, defaults).map_err(|name| ParseError {
                 location: location(file, a.value_pos),
                 message: format!(
                     "undefined parameter '${name}' in attribute '{}' of <{}> (add <default name=\"{name}\" .../> or -D {name}=...)",
                     a.name, child.tag
                 ),
             })?;
+            let added = value.len().saturating_sub(a.value.len()) as u64;
+            *growth = growth.checked_sub(added).ok_or_else(|| ParseError {
+                location: location(file, a.value_pos),
+                message: "substituting <default> values makes the scene larger than the scene_bytes limit (raise with --limit scene_bytes=N)".into(),
+            })?;
+            a.value = value;
         }
-        substitute_tree(child, defaults, file)?;
+        substitute_tree(child, defaults, file, growth)?;
     }
     Ok(())
 }
@@ -108,7 +117,8 @@ pub(crate) fn parse_scene(
     for (k, v) in overrides {
         defaults.insert(k.clone(), v.clone());
     }
-    substitute_tree(&mut root, &defaults, path)?;
+    let mut growth = limits.scene_bytes;
+    substitute_tree(&mut root, &defaults, path, &mut growth)?;
 
     let mut camera_parts = None;
     let mut integrator = None;
