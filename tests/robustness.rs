@@ -698,6 +698,9 @@ fn silent_oddities_now_speak() {
         let e = rejected(&dir, &scene_with(body));
         assert!(e.contains(expected), "{body}: {e}");
     }
+    let xml = scene_with("<emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/><transform name=\"toWorld\"><scale value=\"0\"/></transform></emitter>");
+    let e = rejected(&dir, &xml);
+    assert!(e.starts_with(&format!("1:{}: the envmap's to_world cannot orient an environment: it scales an axis by 0.000e0", column_of(&xml, "<transform"))), "{e}");
     // Renderable but implausible: a warning, and the render goes on.
     let xml = scene_with("<default name=\"r\" value=\"10\"/><default name=\"r\" value=\"0.5\"/><shape type=\"sphere\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"$r\"/></bsdf></shape>");
     let (scene, out) = run(&dir, &xml, &[]);

@@ -156,7 +156,10 @@ pub(crate) fn frame_problem(m: Mat4) -> Option<String> {
     }
     let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.truncate().as_dvec3());
     let lengths = cols.map(|c| c.length());
-    if let Some(l) = lengths.iter().find(|l| !(1e-6..=1e6).contains(*l)) {
+    if let Some(l) = lengths
+        .iter()
+        .find(|l| !(1e-6f32 as f64..=1e6f32 as f64).contains(*l))
+    {
         return Some(format!(
             "it scales an axis by {l:.3e} (a camera or environment transform may scale by 1e-6 to 1e6)"
         ));

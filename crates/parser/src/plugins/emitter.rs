@@ -5,6 +5,7 @@ use crate::error::Result;
 use crate::plugins::texture::{bitmap_element, parse_bitmap};
 use crate::props::Props;
 use crate::scene::Light;
+use crate::transform::frame_problem;
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
@@ -20,7 +21,7 @@ const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
 /// | `envmap` | `filename` + bitmap parameters | string | required unless a nested bitmap `<texture>` is given |
 /// | `envmap` | nested `<texture type="bitmap">` (seed dialect, e.g. `name="reflectance"`) | texture | |
 /// | `envmap` | `scale`, `intensity_scale` | float | 1 (both multiply) |
-/// | `envmap` | `to_world` | transform | identity |
+/// | `envmap` | `to_world` | transform | identity (affine, invertible, axis scales 1e-6 to 1e6) |
 /// | `constant` | `radiance` | colour | 1 |
 pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
     let ty = plugin_type(ctx, elem)?;
@@ -88,9 +89,20 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                     "emitter 'envmap': scale times intensity_scale is too large for a 32-bit float",
                 ));
             }
-            let to_world = props
-                .transform(ctx, &["to_world"], false)?
-                .unwrap_or(Mat4::IDENTITY);
+            let to_world = match props.transform_pos(ctx, &["to_world"], false)? {
+                None => Mat4::IDENTITY,
+                Some((m, pos)) => {
+                    if let Some(problem) = frame_problem(m) {
+                        return Err(ctx.err(
+                            pos,
+                            format!(
+                                "the envmap's to_world cannot orient an environment: {problem}"
+                            ),
+                        ));
+                    }
+                    m
+                }
+            };
             Light::Envmap {
                 bitmap,
                 scale,
