@@ -71,12 +71,14 @@ enum Format {
     Binary { big_endian: bool },
 }
 
-/// The body after the header: ASCII tokens with their line numbers, or raw bytes.
+/// The body after the header: ASCII text read token by token (nothing is allocated per token,
+/// so a file with more data than its header declares costs no memory), or raw bytes.
 enum Body<'a> {
     Ascii {
-        tokens: Vec<(&'a str, usize)>,
-        next: usize,
-        last_line: usize,
+        text: &'a [u8],
+        pos: usize,
+        /// The line `pos` is on.
+        line: usize,
     },
     Binary {
         data: &'a [u8],
@@ -88,18 +90,26 @@ enum Body<'a> {
 impl Body<'_> {
     fn read(&mut self, s: Scalar, what: &dyn Fn() -> String) -> Result<f64, String> {
         match self {
-            Body::Ascii {
-                tokens,
-                next,
-                last_line,
-            } => {
-                let Some(&(tok, line)) = tokens.get(*next) else {
+            Body::Ascii { text, pos, line } => {
+                while let Some(&c) = text.get(*pos) {
+                    if !c.is_ascii_whitespace() {
+                        break;
+                    }
+                    *line += (c == b'\n') as usize;
+                    *pos += 1;
+                }
+                let start = *pos;
+                while text.get(*pos).is_some_and(|c| !c.is_ascii_whitespace()) {
+                    *pos += 1;
+                }
+                if start == *pos {
                     return Err(format!(
-                        "line {last_line}: unexpected end of file while reading {}",
+                        "line {line}: unexpected end of file while reading {}",
                         what()
                     ));
-                };
-                *next += 1;
+                }
+                let line = *line;
+                let tok = std::str::from_utf8(&text[start..*pos]).unwrap_or("(not text)");
                 let v = if matches!(s, Scalar::F32 | Scalar::F64) {
                     tok.parse::<f64>().ok()
                 } else {
@@ -239,20 +249,11 @@ pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String
     }
     let header_lines = data[..start].iter().filter(|&&b| b == b'\n').count();
     let mut body = match format {
-        Format::Ascii => {
-            let text = std::str::from_utf8(&data[start..]).map_err(|_| "ASCII body is not text")?;
-            let mut tokens = Vec::new();
-            let mut last_line = header_lines;
-            for (i, line) in text.lines().enumerate() {
-                last_line = header_lines + i + 1;
-                tokens.extend(line.split_whitespace().map(|t| (t, last_line)));
-            }
-            Body::Ascii {
-                tokens,
-                next: 0,
-                last_line,
-            }
-        }
+        Format::Ascii => Body::Ascii {
+            text: &data[start..],
+            pos: 0,
+            line: header_lines + 1,
+        },
         Format::Binary { big_endian } => Body::Binary {
             data: &data[start..],
             pos: 0,
