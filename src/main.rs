@@ -264,12 +264,13 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
 }
 
 /// The output EXR: `-o`, else the film's filename (with .exr), else `<scene stem>.exr`, in the
-/// current directory.
+/// current directory. Only the film filename's last component is used: a scene file must not
+/// choose where on the disk torrey writes.
 fn output_path(explicit: Option<&Path>, scene: &Path, film_name: Option<&str>) -> PathBuf {
     if let Some(p) = explicit {
         return p.to_path_buf();
     }
-    if let Some(name) = film_name {
+    if let Some(name) = film_name.and_then(|n| Path::new(n).file_name()) {
         return PathBuf::from(name).with_extension("exr");
     }
     let stem = scene

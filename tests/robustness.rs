@@ -560,6 +560,18 @@ fn output_is_all_or_nothing() {
     left.sort();
     assert_eq!(left, ["out.png", "s.xml"], "no EXR, no temporary files");
 
+    // A film filename cannot place the output outside the current folder.
+    let escaping = GOOD.replace("</sensor>", "<film type=\"hdrfilm\"><string name=\"filename\" value=\"../../escaped/name.exr\"/></film></sensor>");
+    std::fs::create_dir_all(dir.join("cwd")).unwrap();
+    std::fs::write(dir.join("cwd/e.xml"), escaping).unwrap();
+    let ok = torrey()
+        .current_dir(dir.join("cwd"))
+        .args(["e.xml", "--quiet", "--size", "8x6"])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    assert!(dir.join("cwd/name.exr").exists() && dir.join("cwd/name.png").exists());
+
     // Four renders writing the same path: the result is one of them, whole.
     let shared = dir.join("shared.exr");
     let mut children = Vec::new();

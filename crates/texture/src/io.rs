@@ -97,7 +97,8 @@ const BYTES_PER_PIXEL_BUDGET: u64 = 16;
 /// [`WhiteAdaptation::None`]) regardless of `raw`. Gray images give r=g=b and
 /// alpha is dropped. NaN, infinite and negative texels become 0 with one warning per file. The
 /// format is detected from the file's bytes, not its extension. Only regular files are read,
-/// and images larger than [`image_pixel_limit`] are refused before decoding.
+/// and images larger than [`image_pixel_limit`] (or files larger than such an image's samples
+/// plus 64 MiB) are refused before decoding.
 pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
     let (mut image, mut warnings) = load_unchecked(path, raw)?;
     let bad = sanitize(&mut image.pixels);
@@ -134,8 +135,19 @@ fn load_unchecked(path: &Path, raw: bool) -> Result<Decoded, TextureError> {
             "not a regular file",
         )));
     }
-    let bytes = std::fs::read(path).map_err(io_err)?;
     let limit = image_pixel_limit();
+    // No accepted image needs more than its decoded samples plus room for metadata (previews,
+    // attributes): a bigger file is refused unread.
+    let max_bytes = limit
+        .saturating_mul(BYTES_PER_PIXEL_BUDGET)
+        .saturating_add(64 << 20);
+    if meta.len() > max_bytes {
+        return Err(decode_err(format!(
+            "the file has {} bytes, more than an image within the limit of {limit} pixels needs ({RAISE})",
+            meta.len()
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(io_err)?;
     // Decoders are third-party code fed untrusted bytes: a panic inside one must still come
     // back as an error naming the file.
     let decoded = catch_unwind(AssertUnwindSafe(|| {

@@ -113,6 +113,22 @@ fn lying_headers_are_refused_before_decoding() {
         e.contains("64 x 64 pixels, more than the limit of 1000"),
         "{e}"
     );
+    // A file far larger than any allowed image is refused unread (a sparse 70 MB file).
+    let big = scratch("big.png");
+    std::fs::copy(&ok, &big).unwrap();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&big)
+        .unwrap()
+        .set_len(70 << 20)
+        .unwrap();
+    let e = error_of(&big);
+    assert!(
+        e.contains(
+            "the file has 73400320 bytes, more than an image within the limit of 1000 pixels needs"
+        ),
+        "{e}"
+    );
     set_image_pixel_limit(1 << 25);
     assert!(load_image(&ok, false).is_ok());
     assert!(load_image(&small_exr, false).is_ok());
