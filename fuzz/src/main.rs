@@ -104,6 +104,98 @@ const INTERESTING_NUMBERS: &[&str] = &[
     "1e-45",
     "0.5",
     "100000",
+    "0.25",
+    "3",
+    "1e-3",
+    "1e3",
+    "90",
+    "-0.5",
+    "1e-7",
+    "0.999",
+];
+
+/// Scene fragments the `xml` and `render` mutators insert: plugins, parameters and transforms,
+/// valid and borderline, naming files that exist beside the project's scenes.
+const SNIPPETS: &[&str] = &[
+    "<shape type=\"sphere\"><float name=\"radius\" value=\"0.5\"/></shape>",
+    "<shape type=\"rectangle\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"5\"/></emitter></shape>",
+    "<shape type=\"obj\"><string name=\"filename\" value=\"meshes/cube.obj\"/></shape>",
+    "<shape type=\"obj\"><string name=\"filename\" value=\"meshes/torus.obj\"/><boolean name=\"face_normals\" value=\"true\"/></shape>",
+    "<transform name=\"to_world\"><scale value=\"0\"/></transform>",
+    "<transform name=\"to_world\"><rotate y=\"1\" angle=\"90\"/><translate x=\"1e30\"/></transform>",
+    "<transform name=\"to_world\"><matrix value=\"1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1\"/></transform>",
+    "<transform name=\"to_world\"><lookat origin=\"0 0 5\" target=\"0 0 0\" up=\"0 1 0\"/></transform>",
+    "<float name=\"radius\" value=\"1e-30\"/>",
+    "<point name=\"center\" x=\"1e30\" y=\"0\" z=\"0\"/>",
+    "<rgb name=\"reflectance\" value=\"10\"/>",
+    "<rgb name=\"radiance\" value=\"1e30\"/>",
+    "<float name=\"exponent\" value=\"1e30\"/>",
+    "<float name=\"fov\" value=\"179.9\"/>",
+    "<float name=\"near_clip\" value=\"1e-30\"/>",
+    "<integer name=\"max_depth\" value=\"1000\"/>",
+    "<integer name=\"rr_depth\" value=\"1\"/>",
+    "<bsdf type=\"twosided\"><bsdf type=\"plastic\"><float name=\"eta\" value=\"1e-6\"/></bsdf></bsdf>",
+    "<bsdf type=\"mirror\"/>",
+    "<bsdf type=\"blinn_microfacet\"><float name=\"exponent\" value=\"0\"/></bsdf>",
+    "<bsdf type=\"normalmap\"><texture type=\"bitmap\" name=\"normalmap\"><string name=\"filename\" value=\"../textures/normal_bumps.png\"/></texture><bsdf type=\"diffuse\"/></bsdf>",
+    "<texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"../textures/checker.png\"/><float name=\"uscale\" value=\"1e30\"/></texture>",
+    "<texture type=\"checkerboard\" name=\"reflectance\"><transform name=\"to_uv\"><scale x=\"1e-30\"/></transform></texture>",
+    "<emitter type=\"envmap\"><string name=\"filename\" value=\"../textures/sky_sun.exr\"/><float name=\"scale\" value=\"1e30\"/></emitter>",
+    "<emitter type=\"point\"><point name=\"position\" x=\"0\" y=\"0\" z=\"0\"/><rgb name=\"intensity\" value=\"1e30\"/></emitter>",
+    "<emitter type=\"constant\"><rgb name=\"radiance\" value=\"0\"/></emitter>",
+    "<film type=\"hdrfilm\"><integer name=\"width\" value=\"1\"/><rfilter type=\"gaussian\"><float name=\"stddev\" value=\"1e-30\"/></rfilter></film>",
+    "<default name=\"x\" value=\"1e30\"/>",
+    "<ref id=\"missing\"/>",
+];
+
+/// Attribute values the `xml` and `render` mutators substitute.
+const WORDS: &[&str] = &[
+    "sphere",
+    "rectangle",
+    "obj",
+    "ply",
+    "serialized",
+    "diffuse",
+    "mirror",
+    "plastic",
+    "phong",
+    "blinn",
+    "blinn_microfacet",
+    "twosided",
+    "normalmap",
+    "bitmap",
+    "checkerboard",
+    "envmap",
+    "point",
+    "constant",
+    "area",
+    "perspective",
+    "path",
+    "direct",
+    "hdrfilm",
+    "gaussian",
+    "tent",
+    "box",
+    "reflectance",
+    "radiance",
+    "radius",
+    "center",
+    "to_world",
+    "to_uv",
+    "filename",
+    "meshes/cube.obj",
+    "../textures/sky_sun.exr",
+    "../textures/checker.png",
+    "nan",
+    "1e30",
+    "-1",
+    "0",
+    "$x",
+    "true",
+    "x",
+    "y",
+    "diagonal",
+    "",
 ];
 
 const INTERESTING_INTS: &[u32] = &[
@@ -300,12 +392,14 @@ fn range(rng: &mut Rng, len: usize) -> (usize, usize) {
 }
 
 /// Applies one random mutation to `data`; `other` is another corpus entry for splicing.
-fn mutate_once(rng: &mut Rng, data: &mut Vec<u8>, other: &[u8], text: bool) {
+fn mutate_once(rng: &mut Rng, data: &mut Vec<u8>, other: &[u8], ext: &str) {
     let len = data.len();
-    let choice = if text && rng.chance(2) {
-        8 + rng.below(4)
-    } else {
-        rng.below(8)
+    // Text keeps its structure most of the time (so that mutants still parse and reach the
+    // code behind the parser); bytes are mangled otherwise.
+    let choice = match ext {
+        "xml" if !rng.chance(8) => [8, 10, 11, 12, 13][rng.below(5)],
+        "obj" | "ply" if !rng.chance(5) => [8, 8, 9, 14][rng.below(4)],
+        _ => rng.below(8),
     };
     match choice {
         0 if len > 0 => {
@@ -357,11 +451,40 @@ fn mutate_once(rng: &mut Rng, data: &mut Vec<u8>, other: &[u8], text: bool) {
         }
         8 => replace_number(rng, data),
         9 => duplicate_unit(rng, data, b'\n', b'\n'),
-        10 => duplicate_unit(rng, data, b'<', b'>'),
+        10 => {
+            // Duplicate a whole element (start tag through its end tag) in place.
+            if let Some((a, b)) = element(rng, data) {
+                let chunk = data[a..b].to_vec();
+                data.splice(b..b, chunk);
+            }
+        }
         11 => {
-            // Delete one line or element-ish unit.
+            // Delete a whole element.
+            if let Some((a, b)) = element(rng, data) {
+                data.drain(a..b);
+            }
+        }
+        14 => {
             let (a, b) = unit(rng, data, b'\n', b'\n');
             data.drain(a..b);
+        }
+        12 => {
+            // Insert a scene snippet before an element.
+            let starts: Vec<usize> = (0..len).filter(|&i| data[i] == b'<').collect();
+            if let Some(&at) = starts.get(rng.below(starts.len())) {
+                let snippet = SNIPPETS[rng.below(SNIPPETS.len())];
+                data.splice(at..at, snippet.bytes());
+            }
+        }
+        13 => {
+            // Replace a quoted attribute value with a word from the scene vocabulary.
+            let quotes: Vec<usize> = (0..len).filter(|&i| data[i] == b'"').collect();
+            if quotes.len() >= 2 {
+                let k = 2 * rng.below(quotes.len() / 2);
+                let (a, b) = (quotes[k] + 1, quotes[k + 1]);
+                let word = WORDS[rng.below(WORDS.len())];
+                data.splice(a..b, word.bytes());
+            }
         }
         _ => {
             let n = 1 + rng.below(4);
@@ -387,6 +510,34 @@ fn unit(rng: &mut Rng, data: &[u8], open: u8, close: u8) -> (usize, usize) {
         .position(|&c| c == close)
         .map_or(data.len(), |i| start + i + 1);
     (a, b.max(a))
+}
+
+/// A random whole element of an XML text: from a start tag through its matching end tag (or
+/// the start tag alone when it closes itself), as a byte range.
+fn element(rng: &mut Rng, data: &[u8]) -> Option<(usize, usize)> {
+    let starts: Vec<usize> = (0..data.len().saturating_sub(1))
+        .filter(|&i| data[i] == b'<' && data[i + 1].is_ascii_alphabetic())
+        .collect();
+    let start = *starts.get(rng.below(starts.len()))?;
+    let mut depth = 0usize;
+    let mut i = start;
+    while i < data.len() {
+        if data[i] != b'<' {
+            i += 1;
+            continue;
+        }
+        let close = i + data[i..].iter().position(|&c| c == b'>')?;
+        if data.get(i + 1) == Some(&b'/') {
+            depth = depth.checked_sub(1)?;
+        } else if data[close - 1] != b'/' && data[i + 1].is_ascii_alphabetic() {
+            depth += 1;
+        }
+        i = close + 1;
+        if depth == 0 {
+            return Some((start, i));
+        }
+    }
+    None
 }
 
 fn duplicate_unit(rng: &mut Rng, data: &mut Vec<u8>, open: u8, close: u8) {
@@ -449,6 +600,50 @@ fn signature(result: &Result<String, String>, dir: &Path) -> String {
     }
 }
 
+/// What kinds of things an accepted scene holds, for outcome classes: shape, bsdf and light
+/// kinds and whether there were warnings.
+fn scene_summary(s: &torrey_parser::Scene) -> String {
+    use std::collections::BTreeSet;
+    let mut kinds = BTreeSet::new();
+    for sh in &s.shapes {
+        kinds.insert(match sh.geometry {
+            torrey_parser::Geometry::Mesh(_) => "mesh",
+            torrey_parser::Geometry::Sphere { .. } => "sphere",
+            torrey_parser::Geometry::Rectangle => "rectangle",
+        });
+        if sh.emitter.is_some() {
+            kinds.insert("area");
+        }
+    }
+    for b in &s.bsdfs {
+        kinds.insert(match b.kind {
+            torrey_parser::BsdfKind::Diffuse { .. } => "diffuse",
+            torrey_parser::BsdfKind::Mirror { .. } => "mirror",
+            torrey_parser::BsdfKind::Plastic { .. } => "plastic",
+            torrey_parser::BsdfKind::Phong { .. } => "phong",
+            torrey_parser::BsdfKind::Blinn { .. } => "blinn",
+            torrey_parser::BsdfKind::BlinnMicrofacet { .. } => "microfacet",
+        });
+        if b.normal_map.is_some() {
+            kinds.insert("normalmap");
+        }
+    }
+    for l in &s.lights {
+        kinds.insert(match l {
+            torrey_parser::Light::Point { .. } => "point",
+            torrey_parser::Light::Constant { .. } => "constant",
+            torrey_parser::Light::Envmap { .. } => "envmap",
+        });
+    }
+    if !s.textures.is_empty() {
+        kinds.insert("texture");
+    }
+    if !s.warnings.is_empty() {
+        kinds.insert("warnings");
+    }
+    kinds.into_iter().collect::<Vec<_>>().join(",")
+}
+
 struct Harness {
     target: Target,
     dir: PathBuf,
@@ -483,7 +678,7 @@ impl Harness {
         match self.target {
             Target::Xml => {
                 let text = String::from_utf8_lossy(&input.bytes);
-                parse(&text).map(|s| format!("{} shapes", s.shapes.len().min(3)))
+                parse(&text).map(|s| scene_summary(&s))
             }
             Target::Mesh => {
                 let xml = self.scene_for_mesh(file, &input.ext);
@@ -674,9 +869,15 @@ fn main() {
             let other = corpus[rng.below(corpus.len())].bytes.clone();
             let mut bytes = base.bytes.clone();
             let text = args.target.is_text(&base.ext);
-            let stack = if rng.chance(4) { 16 } else { 4 };
+            let stack = if rng.chance(4) {
+                16
+            } else if text {
+                2
+            } else {
+                4
+            };
             for _ in 0..1 + rng.below(stack) {
-                mutate_once(&mut rng, &mut bytes, &other, text);
+                mutate_once(&mut rng, &mut bytes, &other, &base.ext);
             }
             bytes.truncate(1 << 20);
             Input {
@@ -725,11 +926,30 @@ fn main() {
         };
         ok += result.is_ok() as u64;
         let sig = signature(&result, &harness.dir);
-        if std::env::var_os("TORREY_FUZZ_VERBOSE").is_some() && !seen.contains(&sig) {
-            eprintln!("new outcome: {sig}");
+        match std::env::var("TORREY_FUZZ_VERBOSE").as_deref() {
+            Ok("all") => eprintln!("outcome: {sig}"),
+            Ok(_) if !seen.contains(&sig) => eprintln!("new outcome: {sig}"),
+            _ => {}
         }
-        if seen.insert(sig) && (execs as usize) >= seed_count && corpus.len() < 4096 {
-            corpus.push(input);
+        // New outcomes join the corpus; once it is full they replace a random non-seed entry,
+        // and accepted inputs are kept preferentially (they reach the deepest code).
+        let accepted = result.is_ok();
+        // Malformed text rarely leads anywhere new: keep few of those.
+        let malformed = sig.starts_with("malformed");
+        if seen.insert(sig) && (execs as usize) >= seed_count && (!malformed || rng.chance(8)) {
+            if corpus.len() < 4096 {
+                corpus.push(input);
+            } else {
+                let victim = seed_count + rng.below(corpus.len() - seed_count);
+                corpus[victim] = input;
+            }
+        } else if accepted && (execs as usize) >= seed_count && rng.chance(16) {
+            let victim = seed_count + rng.below(corpus.len() - seed_count);
+            if corpus.len() < 4096 {
+                corpus.push(input);
+            } else {
+                corpus[victim] = input;
+            }
         }
     }
     let secs = start.elapsed().as_secs_f64();
