@@ -730,6 +730,19 @@ fn silent_oddities_now_speak() {
         stderr.contains("warning: reflectance 10 10 10 of bsdf 'diffuse' is above 1"),
         "{stderr}"
     );
+    // Once per scene: a thousand such bsdfs give one line with a count.
+    let many = "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"2\"/></bsdf>".repeat(1000);
+    let (_, out) = run(&dir, &scene_with(&many), &[]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(
+        warnings[0].ends_with(
+            "reflects more light than it receives (999 more like it in this scene; not listed)"
+        ),
+        "{stderr}"
+    );
     // A 10 MB attribute value is not echoed in full: the error stays one short line.
     std::fs::remove_file(dir.join("out.exr")).unwrap();
     std::fs::remove_file(dir.join("out.png")).unwrap();

@@ -26,6 +26,8 @@ pub(crate) struct Ctx {
     pub bsdfs: Vec<Bsdf>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
     pub limits: Limits,
+    /// Warnings given once per scene: kind → (index in `warnings`, occurrences).
+    once: HashMap<&'static str, (usize, usize)>,
     /// Triangles and vertices of the meshes loaded so far, against `limits`.
     pub triangles: u64,
     pub vertices: u64,
@@ -43,6 +45,7 @@ impl Ctx {
             textures: Vec::new(),
             bsdfs: Vec::new(),
             ids: HashMap::new(),
+            once: HashMap::new(),
             limits: limits.clone(),
             triangles: 0,
             vertices: 0,
@@ -61,6 +64,31 @@ impl Ctx {
             location: location(&self.file, pos),
             message: message.into(),
         });
+    }
+
+    /// A warning given at the first occurrence of `kind` only; [`Ctx::finish_warnings`] adds
+    /// how many more there were, so that a scene with a thousand such values gives one line.
+    pub fn warn_once(&mut self, kind: &'static str, pos: Pos, message: impl Into<String>) {
+        if let Some((_, n)) = self.once.get_mut(kind) {
+            *n += 1;
+            return;
+        }
+        self.once.insert(kind, (self.warnings.len(), 1));
+        self.warn(pos, message);
+    }
+
+    /// The warnings, with counts appended to those given once.
+    pub fn finish_warnings(&mut self) -> Vec<Warning> {
+        for &(i, n) in self.once.values() {
+            if n > 1 {
+                let more = n - 1;
+                self.warnings[i].message += &format!(
+                    " ({more} more like it in this scene{})",
+                    if more == 1 { "" } else { "; not listed" }
+                );
+            }
+        }
+        std::mem::take(&mut self.warnings)
     }
 
     /// Records `elem`'s `id` attribute (if any) as naming `target`; a second definition of the

@@ -68,7 +68,8 @@ pub(crate) fn color_param(
             if c.max_element() > 1.0 {
                 // Renderable, but a surface reflecting more than it receives adds energy.
                 let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
-                ctx.warn(
+                ctx.warn_once(
+                    "reflectance above 1",
                     pos,
                     format!(
                         "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",

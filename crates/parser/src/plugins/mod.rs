@@ -192,6 +192,7 @@ pub(crate) fn parse_scene(
             sensor::default_sampler(),
         )
     });
+    let warnings = ctx.finish_warnings();
     Ok(Scene {
         path: path.to_path_buf(),
         dialect,
@@ -203,6 +204,6 @@ pub(crate) fn parse_scene(
         bsdfs: ctx.bsdfs,
         shapes,
         lights,
-        warnings: ctx.warnings,
+        warnings,
     })
 }
