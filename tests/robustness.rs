@@ -141,9 +141,23 @@ fn non_finite_geometry_is_rejected_where_it_is_given() {
         ("<transform name=\"toWorld\"><translate x=\"inf\"/></transform>", "'inf' is not a finite number"),
         (
             "<transform name=\"toWorld\"><scale value=\"1e30\"/></transform><float name=\"radius\" value=\"1e10\"/>",
-            "moved to world space by its to_world, the geometry is no longer finite",
+            "moved to world space by its to_world, the geometry reaches 1.000e40, beyond the 1e14 torrey supports",
+        ),
+        (
+            "<float name=\"radius\" value=\"2e14\"/>",
+            "the geometry reaches 2.000e14, beyond the 1e14 torrey supports",
         ),
     ];
+    // Found by the render fuzzer: a rectangle scaled by 3.4e38 has finite corners but an
+    // infinite extent, which made obvhs's builder panic.
+    let xml = scene_with("<shape type=\"rectangle\"><transform name=\"toWorld\"><scale value=\"3.4e38\"/></transform></shape><shape type=\"rectangle\"/>");
+    let e = rejected(&dir, &xml);
+    assert!(e.ends_with("shape 'rectangle': moved to world space by its to_world, the geometry reaches 3.400e38, beyond the 1e14 torrey supports"), "{e}");
+    let xml = scene_with("<emitter type=\"point\"><point name=\"position\" x=\"1e15\"/></emitter>");
+    assert!(rejected(&dir, &xml).contains("reaches 1.000e15, beyond the 1e14 torrey supports"));
+    let xml = scene_with("<sensor type=\"perspective\"><transform name=\"toWorld\"><translate x=\"3e38\"/></transform></sensor>");
+    assert!(rejected(&dir, &xml)
+        .contains("it places the origin 3.000e38 away, beyond the 1e14 torrey supports"));
     for (param, expected) in cases {
         let xml = scene_with(&format!("<shape type=\"sphere\">{param}</shape>{spheres}"));
         let e = rejected(&dir, &xml);

@@ -167,6 +167,13 @@ pub(crate) fn frame_problem(m: Mat4) -> Option<String> {
     if m.row(3) != Vec4::new(0.0, 0.0, 0.0, 1.0) {
         return Some("it is projective (the last row is not 0 0 0 1)".into());
     }
+    let reach = m.w_axis.truncate().abs().max_element() as f64;
+    if reach > crate::plugins::shape::WORLD_EXTENT {
+        return Some(format!(
+            "it places the origin {reach:.3e} away, beyond the {:e} torrey supports",
+            crate::plugins::shape::WORLD_EXTENT
+        ));
+    }
     let volume = cols[0].dot(cols[1].cross(cols[2])).abs();
     if volume < 1e-6 * lengths.iter().product::<f64>() {
         return Some("it is singular (flattens space onto a plane or line)".into());

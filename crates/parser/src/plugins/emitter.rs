@@ -41,10 +41,14 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                 .transform(ctx, &["to_world"], false)?
                 .unwrap_or(Mat4::IDENTITY);
             let position = to_world.transform_point3(position);
-            if !position.is_finite() {
+            let reach = position.abs().max_element() as f64;
+            if !(reach <= crate::plugins::shape::WORLD_EXTENT) {
                 return Err(ctx.err(
                     elem.pos,
-                    "the point light's position, moved by its to_world, is not finite",
+                    format!(
+                        "the point light's position, moved by its to_world, reaches {reach:.3e}, beyond the {:e} torrey supports",
+                        crate::plugins::shape::WORLD_EXTENT
+                    ),
                 ));
             }
             Light::Point {

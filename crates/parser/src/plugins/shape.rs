@@ -12,6 +12,11 @@ use glam::{Mat4, Vec3};
 
 const KNOWN: &[&str] = &["obj", "ply", "serialized", "sphere", "rectangle"];
 
+/// How far from the origin world-space geometry may reach: 1e14. The BVH builder sums surface
+/// areas of bounding boxes (an extent of 2e19 already has an infinite area in f32), and ray
+/// arithmetic squares distances; 1e14 leaves room for both with millions of primitives.
+pub(crate) const WORLD_EXTENT: f64 = 1e14;
+
 /// Reads a mesh file named by the `filename` parameter; errors name the file and point at it.
 fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<TriangleMesh> {
     let Some(file) = props.string(ctx, &["filename"])? else {
@@ -76,25 +81,38 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
     Ok(mesh)
 }
 
-/// Why a shape cannot be placed in world space, if it cannot: its vertices (or its sphere's
-/// extent) moved by `to_world` must stay finite, so that every primitive has finite bounds.
+/// Why a shape cannot be placed in world space, if it cannot: its vertices (or its sphere's or
+/// rectangle's extent) moved by `to_world` must stay within [`WORLD_EXTENT`] of the origin.
 fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
-    let finite = match geometry {
-        Geometry::Mesh(m) => m
-            .positions
-            .iter()
-            .all(|&p| to_world.transform_point3(p).is_finite()),
-        Geometry::Sphere { center, radius } => {
-            let c = to_world.transform_point3(*center);
-            let r = to_world.transform_vector3(Vec3::splat(*radius));
-            let axes = [to_world.x_axis, to_world.y_axis, to_world.z_axis]
-                .map(|a| a.truncate().length() * radius);
-            c.is_finite() && r.is_finite() && axes.iter().all(|a| a.is_finite())
-        }
-        Geometry::Rectangle => to_world.is_finite(),
+    // The largest coordinate magnitude, in f64 so that nothing overflows while measuring.
+    let m = to_world.as_dmat4();
+    let farthest = |points: &mut dyn Iterator<Item = glam::DVec3>| {
+        points.fold(0.0f64, |acc, p| {
+            let p = m.transform_point3(p).abs().max_element();
+            if p.is_nan() {
+                f64::INFINITY
+            } else {
+                acc.max(p)
+            }
+        })
     };
-    (!finite).then(|| {
-        "moved to world space by its to_world, the geometry is no longer finite (coordinates beyond 3.4e38)".to_string()
+    let reach = match geometry {
+        Geometry::Mesh(mesh) => farthest(&mut mesh.positions.iter().map(|p| p.as_dvec3())),
+        Geometry::Sphere { center, radius } => {
+            let c = m.transform_point3(center.as_dvec3()).abs().max_element();
+            let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
+            c + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
+        }
+        Geometry::Rectangle => farthest(
+            &mut [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .into_iter()
+                .map(|(x, y)| glam::DVec3::new(x, y, 0.0)),
+        ),
+    };
+    (!(reach <= WORLD_EXTENT)).then(|| {
+        format!(
+            "moved to world space by its to_world, the geometry reaches {reach:.3e}, beyond the {WORLD_EXTENT:e} torrey supports"
+        )
     })
 }
 
