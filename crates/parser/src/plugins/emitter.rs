@@ -42,7 +42,7 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                 .unwrap_or(Mat4::IDENTITY);
             let position = to_world.transform_point3(position);
             let reach = position.abs().max_element() as f64;
-            if !(reach <= crate::plugins::shape::WORLD_EXTENT) {
+            if reach.is_nan() || reach > crate::plugins::shape::WORLD_EXTENT {
                 return Err(ctx.err(
                     elem.pos,
                     format!(

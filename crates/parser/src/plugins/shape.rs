@@ -109,7 +109,7 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
                 .map(|(x, y)| glam::DVec3::new(x, y, 0.0)),
         ),
     };
-    (!(reach <= WORLD_EXTENT)).then(|| {
+    (reach.is_nan() || reach > WORLD_EXTENT).then(|| {
         format!(
             "moved to world space by its to_world, the geometry reaches {reach:.3e}, beyond the {WORLD_EXTENT:e} torrey supports"
         )
