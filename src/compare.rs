@@ -43,11 +43,17 @@ pub struct CompareArgs {
     /// Write a PNG with A | B | heatmap side by side (A and B clamped and sRGB-encoded).
     #[arg(long)]
     pub side_by_side: Option<PathBuf>,
+    /// Change a safety cap, NAME=VALUE; here only image_pixels applies (docs/robustness.md).
+    #[arg(long = "limit", value_parser = crate::limits::parse_limit)]
+    pub limits: Vec<(String, u64)>,
 }
 
-/// Difference metrics between an image A and a reference B.
+/// Difference metrics between an image A and a reference B, over the pixels where both (and
+/// the variance image, if any) are finite; the others are counted and fail the comparison.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Metrics {
+    /// Pixels with a NaN or infinite channel in A, B and the variance image.
+    pub nonfinite: [usize; 3],
     /// Root mean squared difference over all pixels and channels.
     pub rmse: f64,
     /// Mean over all pixels and channels of (a - b)^2 / (b^2 + 0.01).
@@ -81,11 +87,22 @@ pub fn compare_images(a: &Image, b: &Image, variance: Option<&Image>) -> Result<
     if n == 0 {
         return Err("images are empty (0 pixels)".to_string());
     }
+    let bad = |i: &Image| i.pixels.iter().filter(|p| !p.is_finite()).count();
+    let nonfinite = [bad(a), bad(b), variance.map_or(0, bad)];
+    let usable = |i: usize| {
+        a.pixels[i].is_finite()
+            && b.pixels[i].is_finite()
+            && variance.is_none_or(|v| v.pixels[i].is_finite())
+    };
+    let n_usable = (0..n).filter(|&i| usable(i)).count();
     let mut sq = 0.0f64;
     let mut rel = 0.0f64;
     let mut sum_a = [0.0f64; 3];
     let mut sum_b = [0.0f64; 3];
-    for (pa, pb) in a.pixels.iter().zip(&b.pixels) {
+    for (i, (pa, pb)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        if !usable(i) {
+            continue;
+        }
         for c in 0..3 {
             let (x, y) = (pa[c] as f64, pb[c] as f64);
             let d2 = (x - y) * (x - y);
@@ -95,7 +112,7 @@ pub fn compare_images(a: &Image, b: &Image, variance: Option<&Image>) -> Result<
             sum_b[c] += y;
         }
     }
-    let count = (3 * n) as f64;
+    let count = (3 * n_usable).max(1) as f64;
     let mut mean_ratio = [0.0; 3];
     for c in 0..3 {
         mean_ratio[c] = if sum_a[c] == sum_b[c] {
@@ -110,6 +127,9 @@ pub fn compare_images(a: &Image, b: &Image, variance: Option<&Image>) -> Result<
             .iter()
             .zip(&b.pixels)
             .zip(&v.pixels)
+            .enumerate()
+            .filter(|&(i, _)| usable(i))
+            .map(|(_, x)| x)
             .filter(|((pa, pb), pv)| {
                 (0..3).any(|c| {
                     let d = (pa[c] as f64 - pb[c] as f64).abs();
@@ -117,9 +137,10 @@ pub fn compare_images(a: &Image, b: &Image, variance: Option<&Image>) -> Result<
                 })
             })
             .count();
-        outside as f64 / n as f64
+        outside as f64 / n_usable.max(1) as f64
     });
     Ok(Metrics {
+        nonfinite,
         rmse: (sq / count).sqrt(),
         rel_mse: rel / count,
         mean_ratio,
@@ -246,7 +267,7 @@ fn json_string(s: &str) -> String {
 pub fn metrics_json(m: &Metrics, a: &Path, b: &Path) -> String {
     format!(
         "{{\"a\": {}, \"b\": {}, \"width\": {}, \"height\": {}, \"rmse\": {}, \"rel_mse\": {}, \
-         \"mean_ratio\": [{}, {}, {}], \"outside_3_sigma\": {}}}",
+         \"mean_ratio\": [{}, {}, {}], \"outside_3_sigma\": {}, \"nonfinite_pixels\": [{}, {}, {}]}}",
         json_string(&a.display().to_string()),
         json_string(&b.display().to_string()),
         m.width,
@@ -257,6 +278,9 @@ pub fn metrics_json(m: &Metrics, a: &Path, b: &Path) -> String {
         json_number(m.mean_ratio[1]),
         json_number(m.mean_ratio[2]),
         m.outside_3_sigma.map_or("null".to_string(), json_number),
+        m.nonfinite[0],
+        m.nonfinite[1],
+        m.nonfinite[2],
     )
 }
 
@@ -267,11 +291,27 @@ pub fn metrics_text(m: &Metrics, a: &Path, b: &Path) -> String {
     let _ = writeln!(s, "B: {} (reference)", b.display());
     let _ = writeln!(s, "RMSE             {:.6e}", m.rmse);
     let _ = writeln!(s, "relative MSE     {:.6e}", m.rel_mse);
+    let ratio = |r: f64| {
+        if r.is_finite() {
+            format!("{r:.5}")
+        } else {
+            "undefined (B's mean is 0)".to_string()
+        }
+    };
     let _ = writeln!(
         s,
-        "mean ratio A/B   {:.5} {:.5} {:.5}",
-        m.mean_ratio[0], m.mean_ratio[1], m.mean_ratio[2]
+        "mean ratio A/B   {} {} {}",
+        ratio(m.mean_ratio[0]),
+        ratio(m.mean_ratio[1]),
+        ratio(m.mean_ratio[2])
     );
+    if m.nonfinite.iter().any(|&c| c > 0) {
+        let _ = writeln!(
+            s,
+            "NaN/inf pixels   A {}, B {}, variance {} (left out of the numbers above)",
+            m.nonfinite[0], m.nonfinite[1], m.nonfinite[2]
+        );
+    }
     if let Some(o) = m.outside_3_sigma {
         let _ = writeln!(
             s,
@@ -282,23 +322,22 @@ pub fn metrics_text(m: &Metrics, a: &Path, b: &Path) -> String {
     s
 }
 
-/// Loads with torrey's own loader (the same decoding the renderer uses). Its warnings (e.g. NaN or
-/// negative texels, which it replaces by 0) go to stderr so a broken render does not pass silently.
+/// Loads with torrey's own loader (the same decoding the renderer uses), keeping NaN,
+/// infinite and negative values as stored: a broken render must show, not be clamped away.
 fn load(path: &Path) -> Result<Image, String> {
-    let loaded = torrey_texture::load_image(path, false).map_err(|e| e.to_string())?;
+    let loaded = torrey_texture::load_image_as_stored(path).map_err(|e| e.to_string())?;
     for w in &loaded.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }
     Ok(loaded.image)
 }
 
-fn save_png(img: &Image, path: &Path) -> Result<(), String> {
-    torrey_texture::write_png_srgb(path, img).map_err(|e| e.to_string())
-}
-
-/// Runs `torrey compare`: loads both images (and the variance image), prints the report to stdout
-/// and writes the requested PNGs.
+/// Runs `torrey compare`: loads both images (and the variance image), writes the requested PNGs
+/// (so that a failed write is reported before any number), then prints the report to stdout.
+/// NaN or infinite pixels in any input fail the comparison after the report.
 pub fn run(args: &CompareArgs) -> Result<(), String> {
+    let limits = crate::limits::Limits::from_args(&args.limits)?;
+    torrey_texture::set_image_pixel_limit(limits.image_pixels);
     let a = load(&args.a)?;
     let b = load(&args.b)?;
     let variance = match &args.variance {
@@ -307,19 +346,31 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
     };
     let m = compare_images(&a, &b, variance.as_ref())
         .map_err(|e| format!("{e} ({} vs {})", args.a.display(), args.b.display()))?;
+    if args.heatmap.is_some() || args.side_by_side.is_some() {
+        let heat = heatmap(&a, &b);
+        let sbs = args
+            .side_by_side
+            .as_ref()
+            .map(|_| side_by_side(&[&a, &b, &heat]));
+        let mut outputs = Vec::new();
+        if let Some(p) = &args.heatmap {
+            outputs.push(crate::output::png(p, &heat));
+        }
+        if let (Some(p), Some(img)) = (&args.side_by_side, &sbs) {
+            outputs.push(crate::output::png(p, img));
+        }
+        crate::output::write_all(&outputs)?;
+    }
     if args.json {
         println!("{}", metrics_json(&m, &args.a, &args.b));
     } else {
         print!("{}", metrics_text(&m, &args.a, &args.b));
     }
-    if args.heatmap.is_some() || args.side_by_side.is_some() {
-        let heat = heatmap(&a, &b);
-        if let Some(p) = &args.heatmap {
-            save_png(&heat, p)?;
-        }
-        if let Some(p) = &args.side_by_side {
-            save_png(&side_by_side(&[&a, &b, &heat]), p)?;
-        }
+    if m.nonfinite.iter().any(|&c| c > 0) {
+        return Err(format!(
+            "comparison failed: NaN or infinite pixels (A: {}, B: {}, variance: {})",
+            m.nonfinite[0], m.nonfinite[1], m.nonfinite[2]
+        ));
     }
     Ok(())
 }
@@ -415,6 +466,41 @@ mod tests {
     }
 
     #[test]
+    fn nan_and_inf_pixels_are_counted_and_left_out() {
+        let b = Image::filled(4, 1, Vec3::splat(0.5));
+        let mut a = b.clone();
+        a.pixels[0] = Vec3::new(f32::NAN, 0.5, 0.5);
+        a.pixels[1] = Vec3::new(0.5, f32::INFINITY, 0.5);
+        a.pixels[2] = Vec3::splat(1.0);
+        let m = compare_images(&a, &b, None).unwrap();
+        assert_eq!(m.nonfinite, [2, 0, 0]);
+        // Two usable pixels (6 channels), one off by 0.5 in every channel.
+        assert!(close(m.rmse, (3.0 * 0.25f64 / 6.0).sqrt()), "{}", m.rmse);
+        assert!(close(m.mean_ratio[0], 1.5 / 1.0));
+        // A NaN image against a NaN image is not a perfect match.
+        let nan = Image::filled(2, 2, Vec3::splat(f32::NAN));
+        let m = compare_images(&nan, &nan, None).unwrap();
+        assert_eq!(m.nonfinite, [4, 4, 0]);
+        assert!(
+            metrics_text(&m, Path::new("a"), Path::new("b")).contains("NaN/inf pixels   A 4, B 4")
+        );
+    }
+
+    #[test]
+    fn zero_reference_gives_finite_errors_and_an_undefined_ratio() {
+        let a = Image::filled(2, 2, Vec3::splat(0.5));
+        let b = Image::filled(2, 2, Vec3::ZERO);
+        let m = compare_images(&a, &b, None).unwrap();
+        assert!(close(m.rmse, 0.5));
+        assert!(close(m.rel_mse, 0.25 / 0.01));
+        let text = metrics_text(&m, Path::new("a"), Path::new("b"));
+        assert!(
+            text.contains("mean ratio A/B   undefined (B's mean is 0)"),
+            "{text}"
+        );
+    }
+
+    #[test]
     fn size_mismatch_names_both_sizes() {
         let a = Image::filled(64, 48, Vec3::ONE);
         let b = Image::filled(96, 96, Vec3::ONE);
@@ -428,6 +514,7 @@ mod tests {
     #[test]
     fn json_is_well_formed() {
         let m = Metrics {
+            nonfinite: [0, 1, 2],
             rmse: 0.5,
             rel_mse: 0.25,
             mean_ratio: [1.0, 2.0, 0.5],
@@ -440,7 +527,7 @@ mod tests {
             j,
             "{\"a\": \"a \\\"q\\\".exr\", \"b\": \"b\\\\c.exr\", \"width\": 3, \"height\": 2, \
              \"rmse\": 5e-1, \"rel_mse\": 2.5e-1, \"mean_ratio\": [1e0, 2e0, 5e-1], \
-             \"outside_3_sigma\": 1.25e-1}"
+             \"outside_3_sigma\": 1.25e-1, \"nonfinite_pixels\": [0, 1, 2]}"
         );
     }
 

@@ -1,7 +1,9 @@
 //! `torrey`: render a Mitsuba-style XML scene to a linear EXR and a tonemapped PNG.
 
 mod compare;
+mod limits;
 mod merge;
+mod output;
 mod slicing;
 
 use clap::{Parser, Subcommand};
@@ -73,6 +75,10 @@ struct RenderArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Change a safety cap, NAME=VALUE (repeatable): film_pixels, image_pixels, mesh_triangles,
+    /// mesh_vertices, scene_bytes, nesting_depth, threads. See docs/robustness.md.
+    #[arg(long = "limit", value_parser = limits::parse_limit)]
+    limits: Vec<(String, u64)>,
     /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4` or `8` (8 needs AVX2 and FMA,
     /// else 4 is used). Both find the same hits; this is for comparing their speed.
     #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
@@ -186,6 +192,25 @@ fn main() -> ExitCode {
 
 fn render_command(args: &RenderArgs) -> Result<(), String> {
     let scene_path = args.scene.as_ref().ok_or("no scene file given")?;
+    let limits = limits::Limits::from_args(&args.limits)?;
+    torrey_texture::set_image_pixel_limit(limits.image_pixels);
+    if let Some((w, h)) = args.size {
+        if w as u64 * h as u64 > limits.parser.film_pixels {
+            return Err(format!(
+                "--size {w}x{h} is {} pixels, more than the limit of {} (raise with --limit film_pixels=N)",
+                w as u64 * h as u64,
+                limits.parser.film_pixels
+            ));
+        }
+    }
+    if let Some(t) = args.threads {
+        if t as u64 > limits.threads {
+            return Err(format!(
+                "--threads {t} is more than the limit of {} (raise with --limit threads=N)",
+                limits.threads
+            ));
+        }
+    }
     let load_start = Instant::now();
     let options = torrey_parser::LoadOptions {
         overrides: args.define.clone(),
@@ -193,6 +218,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             DialectArg::Torrey => torrey_parser::Dialect::Torrey,
             DialectArg::Mitsuba => torrey_parser::Dialect::Mitsuba3,
         }),
+        limits: limits.parser.clone(),
     };
     let scene = torrey_parser::load_scene_with(scene_path, &options).map_err(|e| e.to_string())?;
     for w in &scene.warnings {
@@ -303,12 +329,13 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
 }
 
 /// The output EXR: `-o`, else the film's filename (with .exr), else `<scene stem>.exr`, in the
-/// current directory.
+/// current directory. Only the film filename's last component is used: a scene file must not
+/// choose where on the disk torrey writes.
 fn output_path(explicit: Option<&Path>, scene: &Path, film_name: Option<&str>) -> PathBuf {
     if let Some(p) = explicit {
         return p.to_path_buf();
     }
-    if let Some(name) = film_name {
+    if let Some(name) = film_name.and_then(|n| Path::new(n).file_name()) {
         return PathBuf::from(name).with_extension("exr");
     }
     let stem = scene

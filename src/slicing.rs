@@ -78,10 +78,17 @@ pub fn part_meta(
     })
 }
 
-/// Writes a part's EXR (with its metadata) and, beside it, its PNG; returns the PNG's path.
+/// Writes a part's EXR (with its metadata) and, beside it, its PNG, both or neither
+/// ([`crate::output::write_all`]); returns the PNG's path.
 pub fn write_outputs(exr: &Path, part: &Part) -> Result<std::path::PathBuf, String> {
-    torrey_parts::write_part(exr, part)?;
     let png = exr.with_extension("png");
-    torrey_texture::write_png_srgb(&png, &part.image()).map_err(|e| e.to_string())?;
+    let image = part.image();
+    crate::output::write_all(&[
+        crate::output::Output {
+            path: exr.to_path_buf(),
+            content: crate::output::Content::Part(part),
+        },
+        crate::output::png(&png, &image),
+    ])?;
     Ok(png)
 }

@@ -3,6 +3,7 @@
 
 use crate::error::{ParseError, Result};
 use crate::include::Sources;
+use crate::limits::Limits;
 use crate::scene::{Bsdf, BsdfId, Dialect, SourceLocation, Texture, TextureId, Warning};
 use crate::xml::{Element, Pos};
 use std::collections::HashMap;
@@ -32,10 +33,16 @@ pub(crate) struct Ctx {
     pub files: std::cell::RefCell<Vec<PathBuf>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
     media_warned: bool,
+    pub limits: Limits,
+    /// Warnings given once per scene: kind → (index in `warnings`, occurrences).
+    once: HashMap<&'static str, (usize, usize)>,
+    /// Triangles and vertices of the meshes loaded so far, against `limits`.
+    pub triangles: u64,
+    pub vertices: u64,
 }
 
 impl Ctx {
-    pub fn new(sources: Sources, dialect: Dialect) -> Self {
+    pub fn new(sources: Sources, dialect: Dialect, limits: &Limits) -> Self {
         Ctx {
             sources,
             dialect,
@@ -46,6 +53,10 @@ impl Ctx {
             files: Default::default(),
             ids: HashMap::new(),
             media_warned: false,
+            once: HashMap::new(),
+            limits: limits.clone(),
+            triangles: 0,
+            vertices: 0,
         }
     }
 
@@ -109,6 +120,31 @@ impl Ctx {
         self.ids
             .insert(alias.value.clone(), (target, elem.pos, tag));
         Ok(())
+    }
+
+    /// A warning given at the first occurrence of `kind` only; [`Ctx::finish_warnings`] adds
+    /// how many more there were, so that a scene with a thousand such values gives one line.
+    pub fn warn_once(&mut self, kind: &'static str, pos: Pos, message: impl Into<String>) {
+        if let Some((_, n)) = self.once.get_mut(kind) {
+            *n += 1;
+            return;
+        }
+        self.once.insert(kind, (self.warnings.len(), 1));
+        self.warn(pos, message);
+    }
+
+    /// The warnings, with counts appended to those given once.
+    pub fn finish_warnings(&mut self) -> Vec<Warning> {
+        for &(i, n) in self.once.values() {
+            if n > 1 {
+                let more = n - 1;
+                self.warnings[i].message += &format!(
+                    " ({more} more like it in this scene{})",
+                    if more == 1 { "" } else { "; not listed" }
+                );
+            }
+        }
+        std::mem::take(&mut self.warnings)
     }
 
     /// Records `elem`'s `id` attribute (if any) as naming `target`; a second definition of the

@@ -8,6 +8,7 @@
 //! `file:line:column` and appends the chain of includes to error messages.
 
 use crate::error::{ParseError, Result};
+use crate::limits::Limits;
 use crate::scene::{SourceLocation, Warning};
 use crate::values;
 use crate::xml::{parse_document, Element, Pos};
@@ -146,10 +147,16 @@ pub(crate) struct Expanded {
     pub warnings: Vec<Warning>,
 }
 
-struct Expander {
+struct Expander<'l> {
     sources: Sources,
     defaults: HashMap<String, String>,
     warnings: Vec<Warning>,
+    /// Names a `<default>` has defined (a `-D` override is not one: it wins silently).
+    defined: std::collections::HashSet<String>,
+    limits: &'l Limits,
+    /// How many bytes included files and `$name` substitution may still add to the document:
+    /// a long default referenced a million times must not inflate a small file into gigabytes.
+    growth: u64,
 }
 
 fn set_file(elem: &mut Element, file: u32) {
@@ -162,7 +169,7 @@ fn set_file(elem: &mut Element, file: u32) {
     }
 }
 
-impl Expander {
+impl Expander<'_> {
     fn attr<'e>(&self, e: &'e Element, name: &str) -> Result<&'e crate::xml::Attr> {
         e.attr(name).ok_or_else(|| {
             self.sources.err(
@@ -207,7 +214,7 @@ impl Expander {
             }
             at = f.included_at;
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| {
+        let cannot_read = |e: String| {
             self.sources.err(
                 attr.value_pos,
                 format!(
@@ -215,24 +222,33 @@ impl Expander {
                     path.display()
                 ),
             )
+        };
+        let size = crate::files::regular_file_size(&path).map_err(cannot_read)?;
+        self.growth = self.growth.checked_sub(size).ok_or_else(|| {
+            self.sources.err(
+                attr.value_pos,
+                "the included files make the scene larger than the scene_bytes limit (raise with --limit scene_bytes=N)",
+            )
         })?;
+        let text = std::fs::read_to_string(&path).map_err(|e| cannot_read(e.to_string()))?;
         let id = self.sources.files.len() as u32;
         self.sources.files.push(SourceFile {
             path: path.clone(),
             dir: absolute_dir(&path),
             included_at: Some(inc.pos),
         });
-        let mut root = parse_document(&text, &path).map_err(|e| ParseError {
-            message: format!(
-                "{}{}",
-                e.message,
-                self.sources.chain(Pos {
-                    file: id,
-                    ..inc.pos
-                })
-            ),
-            ..e
-        })?;
+        let mut root =
+            parse_document(&text, &path, self.limits.nesting_depth).map_err(|e| ParseError {
+                message: format!(
+                    "{}{}",
+                    e.message,
+                    self.sources.chain(Pos {
+                        file: id,
+                        ..inc.pos
+                    })
+                ),
+                ..e
+            })?;
         set_file(&mut root, id);
         if root.tag != "scene" {
             return Err(self.sources.err(
@@ -275,6 +291,14 @@ impl Expander {
                 "default" => {
                     let name = self.attr(&child, "name")?.value.clone();
                     let value = self.attr(&child, "value")?.value.clone();
+                    if !self.defined.insert(name.clone()) {
+                        self.warnings.push(self.sources.warning(
+                            child.pos,
+                            format!(
+                                "<default name=\"{name}\"> is given again; the first value is used"
+                            ),
+                        ));
+                    }
                     self.defaults.entry(name).or_insert(value);
                 }
                 "include" => {
@@ -306,10 +330,10 @@ impl Expander {
         Ok(())
     }
 
-    fn substitute(&self, elem: &mut Element) -> Result<()> {
+    fn substitute(&mut self, elem: &mut Element) -> Result<()> {
         for child in &mut elem.children {
             for a in &mut child.attrs {
-                a.value = values::substitute(&a.value, &self.defaults).map_err(|name| {
+                let value = values::substitute(&a.value, &self.defaults).map_err(|name| {
                     self.sources.err(
                         a.value_pos,
                         format!(
@@ -318,6 +342,14 @@ impl Expander {
                         ),
                     )
                 })?;
+                let added = value.len().saturating_sub(a.value.len()) as u64;
+                self.growth = self.growth.checked_sub(added).ok_or_else(|| {
+                    self.sources.err(
+                        a.value_pos,
+                        "substituting <default> values makes the scene larger than the scene_bytes limit (raise with --limit scene_bytes=N)",
+                    )
+                })?;
+                a.value = value;
             }
             self.substitute(child)?;
         }
@@ -331,11 +363,15 @@ pub(crate) fn expand(
     mut root: Element,
     path: &Path,
     overrides: &[(String, String)],
+    limits: &Limits,
 ) -> Result<Expanded> {
     let mut ex = Expander {
         sources: Sources::new(path),
         defaults: overrides.iter().cloned().collect(),
         warnings: Vec::new(),
+        defined: Default::default(),
+        limits,
+        growth: limits.scene_bytes,
     };
     ex.children(&mut root, false, 0)?;
     ex.substitute(&mut root)?;

@@ -8,7 +8,9 @@
 mod cie_table;
 mod context;
 mod error;
+mod files;
 mod include;
+mod limits;
 mod mesh;
 mod plugins;
 mod props;
@@ -19,6 +21,7 @@ mod values;
 mod xml;
 
 pub use error::ParseError;
+pub use limits::Limits;
 pub use mesh::smooth_normals;
 pub use scene::*;
 
@@ -41,13 +44,15 @@ pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
     ]
 }
 
-/// How to read a scene: `-D` overrides and an optional dialect that replaces the detected one.
+/// How to read a scene: `-D` overrides, an optional dialect that replaces the detected one, and
+/// the caps on what the scene may make us read and allocate.
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
     /// `-D name=value` pairs: they win over every `<default>`.
     pub overrides: Vec<(String, String)>,
     /// `Some` forces the dialect (the command line's `--dialect`).
     pub dialect: Option<Dialect>,
+    pub limits: Limits,
 }
 
 /// Reads a scene file; `overrides` are `-D name=value` pairs that replace `<default>` values.
@@ -57,21 +62,49 @@ pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, 
         path,
         &LoadOptions {
             overrides: overrides.to_vec(),
-            dialect: None,
+            ..LoadOptions::default()
         },
     )
 }
 
-/// Reads a scene file with [`LoadOptions`].
+/// [`load_scene`] with caps other than the default ones.
+pub fn load_scene_with_limits(
+    path: &Path,
+    overrides: &[(String, String)],
+    limits: &Limits,
+) -> Result<Scene, ParseError> {
+    load_scene_with(
+        path,
+        &LoadOptions {
+            overrides: overrides.to_vec(),
+            dialect: None,
+            limits: limits.clone(),
+        },
+    )
+}
+
+/// Reads a scene file with [`LoadOptions`]. Only regular files no larger than the limit are
+/// read.
 pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<Scene, ParseError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ParseError {
+    let limits = &options.limits;
+    let fail = |message: String| ParseError {
         location: SourceLocation {
             file: path.to_path_buf(),
             line: 1,
             column: 1,
         },
-        message: format!("cannot read scene file: {e}"),
-    })?;
+        message,
+    };
+    let size =
+        files::regular_file_size(path).map_err(|m| fail(format!("cannot read scene file: {m}")))?;
+    if size > limits.scene_bytes {
+        return Err(fail(format!(
+            "the scene file is {size} bytes, more than the limit of {} (raise with --limit scene_bytes=N)",
+            limits.scene_bytes
+        )));
+    }
+    let text =
+        std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read scene file: {e}")))?;
     parse_scene_str_with(&text, path, options)
 }
 
@@ -86,7 +119,25 @@ pub fn parse_scene_str(
         path,
         &LoadOptions {
             overrides: overrides.to_vec(),
+            ..LoadOptions::default()
+        },
+    )
+}
+
+/// [`parse_scene_str`] with caps other than the default ones.
+pub fn parse_scene_str_with_limits(
+    xml: &str,
+    path: &Path,
+    overrides: &[(String, String)],
+    limits: &Limits,
+) -> Result<Scene, ParseError> {
+    parse_scene_str_with(
+        xml,
+        path,
+        &LoadOptions {
+            overrides: overrides.to_vec(),
             dialect: None,
+            limits: limits.clone(),
         },
     )
 }
@@ -97,6 +148,12 @@ pub fn parse_scene_str_with(
     path: &Path,
     options: &LoadOptions,
 ) -> Result<Scene, ParseError> {
-    let root = xml::parse_document(xml, path)?;
-    plugins::parse_scene(root, path, &options.overrides, options.dialect)
+    let root = xml::parse_document(xml, path, options.limits.nesting_depth)?;
+    plugins::parse_scene(
+        root,
+        path,
+        &options.overrides,
+        options.dialect,
+        &options.limits,
+    )
 }

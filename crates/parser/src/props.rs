@@ -76,6 +76,9 @@ impl<'a> Props<'a> {
     /// unsupported-but-harmless ones (media) are warned about and dropped.
     pub fn new(ctx: &mut Ctx, elem: &'a Element, owner: String) -> Result<Self> {
         let mut items: Vec<Item<'a>> = Vec::new();
+        // First position of each value name: a hash, so that a plugin with 100,000 parameters
+        // is not checked pairwise.
+        let mut seen: std::collections::HashMap<String, Pos> = std::collections::HashMap::new();
         for child in &elem.children {
             let tag = child.tag.as_str();
             let name = child.attr_value("name").map(values::snake_case);
@@ -86,17 +89,16 @@ impl<'a> Props<'a> {
                         format!("missing required attribute 'name' on <{tag}>"),
                     ));
                 };
-                if let Some(first) = items.iter().find(|i| {
-                    i.name.as_deref() == Some(&name) && VALUE_TAGS.contains(&i.elem.tag.as_str())
-                }) {
+                if let Some(first) = seen.get(&name) {
                     return Err(ctx.err(
                         child.pos,
                         format!(
                             "parameter '{name}' of {owner} is given twice (first at line {}, column {})",
-                            first.elem.pos.line, first.elem.pos.column
+                            first.line, first.column
                         ),
                     ));
                 }
+                seen.insert(name.clone(), child.pos);
                 items.push(Item {
                     name: Some(name),
                     elem: child,
@@ -296,7 +298,28 @@ impl<'a> Props<'a> {
 
     /// Reads a constant colour from an `rgb`, `srgb`, `spectrum`, `blackbody` or `float`
     /// element; spectra are reduced to RGB as Mitsuba's RGB variants do (see `spectrum.rs`).
+    /// Colours are reflectances, radiances or intensities: a negative or non-finite channel is
+    /// an error.
     pub fn color_of(&self, ctx: &Ctx, e: &Element) -> Result<Vec3> {
+        let c = self.color_value(ctx, e)?;
+        if c.min_element() < 0.0 || !c.is_finite() {
+            let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
+            return Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{}' of {} must not be negative, found {} {} {}",
+                    e.attr_value("name").unwrap_or(&e.tag),
+                    self.owner,
+                    c.x,
+                    c.y,
+                    c.z
+                ),
+            ));
+        }
+        Ok(c)
+    }
+
+    fn color_value(&self, ctx: &Ctx, e: &Element) -> Result<Vec3> {
         let usage = if self.illuminant {
             SpectrumUse::Illuminant
         } else {
@@ -397,6 +420,29 @@ impl<'a> Props<'a> {
         }
     }
 
+    /// A float parameter that must satisfy `ok` (described by `what`, e.g. "positive"); the
+    /// error points at the value.
+    pub fn float_where(
+        &mut self,
+        ctx: &Ctx,
+        names: &[&str],
+        default: f32,
+        what: &str,
+        ok: impl Fn(f32) -> bool,
+    ) -> Result<f32> {
+        match self.opt_float_pos(ctx, names)? {
+            None => Ok(default),
+            Some((v, _)) if ok(v) => Ok(v),
+            Some((v, pos)) => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{}' of {} must be {what}, found {v}",
+                    names[0], self.owner
+                ),
+            )),
+        }
+    }
+
     pub fn color(&mut self, ctx: &Ctx, names: &[&str], default: Vec3) -> Result<Vec3> {
         match self.take_any(names) {
             Some(e) => self.color_of(ctx, e),
@@ -406,13 +452,23 @@ impl<'a> Props<'a> {
 
     /// A `<transform>` parameter (`uv` selects the 2D reading used by `to_uv`).
     pub fn transform(&mut self, ctx: &Ctx, names: &[&str], uv: bool) -> Result<Option<Mat4>> {
+        Ok(self.transform_pos(ctx, names, uv)?.map(|(m, _)| m))
+    }
+
+    /// Like [`Props::transform`], also returning where the `<transform>` is.
+    pub fn transform_pos(
+        &mut self,
+        ctx: &Ctx,
+        names: &[&str],
+        uv: bool,
+    ) -> Result<Option<(Mat4, Pos)>> {
         let Some(e) = self.take_any(names) else {
             return Ok(None);
         };
         if e.tag != "transform" {
             return Err(self.wrong_type(ctx, e, "a <transform>"));
         }
-        parse_transform(ctx, e, uv).map(Some)
+        Ok(Some((parse_transform(ctx, e, uv)?, e.pos)))
     }
 
     /// Marks parameters as accepted without effect (e.g. `focus_distance`).

@@ -59,7 +59,8 @@ pub struct Warning {
 
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}: warning: {}", self.location, self.message)
+        let message = crate::error::one_line(&self.message);
+        write!(f, "{}: warning: {message}", self.location)
     }
 }
 

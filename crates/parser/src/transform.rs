@@ -124,10 +124,13 @@ pub(crate) fn parse_transform(ctx: &Ctx, elem: &Element, uv: bool) -> Result<Mat
                     Some(a) => vector(ctx, op, a)?,
                     None => generated_up(target - origin),
                 };
+                if (target - origin).length_squared() == 0.0 {
+                    return Err(ctx.err(op.pos, "<lookat>: origin equals target"));
+                }
                 look_at(origin, target, up).ok_or_else(|| {
                     ctx.err(
                         op.pos,
-                        "<lookat>: origin equals target, or up is parallel to the view direction",
+                        "<lookat>: up is parallel to the view direction (or zero)",
                     )
                 })?
             }
@@ -142,8 +145,52 @@ pub(crate) fn parse_transform(ctx: &Ctx, elem: &Element, uv: bool) -> Result<Mat
             }
         };
         m = t * m;
+        if !m.is_finite() {
+            return Err(ctx.err(
+                op.pos,
+                format!(
+                    "<{}> makes the transform overflow (an entry is no longer a finite 32-bit float)",
+                    op.tag
+                ),
+            ));
+        }
     }
     Ok(m)
+}
+
+/// Why `m` cannot place a camera or orient an environment map, if it cannot: it must be affine
+/// (last row 0 0 0 1) and its 3x3 part must be invertible without being nearly singular,
+/// with axis lengths between 1e-6 and 1e6. Directions mapped through a matrix with scale 0,
+/// 1e-30 or 1e30 come out as zero, NaN or infinite.
+pub(crate) fn frame_problem(m: Mat4) -> Option<String> {
+    if !m.is_finite() {
+        return Some("it is not finite".into());
+    }
+    let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.truncate().as_dvec3());
+    let lengths = cols.map(|c| c.length());
+    if let Some(l) = lengths
+        .iter()
+        .find(|l| !(1e-6f32 as f64..=1e6f32 as f64).contains(*l))
+    {
+        return Some(format!(
+            "it scales an axis by {l:.3e} (a camera or environment transform may scale by 1e-6 to 1e6)"
+        ));
+    }
+    if m.row(3) != Vec4::new(0.0, 0.0, 0.0, 1.0) {
+        return Some("it is projective (the last row is not 0 0 0 1)".into());
+    }
+    let reach = m.w_axis.truncate().abs().max_element() as f64;
+    if reach > crate::plugins::shape::WORLD_EXTENT {
+        return Some(format!(
+            "it places the origin {reach:.3e} away, beyond the {:e} torrey supports",
+            crate::plugins::shape::WORLD_EXTENT
+        ));
+    }
+    let volume = cols[0].dot(cols[1].cross(cols[2])).abs();
+    if volume < 1e-6 * lengths.iter().product::<f64>() {
+        return Some("it is singular (flattens space onto a plane or line)".into());
+    }
+    None
 }
 
 /// The 2D affine part of a 4x4 used as a `to_uv` transform: the upper-left 2x2 and the

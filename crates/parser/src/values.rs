@@ -32,12 +32,24 @@ pub(crate) fn substitute(
     Ok(out)
 }
 
-/// Parses one floating-point number (Rust syntax plus a leading `+`).
+/// Parses one finite floating-point number (Rust syntax plus a leading `+`). `nan`, `inf` and
+/// numbers beyond f32's range (1e39) are errors: no scene parameter means anything with them,
+/// and they would reach the renderer as NaN geometry or radiance.
 pub(crate) fn float(s: &str) -> Result<f32, String> {
     let t = s.trim();
     let t = t.strip_prefix('+').unwrap_or(t);
-    t.parse::<f32>()
-        .map_err(|_| format!("cannot parse '{s}' as a number"))
+    let v = t
+        .parse::<f32>()
+        .map_err(|_| format!("cannot parse '{s}' as a number"))?;
+    if v.is_finite() {
+        Ok(v)
+    } else if t.parse::<f64>().is_ok_and(f64::is_finite) {
+        Err(format!(
+            "'{s}' is too large for a 32-bit float (at most 3.4e38)"
+        ))
+    } else {
+        Err(format!("'{s}' is not a finite number"))
+    }
 }
 
 /// Parses one integer.
@@ -154,6 +166,16 @@ mod tests {
         assert_eq!(float("-1.5e2").unwrap(), -150.0);
         assert_eq!(float(".5").unwrap(), 0.5);
         assert!(float("1,0").is_err());
+        assert_eq!(float("nan").unwrap_err(), "'nan' is not a finite number");
+        assert_eq!(
+            float(" -inf").unwrap_err(),
+            "' -inf' is not a finite number"
+        );
+        assert_eq!(
+            float("1e39").unwrap_err(),
+            "'1e39' is too large for a 32-bit float (at most 3.4e38)"
+        );
+        assert!(vec3("1 NaN 2").is_err());
         assert_eq!(vec3("1, 2, 3").unwrap(), Vec3::new(1.0, 2.0, 3.0));
         assert_eq!(vec3("1 2  3").unwrap(), Vec3::new(1.0, 2.0, 3.0));
         assert_eq!(vec3("1,2,3").unwrap(), Vec3::new(1.0, 2.0, 3.0));

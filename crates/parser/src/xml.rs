@@ -46,30 +46,47 @@ impl Element {
     }
 }
 
-/// Maps byte offsets to line:column.
+/// Maps byte offsets to line:column. Columns count characters, so finding one means counting
+/// from somewhere on its line: the index remembers the last answer and counts on from there
+/// when the next offset is further along the same line (the parser asks in document order), so
+/// a 10 MB line costs one pass, not one pass per element on it.
 pub(crate) struct LineIndex<'a> {
     text: &'a str,
     starts: Vec<usize>,
+    /// The last answer: (byte offset, line index, 0-based column).
+    last: std::cell::Cell<(usize, usize, usize)>,
 }
 
 impl<'a> LineIndex<'a> {
     pub fn new(text: &'a str) -> Self {
         let mut starts = vec![0];
         starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        LineIndex { text, starts }
+        LineIndex {
+            text,
+            starts,
+            last: std::cell::Cell::new((0, 0, 0)),
+        }
     }
 
     pub fn pos(&self, offset: usize) -> Pos {
         let offset = offset.min(self.text.len());
         let line = self.starts.partition_point(|&s| s <= offset) - 1;
         let start = self.starts[line];
-        let column = self
-            .text
-            .get(start..offset)
-            .map_or(offset - start, |s| s.chars().count());
+        let (last_offset, last_line, last_column) = self.last.get();
+        let (from, base) = if last_line == line && last_offset <= offset {
+            (last_offset, last_column)
+        } else {
+            (start, 0)
+        };
+        let column = base
+            + self
+                .text
+                .get(from..offset)
+                .map_or(offset - from, |s| s.chars().count());
+        self.last.set((offset, line, column));
         Pos {
-            line: line as u32 + 1,
-            column: column as u32 + 1,
+            line: (line + 1).min(u32::MAX as usize) as u32,
+            column: (column + 1).min(u32::MAX as usize) as u32,
             file: 0,
         }
     }
@@ -138,8 +155,10 @@ fn element(
 }
 
 /// Parses a whole document into its root element. Malformed XML is reported at the position
-/// quick-xml detected it.
-pub(crate) fn parse_document(text: &str, file: &Path) -> Result<Element> {
+/// quick-xml detected it. Elements nested deeper than `max_depth` are an error: everything
+/// that walks the tree (substitution, plugin parsers, even dropping it) may then recurse
+/// without a depth that the input controls.
+pub(crate) fn parse_document(text: &str, file: &Path, max_depth: u32) -> Result<Element> {
     let lines = LineIndex::new(text);
     let mut reader = Reader::from_str(text);
     let mut stack: Vec<Element> = Vec::new();
@@ -155,6 +174,15 @@ pub(crate) fn parse_document(text: &str, file: &Path) -> Result<Element> {
         })?;
         let finished = match event {
             Event::Start(s) => {
+                if stack.len() >= max_depth as usize {
+                    return Err(error(
+                        file,
+                        lines.pos(offset),
+                        format!(
+                            "elements are nested more than {max_depth} deep (raise with --limit nesting_depth=N)"
+                        ),
+                    ));
+                }
                 stack.push(element(text, &lines, file, &s, offset)?);
                 None
             }
@@ -212,7 +240,7 @@ mod tests {
     #[test]
     fn positions_of_elements_and_attributes() {
         let text = "<scene version=\"1\">\n\t<float name=\"fov\" value=\"4\"/>\n</scene>";
-        let root = parse_document(text, Path::new("a.xml")).unwrap();
+        let root = parse_document(text, Path::new("a.xml"), 64).unwrap();
         assert_eq!(
             root.pos,
             Pos {
@@ -245,8 +273,67 @@ mod tests {
 
     #[test]
     fn unclosed_element_is_an_error() {
-        let e = parse_document("<scene>\n  <shape>\n</scene>", Path::new("a.xml")).unwrap_err();
+        let e = parse_document("<scene>\n  <shape>\n</scene>", Path::new("a.xml"), 64).unwrap_err();
         assert!(e.message.starts_with("malformed XML"), "{}", e.message);
         assert_eq!(e.location.line, 3);
+    }
+
+    #[test]
+    fn columns_on_long_lines_and_out_of_order_queries() {
+        let text = "ab\u{e9}cd\nxyz";
+        let lines = LineIndex::new(text);
+        assert_eq!(
+            lines.pos(5),
+            Pos {
+                line: 1,
+                column: 5,
+                file: 0
+            }
+        ); // 'c' after a 2-byte char
+        assert_eq!(
+            lines.pos(6),
+            Pos {
+                line: 1,
+                column: 6,
+                file: 0
+            }
+        );
+        assert_eq!(
+            lines.pos(1),
+            Pos {
+                line: 1,
+                column: 2,
+                file: 0
+            }
+        ); // backwards: recounted
+        assert_eq!(
+            lines.pos(9),
+            Pos {
+                line: 2,
+                column: 3,
+                file: 0
+            }
+        );
+        assert_eq!(
+            lines.pos(2),
+            Pos {
+                line: 1,
+                column: 3,
+                file: 0
+            }
+        );
+    }
+
+    #[test]
+    fn nesting_depth_is_capped() {
+        let deep = format!("{}{}", "<a>".repeat(100), "</a>".repeat(100));
+        let e = parse_document(&deep, Path::new("a.xml"), 64).unwrap_err();
+        assert!(
+            e.message.contains("nested more than 64 deep"),
+            "{}",
+            e.message
+        );
+        assert_eq!((e.location.line, e.location.column), (1, 193));
+        assert!(parse_document(&deep, Path::new("a.xml"), 100).is_ok());
     }
 }

@@ -202,7 +202,7 @@ fn negative_radius() {
     let e = parse(xml).unwrap_err();
     assert_err(
         &e,
-        "sphere radius must not be negative, found -2",
+        "sphere radius must be positive, found -2",
         pos_of(xml, "-2"),
     );
 }
@@ -264,5 +264,26 @@ fn root_must_be_scene() {
         &e,
         "the root element must be <scene>, found <sceen>",
         (1, 1),
+    );
+}
+
+#[test]
+fn substitution_cannot_inflate_the_scene_past_its_limit() {
+    // 1 KiB default referenced 2,000 times in one attribute: 2 MB from a 5 KB file.
+    let xml = format!(
+        "<scene version=\"0.6.0\">\n  <default name=\"a\" value=\"{}\"/>\n  <integer name=\"x\" value=\"{}\"/>\n</scene>",
+        "x".repeat(1024),
+        "$a".repeat(2000)
+    );
+    let limits = torrey_parser::Limits {
+        scene_bytes: 1 << 20,
+        ..Default::default()
+    };
+    let e = torrey_parser::parse_scene_str_with_limits(&xml, Path::new("test.xml"), &[], &limits)
+        .unwrap_err();
+    assert_err(
+        &e,
+        "substituting <default> values makes the scene larger than the scene_bytes limit",
+        pos_of(&xml, "$a"),
     );
 }

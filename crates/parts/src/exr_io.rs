@@ -9,6 +9,29 @@ use std::io::Cursor;
 use std::path::Path;
 
 const CHANNELS: [&str; 6] = ["R", "G", "B", "variance.R", "variance.G", "variance.B"];
+/// The header attribute that holds the [`PartMeta`].
+const META_ATTRIBUTE: &str = "torrey";
+
+fn escape(value: &str) -> String {
+    value.replace('\\', "\\\\").replace('\n', "\\n")
+}
+
+fn unescape(value: &str) -> String {
+    let mut out = String::with_capacity(value.len());
+    let mut chars = value.chars();
+    while let Some(c) = chars.next() {
+        match (c, c == '\\') {
+            (_, true) => match chars.next() {
+                Some('n') => out.push('\n'),
+                Some(other) => out.push(other),
+                None => {}
+            },
+            (c, false) => out.push(c),
+        }
+    }
+    out
+}
+
 /// Samples counted per pixel, as floats (exact below 2^24).
 const COUNT: &str = "count";
 
@@ -33,11 +56,20 @@ fn image(part: &Part, encoding: Encoding) -> Image<Layer<AnyChannels<FlatSamples
         FlatSamples::F32(part.count.iter().map(|&n| n as f32).collect()),
     ));
     let mut attributes = LayerAttributes::default();
-    for (name, value) in part.meta.attributes() {
-        attributes
-            .other
-            .insert(text(name), AttributeValue::Text(text(&value)));
-    }
+    // One text attribute holding every field, one `name=value` line each (newlines and
+    // backslashes escaped): the EXR crate keeps attributes in a hash map, whose order changes
+    // from process to process, and the same render must give the same bytes.
+    let fields: Vec<String> = part
+        .meta
+        .attributes()
+        .into_iter()
+        .map(|(name, value)| format!("{name}={}", escape(&value)))
+        .collect();
+    attributes.other.insert(
+        text(META_ATTRIBUTE),
+        AttributeValue::Text(text(&fields.join("\n"))),
+    );
+
     let layer = Layer::new(
         (w as usize, h as usize),
         attributes,
@@ -84,11 +116,18 @@ pub fn read_part_bytes(bytes: &[u8], name: &str) -> std::result::Result<Part, St
         .from_buffered(Cursor::new(bytes))
         .map_err(|e| err(format!("not a readable EXR: {e}")))?;
     let layer = &image.layer_data;
-    let meta = PartMeta::from_attributes(|key| match layer.attributes.other.get(&text(key)) {
-        Some(AttributeValue::Text(t)) => Some(String::from_utf8_lossy(t.as_slice()).into_owned()),
-        _ => None,
-    })
-    .map_err(err)?;
+    let fields: std::collections::HashMap<String, String> =
+        match layer.attributes.other.get(&text(META_ATTRIBUTE)) {
+            Some(AttributeValue::Text(t)) => String::from_utf8_lossy(t.as_slice())
+                .lines()
+                .filter_map(|line| {
+                    let (name, value) = line.split_once('=')?;
+                    Some((name.to_string(), unescape(value)))
+                })
+                .collect(),
+            _ => Default::default(),
+        };
+    let meta = PartMeta::from_attributes(|key| fields.get(key).cloned()).map_err(err)?;
     let (w, h) = (layer.size.width(), layer.size.height());
     if (w, h) != (meta.crop.2 as usize, meta.crop.3 as usize) {
         return Err(err(format!(

@@ -272,7 +272,7 @@ mod tests {
         let mut p = part((1, 0, 3, 2), (2, 7), 0.1);
         p.mean[4] = Vec3::new(1e-7, 3.5, 1e9);
         p.variance[1] = Vec3::new(0.25, 1e-12, 7.0);
-        p.meta.scene = "/tmp/scènes/a b.xml".into();
+        p.meta.scene = "/tmp/scènes/a b\\c\nd=e.xml".into();
         let bytes = crate::write_part_bytes(&p).unwrap();
         let q = crate::read_part_bytes(&bytes, "mem").unwrap();
         assert_eq!(q.meta, p.meta);

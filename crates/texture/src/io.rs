@@ -6,6 +6,7 @@
 use std::io::Cursor;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Mat3, Vec3};
 
@@ -64,6 +65,29 @@ pub struct LoadedImage {
 
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 
+/// Default of [`image_pixel_limit`]: 2^25 = 33,554,432 pixels (an 8192 × 4096 environment map).
+pub const DEFAULT_IMAGE_PIXEL_LIMIT: u64 = 1 << 25;
+
+static IMAGE_PIXEL_LIMIT: AtomicU64 = AtomicU64::new(DEFAULT_IMAGE_PIXEL_LIMIT);
+
+/// The most pixels an image file may declare (width × height) for [`load_image`] to decode
+/// it. Checked against the file's header before any pixel is allocated, so a lying header (a
+/// 313-byte EXR that claims 100000 × 100000 pixels) is an error, not a 40 GB allocation. Decoding
+/// costs up to about 60 bytes per pixel at the peak (decoder buffers, linear floats, mip
+/// pyramid), so the default keeps one image under 2 GB. Process-wide, because images are
+/// loaded deep inside scene building; `torrey --limit image_pixels=N` sets it.
+pub fn image_pixel_limit() -> u64 {
+    IMAGE_PIXEL_LIMIT.load(Ordering::Relaxed)
+}
+
+/// Sets [`image_pixel_limit`] for the whole process.
+pub fn set_image_pixel_limit(pixels: u64) {
+    IMAGE_PIXEL_LIMIT.store(pixels, Ordering::Relaxed);
+}
+
+/// Bytes of decoded samples per allowed pixel: RGBA in 32-bit floats.
+const BYTES_PER_PIXEL_BUDGET: u64 = 16;
+
 /// Loads PNG, JPEG, BMP, TGA, Radiance HDR or OpenEXR into linear RGB.
 ///
 /// 8-bit and 16-bit integer images are sRGB-decoded unless `raw` (normal maps, roughness maps,
@@ -72,23 +96,66 @@ const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 /// primaries exactly as Mitsuba 3 does (RGB→XYZ→Rec.709 with no white-point adaptation, see
 /// [`WhiteAdaptation::None`]) regardless of `raw`. Gray images give r=g=b and
 /// alpha is dropped. NaN, infinite and negative texels become 0 with one warning per file. The
-/// format is detected from the file's bytes, not its extension.
+/// format is detected from the file's bytes, not its extension. Only regular files are read,
+/// and images larger than [`image_pixel_limit`] (or files larger than such an image's samples
+/// plus 64 MiB) are refused before decoding.
 pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
-    let bytes = std::fs::read(path).map_err(|source| TextureError::Io {
+    let (mut image, mut warnings) = load_unchecked(path, raw)?;
+    let bad = sanitize(&mut image.pixels);
+    if bad > 0 {
+        warnings.push(format!(
+            "{}: {bad} texel channel(s) were NaN, infinite or negative and were clamped to 0",
+            path.display()
+        ));
+    }
+    Ok(LoadedImage { image, warnings })
+}
+
+/// Like [`load_image`] (8-bit images sRGB-decoded), but NaN, infinite and negative values are
+/// kept as the file stores them: for comparing images, where they must be seen, not hidden.
+pub fn load_image_as_stored(path: &Path) -> Result<LoadedImage, TextureError> {
+    let (image, warnings) = load_unchecked(path, false)?;
+    Ok(LoadedImage { image, warnings })
+}
+
+fn load_unchecked(path: &Path, raw: bool) -> Result<Decoded, TextureError> {
+    let io_err = |source| TextureError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
     let decode_err = |reason: String| TextureError::Decode {
         path: path.to_path_buf(),
         reason,
     };
+    // A device or FIFO (/dev/zero) would be read forever; a regular file's size bounds the read.
+    let meta = std::fs::metadata(path).map_err(io_err)?;
+    if !meta.is_file() {
+        return Err(io_err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        )));
+    }
+    let limit = image_pixel_limit();
+    // No accepted image needs more than its decoded samples plus room for metadata (previews,
+    // attributes): a bigger file is refused unread.
+    let max_bytes = limit
+        .saturating_mul(BYTES_PER_PIXEL_BUDGET)
+        .saturating_add(64 << 20);
+    if meta.len() > max_bytes {
+        return Err(decode_err(format!(
+            "the file has {} bytes, more than an image within the limit of {limit} pixels needs ({RAISE})",
+            meta.len()
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(io_err)?;
     // Decoders are third-party code fed untrusted bytes: a panic inside one must still come
     // back as an error naming the file.
     let decoded = catch_unwind(AssertUnwindSafe(|| {
         if bytes.starts_with(&EXR_MAGIC) {
+            check_exr_header(&bytes, limit).map_err(decode_err)?;
             decode_exr(&bytes, path)
         } else {
-            decode_with_image_crate(&bytes, raw, path)
+            decode_with_image_crate(&bytes, raw, path, limit)
         }
     }))
     .map_err(|payload| {
@@ -99,21 +166,76 @@ pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
             .unwrap_or_else(|| "unknown".to_string());
         decode_err(format!("decoder panicked: {msg}"))
     })??;
-    let (mut image, mut warnings) = decoded;
+    let (image, _) = &decoded;
     if image.width == 0 || image.height == 0 {
         return Err(decode_err(format!(
             "image has zero size ({}x{})",
             image.width, image.height
         )));
     }
-    let bad = sanitize(&mut image.pixels);
-    if bad > 0 {
-        warnings.push(format!(
-            "{}: {bad} texel channel(s) were NaN, infinite or negative and were clamped to 0",
-            path.display()
-        ));
+    Ok(decoded)
+}
+
+/// The "raise it" hint appended to limit errors.
+const RAISE: &str = "raise with --limit image_pixels=N";
+
+/// Checks what an OpenEXR file's headers declare before anything is decoded: every layer's
+/// pixel count against `limit`, its decoded samples against 16 bytes per allowed pixel, and
+/// its size against the file's: each chunk (a block of scan lines or a tile) needs an 8-byte
+/// entry in the offset table, and uncompressed, RLE and ZIP data cannot shrink by more than
+/// 1, 64 and 1032 (deflate's bound) times.
+fn check_exr_header(bytes: &[u8], limit: u64) -> Result<(), String> {
+    use exr::compression::Compression as C;
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
+        .map_err(|e| format!("OpenEXR: {e}"))?;
+    let file_len = bytes.len() as u64;
+    for h in meta.headers.iter().filter(|h| !h.deep) {
+        let (w, ht) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+        let pixels = w.saturating_mul(ht);
+        if pixels > limit {
+            return Err(format!(
+                "OpenEXR header declares {w} x {ht} pixels, more than the limit of {limit} ({RAISE})"
+            ));
+        }
+        let samples: u64 = h
+            .channels
+            .list
+            .iter()
+            .map(|c| {
+                let (sx, sy) = (c.sampling.0.max(1) as u64, c.sampling.1.max(1) as u64);
+                w.div_ceil(sx)
+                    .saturating_mul(ht.div_ceil(sy))
+                    .saturating_mul(c.sample_type.bytes_per_sample() as u64)
+            })
+            .fold(0u64, u64::saturating_add);
+        if samples > limit.saturating_mul(BYTES_PER_PIXEL_BUDGET) {
+            return Err(format!(
+                "OpenEXR header declares {} channels of {w} x {ht} pixels ({samples} bytes), more than {BYTES_PER_PIXEL_BUDGET} bytes per allowed pixel ({RAISE})",
+                h.channels.list.len()
+            ));
+        }
+        let chunks = h.chunk_count as u64;
+        if chunks.saturating_mul(8) > file_len {
+            return Err(format!(
+                "OpenEXR header declares {chunks} chunks, but the file has only {file_len} bytes (each chunk needs at least 8)"
+            ));
+        }
+        let ratio = match h.compression {
+            C::Uncompressed => Some(1),
+            C::RLE => Some(64),
+            C::ZIP1 | C::ZIP16 => Some(1032),
+            _ => None,
+        };
+        if let Some(r) = ratio {
+            if samples > file_len.saturating_mul(r) {
+                return Err(format!(
+                    "OpenEXR header declares {samples} bytes of samples, more than a {file_len}-byte file can hold with {:?} compression",
+                    h.compression
+                ));
+            }
+        }
     }
-    Ok(LoadedImage { image, warnings })
+    Ok(())
 }
 
 /// Replaces NaN/inf/negative channels with 0 and returns how many were replaced.
@@ -132,14 +254,22 @@ fn sanitize(pixels: &mut [Vec3]) -> usize {
 
 type Decoded = (Image, Vec<String>);
 
-fn decode_with_image_crate(bytes: &[u8], raw: bool, path: &Path) -> Result<Decoded, TextureError> {
+fn decode_with_image_crate(
+    bytes: &[u8],
+    raw: bool,
+    path: &Path,
+    limit: u64,
+) -> Result<Decoded, TextureError> {
     use image::DynamicImage as D;
-    let reader = image::ImageReader::new(Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| TextureError::Decode {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+    let new_reader = || {
+        image::ImageReader::new(Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| TextureError::Decode {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
+            })
+    };
+    let mut reader = new_reader()?;
     if reader.format().is_none() {
         let ext = path
             .extension()
@@ -156,6 +286,24 @@ fn decode_with_image_crate(bytes: &[u8], raw: bool, path: &Path) -> Result<Decod
             reason,
         })?;
     }
+    // The header's size first, then decode with the crate's own allocation cap as well.
+    let (w, h) = new_reader()?
+        .into_dimensions()
+        .map_err(|e| TextureError::Decode {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    if w as u64 * h as u64 > limit {
+        return Err(TextureError::Decode {
+            path: path.to_path_buf(),
+            reason: format!(
+                "image header declares {w} x {h} pixels, more than the limit of {limit} ({RAISE})"
+            ),
+        });
+    }
+    let mut caps = image::Limits::default();
+    caps.max_alloc = Some(limit.saturating_mul(BYTES_PER_PIXEL_BUDGET).max(1 << 20));
+    reader.limits(caps);
     let dynimg = reader.decode().map_err(|e| TextureError::Decode {
         path: path.to_path_buf(),
         reason: e.to_string(),

@@ -20,6 +20,9 @@ pub use bitmap::BitmapTexture;
 pub use color::{linear_to_srgb, srgb_to_linear, Chromaticities, WhiteAdaptation};
 pub use footprint::{centre_weight, spp_scale, Footprint};
 pub use image::Image;
-pub use io::{load_image, write_exr, write_png_srgb, LoadedImage, TextureError};
+pub use io::{
+    image_pixel_limit, load_image, load_image_as_stored, set_image_pixel_limit, write_exr,
+    write_png_srgb, LoadedImage, TextureError, DEFAULT_IMAGE_PIXEL_LIMIT,
+};
 pub use mipmap::{FilterType, MipMap, WrapMode};
 pub use raycone::RayCone;

@@ -37,8 +37,51 @@ pub fn smooth_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
         .collect()
 }
 
-/// Checks that every index names a vertex and the per-vertex arrays have matching lengths.
+/// How many more vertices and triangles the scene's limits allow. Loaders check the counts a
+/// file declares against it before allocating for them.
+pub(crate) struct Budget {
+    pub vertices: u64,
+    pub triangles: u64,
+}
+
+impl Budget {
+    /// An error when `vertices` or `triangles` (declared or loaded) exceed what is left.
+    pub fn check(&self, vertices: usize, triangles: usize) -> Result<(), String> {
+        if vertices as u64 > self.vertices {
+            return Err(format!(
+                "{vertices} vertices are more than the {} the scene may still have (raise with --limit mesh_vertices=N)",
+                self.vertices
+            ));
+        }
+        if triangles as u64 > self.triangles {
+            return Err(format!(
+                "{triangles} triangles are more than the {} the scene may still have (raise with --limit mesh_triangles=N)",
+                self.triangles
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Checks that every index names a vertex, the per-vertex arrays have matching lengths and
+/// every position, normal and texture coordinate is finite (a NaN vertex gives a triangle
+/// NaN bounds, which no acceleration structure can sort).
 pub(crate) fn validate(mesh: &TriangleMesh) -> Result<(), String> {
+    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        let p = mesh.positions[i];
+        return Err(format!(
+            "vertex {i} has a position that is not finite ({} {} {})",
+            p.x, p.y, p.z
+        ));
+    }
+    if let Some(i) = mesh.normals.iter().position(|n| !n.is_finite()) {
+        return Err(format!("vertex {i} has a normal that is not finite"));
+    }
+    if let Some(i) = mesh.uvs.iter().position(|t| !t.is_finite()) {
+        return Err(format!(
+            "vertex {i} has texture coordinates that are not finite"
+        ));
+    }
     let n = mesh.positions.len();
     for (k, t) in mesh.indices.iter().enumerate() {
         if let Some(&i) = t.iter().find(|&&i| i as usize >= n) {

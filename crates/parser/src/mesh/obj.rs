@@ -1,26 +1,48 @@
 //! Wavefront OBJ through tobj: triangulated, one index per vertex (positions, normals and uvs
 //! share indices), every model merged into one mesh. Materials in MTL files are ignored.
 
+use crate::mesh::Budget;
 use crate::scene::TriangleMesh;
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// Loads an OBJ file; `flip_v` maps v to 1 - v (Mitsuba's `flip_tex_coords`, default on).
+/// `mtllib` statements are not followed: materials are ignored anyway, and a named file could
+/// be anything (`mtllib /dev/zero` would be read forever).
 #[allow(clippy::field_reassign_with_default)]
-pub(crate) fn load(path: &Path, flip_v: bool) -> Result<TriangleMesh, String> {
+pub(crate) fn load(path: &Path, flip_v: bool, budget: &Budget) -> Result<TriangleMesh, String> {
     // Built by assignment so optional tobj fields (feature `merging`) keep their defaults.
     let mut options = tobj::LoadOptions::default();
     options.single_index = true;
     options.triangulate = true;
     options.ignore_points = true;
     options.ignore_lines = true;
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let mut reader = std::io::BufReader::new(file);
+    let located = || {
         // tobj says what went wrong but not where; find the place in the text.
-        let located = std::fs::read(path)
+        std::fs::read(path)
             .ok()
-            .and_then(|bytes| locate_error(&String::from_utf8_lossy(&bytes)));
-        located.unwrap_or_else(|| e.to_string())
-    })?;
+            .and_then(|bytes| locate_error(&String::from_utf8_lossy(&bytes)))
+    };
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| located().unwrap_or_else(|| e.to_string()))?;
+    let vertices: usize = models.iter().map(|m| m.mesh.positions.len() / 3).sum();
+    let triangles: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    budget.check(vertices, triangles)?;
+    let finite = models.iter().all(|m| {
+        let src = &m.mesh;
+        src.positions.iter().all(|v| v.is_finite())
+            && src.normals.iter().all(|v| v.is_finite())
+            && src.texcoords.iter().all(|v| v.is_finite())
+    });
+    if !finite {
+        if let Some(e) = located() {
+            return Err(e);
+        }
+    }
     let mut mesh = TriangleMesh::default();
     let mut all_normals = true;
     let mut all_uvs = true;
@@ -140,12 +162,22 @@ fn locate_error(text: &str) -> Option<String> {
         };
         let mut found = 0;
         for word in words.take(needed) {
-            if word.parse::<f32>().is_err() {
-                return Some(format!(
-                    "{}: cannot parse '{word}' as a {} coordinate",
-                    at(word),
-                    KINDS[kind]
-                ));
+            match word.parse::<f32>() {
+                Err(_) => {
+                    return Some(format!(
+                        "{}: cannot parse '{word}' as a {} coordinate",
+                        at(word),
+                        KINDS[kind]
+                    ))
+                }
+                Ok(v) if !v.is_finite() => {
+                    return Some(format!(
+                        "{}: {} coordinate '{word}' is not a finite 32-bit float",
+                        at(word),
+                        KINDS[kind]
+                    ))
+                }
+                Ok(_) => {}
             }
             found += 1;
         }
@@ -176,6 +208,8 @@ mod tests {
             ("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1//a 2 3\n", "line 4, column 8: cannot parse 'a' as a normal index"),
             ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4, column 9: face refers to vertex -4, but 3 vertices are defined before this line"),
             ("v 0 0 0\nf 0 1 1\n", "line 2, column 3: face refers to vertex 0, but 1 vertex is defined before this line"),
+            ("v 0 0 0\nv 1 nan 0\n", "line 2, column 5: vertex coordinate 'nan' is not a finite 32-bit float"),
+            ("vn 0 0 1e39\n", "line 1, column 8: normal coordinate '1e39' is not a finite 32-bit float"),
         ];
         for (text, expected) in cases {
             assert_eq!(locate_error(text).as_deref(), Some(expected), "{text:?}");

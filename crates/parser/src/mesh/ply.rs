@@ -4,6 +4,7 @@
 //! `vertex_indices`/`vertex_index` list (any count and index types; polygons are split into
 //! fans, so quads become two triangles). Every other element and property is skipped.
 
+use crate::mesh::Budget;
 use crate::scene::TriangleMesh;
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -70,12 +71,14 @@ enum Format {
     Binary { big_endian: bool },
 }
 
-/// The body after the header: ASCII tokens with their line numbers, or raw bytes.
+/// The body after the header: ASCII text read token by token (nothing is allocated per token,
+/// so a file with more data than its header declares costs no memory), or raw bytes.
 enum Body<'a> {
     Ascii {
-        tokens: Vec<(&'a str, usize)>,
-        next: usize,
-        last_line: usize,
+        text: &'a [u8],
+        pos: usize,
+        /// The line `pos` is on.
+        line: usize,
     },
     Binary {
         data: &'a [u8],
@@ -87,18 +90,26 @@ enum Body<'a> {
 impl Body<'_> {
     fn read(&mut self, s: Scalar, what: &dyn Fn() -> String) -> Result<f64, String> {
         match self {
-            Body::Ascii {
-                tokens,
-                next,
-                last_line,
-            } => {
-                let Some(&(tok, line)) = tokens.get(*next) else {
+            Body::Ascii { text, pos, line } => {
+                while let Some(&c) = text.get(*pos) {
+                    if !c.is_ascii_whitespace() {
+                        break;
+                    }
+                    *line += (c == b'\n') as usize;
+                    *pos += 1;
+                }
+                let start = *pos;
+                while text.get(*pos).is_some_and(|c| !c.is_ascii_whitespace()) {
+                    *pos += 1;
+                }
+                if start == *pos {
                     return Err(format!(
-                        "line {last_line}: unexpected end of file while reading {}",
+                        "line {line}: unexpected end of file while reading {}",
                         what()
                     ));
-                };
-                *next += 1;
+                }
+                let line = *line;
+                let tok = std::str::from_utf8(&text[start..*pos]).unwrap_or("(not text)");
                 let v = if matches!(s, Scalar::F32 | Scalar::F64) {
                     tok.parse::<f64>().ok()
                 } else {
@@ -220,29 +231,29 @@ fn header(data: &[u8]) -> Result<(Format, Vec<ElementDef>, usize), String> {
 }
 
 /// Reads a PLY mesh file.
-pub(crate) fn load(path: &Path) -> Result<TriangleMesh, String> {
+pub(crate) fn load(path: &Path, budget: &Budget) -> Result<TriangleMesh, String> {
     let data = std::fs::read(path).map_err(|e| e.to_string())?;
-    parse(&data)
+    parse(&data, budget)
 }
 
-pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
+/// Parses PLY bytes. The declared vertex and face counts are checked against `budget` before
+/// reading them, and polygons are counted as they are split.
+pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String> {
     let (format, elements, start) = header(data)?;
+    for el in &elements {
+        match el.name.as_str() {
+            "vertex" => budget.check(el.count, 0)?,
+            "face" => budget.check(0, el.count)?,
+            _ => {}
+        }
+    }
     let header_lines = data[..start].iter().filter(|&&b| b == b'\n').count();
     let mut body = match format {
-        Format::Ascii => {
-            let text = std::str::from_utf8(&data[start..]).map_err(|_| "ASCII body is not text")?;
-            let mut tokens = Vec::new();
-            let mut last_line = header_lines;
-            for (i, line) in text.lines().enumerate() {
-                last_line = header_lines + i + 1;
-                tokens.extend(line.split_whitespace().map(|t| (t, last_line)));
-            }
-            Body::Ascii {
-                tokens,
-                next: 0,
-                last_line,
-            }
-        }
+        Format::Ascii => Body::Ascii {
+            text: &data[start..],
+            pos: 0,
+            line: header_lines + 1,
+        },
         Format::Binary { big_endian } => Body::Binary {
             data: &data[start..],
             pos: 0,
@@ -270,6 +281,9 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
         let fi = find(&["vertex_indices", "vertex_index"]);
         if is_face && el.count > 0 && fi.is_none() {
             return Err("face element has no vertex_indices list".into());
+        }
+        if el.props.is_empty() {
+            continue; // nothing to read, however many it declares
         }
         let mut values = vec![0.0f64; el.props.len()];
         let mut list: Vec<u32> = Vec::new();
@@ -319,6 +333,7 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
                         list.len()
                     ));
                 }
+                budget.check(0, mesh.indices.len() + list.len() - 2)?;
                 for k in 1..list.len() - 1 {
                     mesh.indices.push([list[0], list[k], list[k + 1]]);
                 }
@@ -332,10 +347,36 @@ pub(crate) fn parse(data: &[u8]) -> Result<TriangleMesh, String> {
 mod tests {
     use super::*;
 
+    const UNLIMITED: Budget = Budget {
+        vertices: u64::MAX,
+        triangles: u64::MAX,
+    };
+
+    #[test]
+    fn elements_without_properties_take_no_time() {
+        let text = "ply\nformat ascii 1.0\nelement nothing 18446744073709551615\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        let m = parse(text.as_bytes(), &UNLIMITED).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
+    }
+
+    #[test]
+    fn declared_counts_are_checked_before_reading() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+        let small = Budget {
+            vertices: 1000,
+            triangles: 1000,
+        };
+        let e = parse(text.as_bytes(), &small).unwrap_err();
+        assert!(
+            e.starts_with("4000000000 vertices are more than the 1000"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn ascii_quad_with_extra_properties() {
         let text = "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty float confidence\nproperty float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1 0 0\n1 0 0 1 1 0\n1 1 0 1 1 1\n0 1 0 1 0 1\n4 0 1 2 3\n";
-        let m = parse(text.as_bytes()).unwrap();
+        let m = parse(text.as_bytes(), &UNLIMITED).unwrap();
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(m.uvs[2], Vec2::new(1.0, 1.0));
@@ -345,7 +386,7 @@ mod tests {
     #[test]
     fn ascii_error_names_line() {
         let text = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 zero 0\n";
-        let e = parse(text.as_bytes()).unwrap_err();
+        let e = parse(text.as_bytes(), &UNLIMITED).unwrap_err();
         assert!(e.starts_with("line 8: cannot parse 'zero'"), "{e}");
     }
 
@@ -353,7 +394,7 @@ mod tests {
     fn truncated_binary() {
         let mut d = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec();
         d.extend_from_slice(&1.0f32.to_le_bytes());
-        let e = parse(&d).unwrap_err();
+        let e = parse(&d, &UNLIMITED).unwrap_err();
         assert!(e.contains("unexpected end of file"), "{e}");
         assert!(e.contains("property 'y' of vertex 0"), "{e}");
     }

@@ -65,7 +65,22 @@ pub(crate) fn color_param(
     match e.tag.as_str() {
         "texture" => Ok(ColorParam::Texture(parse_texture(ctx, e)?)),
         "ref" => texture_ref(ctx, e).map(ColorParam::Texture),
-        _ => props.color_of(ctx, e).map(ColorParam::Constant),
+        _ => {
+            let c = props.color_of(ctx, e)?;
+            if c.max_element() > 1.0 {
+                // Renderable, but a surface reflecting more than it receives adds energy.
+                let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
+                ctx.warn_once(
+                    "reflectance above 1",
+                    pos,
+                    format!(
+                        "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",
+                        c.x, c.y, c.z, props.owner
+                    ),
+                );
+            }
+            Ok(ColorParam::Constant(c))
+        }
     }
 }
 
@@ -170,12 +185,13 @@ fn ior(ctx: &Ctx, props: &mut Props, name: &str, default: f32) -> Result<f32> {
                 )
             });
     }
-    props.float(ctx, &[name], default)
+    props.float_where(ctx, &[name], default, "positive", |v| v > 0.0)
 }
 
 fn glossy(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, f32)> {
     let reflectance = color_param(ctx, props, &["reflectance"], Vec3::splat(0.5))?;
-    let exponent = props.float(ctx, &["exponent", "alpha"], 5.0)?;
+    let exponent =
+        props.float_where(ctx, &["exponent", "alpha"], 5.0, "at least 0", |v| v >= 0.0)?;
     Ok((reflectance, exponent))
 }
 
@@ -247,8 +263,14 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                 &["reflectance", "diffuse_reflectance"],
                 Vec3::splat(0.5),
             )?;
-            let eta = match props.opt_float(ctx, &["eta", "ior"])? {
-                Some(eta) => eta,
+            let eta = match props.opt_float_pos(ctx, &["eta", "ior"])? {
+                Some((eta, pos)) if eta <= 0.0 => {
+                    return Err(ctx.err(
+                        pos,
+                        format!("parameter 'eta' of bsdf 'plastic' must be positive, found {eta}"),
+                    ))
+                }
+                Some((eta, _)) => eta,
                 None if mitsuba => {
                     ior(ctx, &mut props, "int_ior", 1.49)?
                         / ior(ctx, &mut props, "ext_ior", 1.000277)?

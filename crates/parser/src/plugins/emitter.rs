@@ -5,6 +5,7 @@ use crate::error::Result;
 use crate::plugins::texture::{bitmap_element, parse_bitmap};
 use crate::props::Props;
 use crate::scene::Light;
+use crate::transform::frame_problem;
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
@@ -30,7 +31,7 @@ const NOT_YET: &[&str] = &[
 /// | `envmap` | `filename` + bitmap parameters | string | required unless a nested bitmap `<texture>` is given |
 /// | `envmap` | nested `<texture type="bitmap">` (seed dialect, e.g. `name="reflectance"`) | texture | |
 /// | `envmap` | `scale`, `intensity_scale` | float | 1 (both multiply) |
-/// | `envmap` | `to_world` | transform | identity |
+/// | `envmap` | `to_world` | transform | identity (affine, invertible, axis scales 1e-6 to 1e6) |
 /// | `constant` | `radiance` | colour | 1 |
 pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
     let ty = plugin_type(ctx, elem)?;
@@ -59,8 +60,19 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
             let to_world = props
                 .transform(ctx, &["to_world"], false)?
                 .unwrap_or(Mat4::IDENTITY);
+            let position = to_world.transform_point3(position);
+            let reach = position.abs().max_element() as f64;
+            if reach.is_nan() || reach > crate::plugins::shape::WORLD_EXTENT {
+                return Err(ctx.err(
+                    elem.pos,
+                    format!(
+                        "the point light's position, moved by its to_world, reaches {reach:.3e}, beyond the {:e} torrey supports",
+                        crate::plugins::shape::WORLD_EXTENT
+                    ),
+                ));
+            }
             Light::Point {
-                position: to_world.transform_point3(position),
+                position,
                 intensity,
             }
         }
@@ -80,11 +92,41 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                 };
                 bitmap_element(ctx, t)?
             };
-            let scale =
-                props.float(ctx, &["scale"], 1.0)? * props.float(ctx, &["intensity_scale"], 1.0)?;
-            let to_world = props
-                .transform(ctx, &["to_world"], false)?
-                .unwrap_or(Mat4::IDENTITY);
+            let mut scale = 1.0;
+            for name in ["scale", "intensity_scale"] {
+                if let Some((v, pos)) = props.opt_float_pos(ctx, &[name])? {
+                    if v < 0.0 {
+                        return Err(ctx.err(
+                            pos,
+                            format!("parameter '{name}' of emitter 'envmap' must not be negative, found {v}"),
+                        ));
+                    }
+                    if v == 0.0 {
+                        ctx.warn(pos, format!("parameter '{name}' of emitter 'envmap' is 0: the environment is black"));
+                    }
+                    scale *= v;
+                }
+            }
+            if !scale.is_finite() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "emitter 'envmap': scale times intensity_scale is too large for a 32-bit float",
+                ));
+            }
+            let to_world = match props.transform_pos(ctx, &["to_world"], false)? {
+                None => Mat4::IDENTITY,
+                Some((m, pos)) => {
+                    if let Some(problem) = frame_problem(m) {
+                        return Err(ctx.err(
+                            pos,
+                            format!(
+                                "the envmap's to_world cannot orient an environment: {problem}"
+                            ),
+                        ));
+                    }
+                    m
+                }
+            };
             Light::Envmap {
                 bitmap,
                 scale,

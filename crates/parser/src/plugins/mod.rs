@@ -99,6 +99,7 @@ pub(crate) fn parse_scene(
     path: &Path,
     overrides: &[(String, String)],
     forced: Option<Dialect>,
+    limits: &crate::limits::Limits,
 ) -> Result<Scene> {
     if root.tag != "scene" {
         return Err(ParseError {
@@ -106,7 +107,7 @@ pub(crate) fn parse_scene(
             message: format!("the root element must be <scene>, found <{}>", root.tag),
         });
     }
-    let expanded = include::expand(root, path, overrides)?;
+    let expanded = include::expand(root, path, overrides, limits)?;
     let root = expanded.root;
     let (detected, reason) = dialect(&root, &expanded.sources)?;
     let (dialect, dialect_reason) = match forced {
@@ -114,7 +115,7 @@ pub(crate) fn parse_scene(
         Some(d) => (d, format!("forced, as detected ({reason})")),
         None => (detected, reason),
     };
-    let mut ctx = Ctx::new(expanded.sources, dialect);
+    let mut ctx = Ctx::new(expanded.sources, dialect, limits);
     ctx.warnings = expanded.warnings;
     let mut camera_parts = None;
     let mut integrator = None;
@@ -183,6 +184,7 @@ pub(crate) fn parse_scene(
             sensor::default_sampler(),
         )
     });
+    let warnings = ctx.finish_warnings();
     Ok(Scene {
         path: path.to_path_buf(),
         dialect,
@@ -196,6 +198,6 @@ pub(crate) fn parse_scene(
         shapes,
         lights,
         files: ctx.files.into_inner(),
-        warnings: ctx.warnings,
+        warnings,
     })
 }

@@ -7,6 +7,7 @@ use crate::props::Props;
 use crate::scene::{
     Camera, CameraKind, CropWindow, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler,
 };
+use crate::transform::frame_problem;
 use crate::xml::Element;
 use glam::{Mat4, Vec2};
 
@@ -106,14 +107,31 @@ pub(crate) fn default_integrator() -> Integrator {
     }
 }
 
-fn positive(ctx: &Ctx, props: &mut Props, name: &str, default: i64) -> Result<u32> {
+/// An integer parameter in 1..=`max`; `limit` names the `--limit` that raises `max`, if any.
+fn positive(
+    ctx: &Ctx,
+    props: &mut Props,
+    name: &str,
+    default: i64,
+    max: u64,
+    limit: Option<&str>,
+) -> Result<u32> {
+    let max = max.min(u32::MAX as u64) as i64;
     match props.opt_int_pos(ctx, &[name])? {
         None => Ok(default as u32),
-        Some((v, pos)) if v <= 0 || v > u32::MAX as i64 => Err(ctx.err(
+        Some((v, pos)) if v <= 0 => Err(ctx.err(
             pos,
             format!(
                 "parameter '{name}' of {} must be positive, found {v}",
                 props.owner
+            ),
+        )),
+        Some((v, pos)) if v > max => Err(ctx.err(
+            pos,
+            format!(
+                "parameter '{name}' of {} must be at most {max}, found {v}{}",
+                props.owner,
+                limit.map_or(String::new(), |l| format!(" (raise with --limit {l}=N)"))
             ),
         )),
         Some((v, _)) => Ok(v as u32),
@@ -153,10 +171,10 @@ fn parse_rfilter(ctx: &mut Ctx, f: &Element) -> Result<PixelFilter> {
     let filter = match fty {
         "box" => PixelFilter::Box,
         "gaussian" => PixelFilter::Gaussian {
-            stddev: fp.float(ctx, &["stddev"], 0.5)?,
+            stddev: fp.float_where(ctx, &["stddev"], 0.5, "positive", |v| v > 0.0)?,
         },
         "tent" => PixelFilter::Tent {
-            radius: fp.float(ctx, &["radius"], 1.0)?,
+            radius: fp.float_where(ctx, &["radius"], 1.0, "positive", |v| v > 0.0)?,
         },
         "mitchell" => PixelFilter::Mitchell {
             b: fp.float(ctx, &["B", "b"], 1.0 / 3.0)?,
@@ -164,7 +182,7 @@ fn parse_rfilter(ctx: &mut Ctx, f: &Element) -> Result<PixelFilter> {
         },
         "catmullrom" => PixelFilter::CatmullRom,
         _ => PixelFilter::Lanczos {
-            lobes: positive(ctx, &mut fp, "lobes", 3)?,
+            lobes: positive(ctx, &mut fp, "lobes", 3, 64, None)?,
         },
     };
     fp.finish(ctx);
@@ -187,8 +205,19 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     }
     let mut props = Props::new(ctx, elem, format!("film '{ty}'"))?;
     let mut film = default_film(ctx.dialect);
-    film.width = positive(ctx, &mut props, "width", 768)?;
-    film.height = positive(ctx, &mut props, "height", 576)?;
+    let max = ctx.limits.film_pixels;
+    let pixels = Some("film_pixels");
+    film.width = positive(ctx, &mut props, "width", 768, max, pixels)?;
+    film.height = positive(ctx, &mut props, "height", 576, max, pixels)?;
+    if film.width as u64 * film.height as u64 > max {
+        return Err(ctx.err(
+            elem.pos,
+            format!(
+                "the film has {} x {} pixels, more than the limit of {max} (raise with --limit film_pixels=N)",
+                film.width, film.height
+            ),
+        ));
+    }
     film.filename = props.string(ctx, &["filename"])?.map(|a| a.value.clone());
     let cx = non_negative(ctx, &mut props, "crop_offset_x")?;
     let cy = non_negative(ctx, &mut props, "crop_offset_y")?;
@@ -278,7 +307,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
         );
     }
     let mut props = Props::new(ctx, elem, format!("sampler '{ty}'"))?;
-    let mut sample_count = positive(ctx, &mut props, "sample_count", 4)?;
+    let mut sample_count = positive(ctx, &mut props, "sample_count", 4, u32::MAX as u64, None)?;
     let root = |n: u32| (n as f64).sqrt().ceil() as u32;
     sample_count = match ty {
         "stratified" | "multijitter" => root(sample_count).pow(2),
@@ -415,20 +444,27 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
             CameraKind::Perspective
         }
     };
-    if let Some(m) = props.transform(ctx, &["to_world"], false)? {
+    if let Some((m, pos)) = props.transform_pos(ctx, &["to_world"], false)? {
+        if let Some(problem) = frame_problem(m) {
+            return Err(ctx.err(
+                pos,
+                format!("the camera's to_world cannot place a camera: {problem}"),
+            ));
+        }
         camera.to_world = m;
     }
-    camera.near_clip = props.float(ctx, &["near_clip"], camera.near_clip)?;
-    camera.far_clip = props.float(ctx, &["far_clip"], camera.far_clip)?;
-    if !(camera.near_clip > 0.0 && camera.near_clip < camera.far_clip) {
-        return Err(ctx.err(
-            elem.pos,
-            format!(
-                "near_clip ({}) must be positive and less than far_clip ({})",
-                camera.near_clip, camera.far_clip
-            ),
-        ));
-    }
+    camera.near_clip =
+        props.float_where(ctx, &["near_clip"], camera.near_clip, "positive", |v| {
+            v > 0.0
+        })?;
+    let near = camera.near_clip;
+    camera.far_clip = props.float_where(
+        ctx,
+        &["far_clip"],
+        camera.far_clip,
+        "greater than near_clip",
+        |v| v > near,
+    )?;
     let film = match props.take_tag("film").first() {
         Some(f) => parse_film(ctx, f)?,
         None => default_film(ctx.dialect),
@@ -497,7 +533,7 @@ pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrat
     integrator.kind = ty.to_string();
     if ty == "direct" {
         integrator.max_depth = 2;
-        let shading = positive(ctx, &mut props, "shading_samples", 1)?;
+        let shading = positive(ctx, &mut props, "shading_samples", 1, u32::MAX as u64, None)?;
         integrator.emitter_samples =
             non_negative(ctx, &mut props, "emitter_samples")?.unwrap_or(shading);
         integrator.bsdf_samples = non_negative(ctx, &mut props, "bsdf_samples")?.unwrap_or(shading);

@@ -2,7 +2,8 @@
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
-use crate::mesh::{obj, ply, serialized, smooth_normals, validate};
+use crate::files::input_file;
+use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
 use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TriangleMesh};
@@ -168,6 +169,11 @@ fn parse_instance(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         .collect())
 }
 
+/// How far from the origin world-space geometry may reach: 1e14. The BVH builder sums surface
+/// areas of bounding boxes (an extent of 2e19 already has an infinite area in f32), and ray
+/// arithmetic squares distances; 1e14 leaves room for both with millions of primitives.
+pub(crate) const WORLD_EXTENT: f64 = 1e14;
+
 /// Reads a mesh file named by the `filename` parameter; errors name the file and point at it.
 fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<TriangleMesh> {
     let Some(file) = props.string(ctx, &["filename"])? else {
@@ -176,17 +182,7 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let path = ctx.resolve(&file.value, file.value_pos);
-    if !path.is_file() {
-        return Err(ctx.err(
-            file.value_pos,
-            format!(
-                "mesh file '{}' not found (looked for '{}')",
-                file.value,
-                path.display()
-            ),
-        ));
-    }
+    let path = input_file(ctx, file, "mesh")?;
     let face_normals = props.boolean(ctx, &["face_normals"], false)?;
     let flip_v = props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
     let shape_index = match props.opt_int_pos(ctx, &["shape_index"])? {
@@ -203,17 +199,26 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
             0
         }
     };
-    let loaded = match ty {
-        "obj" => obj::load(&path, flip_v),
-        "ply" => ply::load(&path),
-        _ => serialized::load(&path, shape_index),
+    let budget = Budget {
+        vertices: ctx.limits.mesh_vertices.saturating_sub(ctx.vertices),
+        triangles: ctx.limits.mesh_triangles.saturating_sub(ctx.triangles),
     };
-    let mut mesh = loaded.and_then(|m| validate(&m).map(|_| m)).map_err(|m| {
-        ctx.err(
-            file.value_pos,
-            format!("in mesh file '{}': {m}", file.value),
-        )
-    })?;
+    let loaded = match ty {
+        "obj" => obj::load(&path, flip_v, &budget),
+        "ply" => ply::load(&path, &budget),
+        _ => serialized::load(&path, shape_index, &budget),
+    };
+    let mut mesh = loaded
+        .and_then(|m| budget.check(m.positions.len(), m.indices.len()).map(|_| m))
+        .and_then(|m| validate(&m).map(|_| m))
+        .map_err(|m| {
+            ctx.err(
+                file.value_pos,
+                format!("in mesh file '{}': {m}", file.value),
+            )
+        })?;
+    ctx.vertices += mesh.positions.len() as u64;
+    ctx.triangles += mesh.indices.len() as u64;
     if mesh.indices.is_empty() {
         return Err(ctx.err(
             file.value_pos,
@@ -233,6 +238,41 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
     Ok(mesh)
 }
 
+/// Why a shape cannot be placed in world space, if it cannot: its vertices (or its sphere's or
+/// rectangle's extent) moved by `to_world` must stay within [`WORLD_EXTENT`] of the origin.
+fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
+    // The largest coordinate magnitude, in f64 so that nothing overflows while measuring.
+    let m = to_world.as_dmat4();
+    let farthest = |points: &mut dyn Iterator<Item = glam::DVec3>| {
+        points.fold(0.0f64, |acc, p| {
+            let p = m.transform_point3(p).abs().max_element();
+            if p.is_nan() {
+                f64::INFINITY
+            } else {
+                acc.max(p)
+            }
+        })
+    };
+    let reach = match geometry {
+        Geometry::Mesh(mesh) => farthest(&mut mesh.positions.iter().map(|p| p.as_dvec3())),
+        Geometry::Sphere { center, radius } => {
+            let c = m.transform_point3(center.as_dvec3()).abs().max_element();
+            let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
+            c + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
+        }
+        Geometry::Rectangle => farthest(
+            &mut [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .into_iter()
+                .map(|(x, y)| glam::DVec3::new(x, y, 0.0)),
+        ),
+    };
+    (reach.is_nan() || reach > WORLD_EXTENT).then(|| {
+        format!(
+            "moved to world space by its to_world, the geometry reaches {reach:.3e}, beyond the {WORLD_EXTENT:e} torrey supports"
+        )
+    })
+}
+
 /// Parses a `<shape>`; inline bsdfs are added to the scene.
 ///
 /// | shapes | name | type | default |
@@ -246,7 +286,7 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
 /// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
 /// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
 /// | sphere | `center` | point | 0 |
-/// | sphere | `radius` | float | 1 (negative is an error) |
+/// | sphere | `radius` | float | 1 (must be positive) |
 pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     let ty = plugin_type(ctx, elem)?;
     if NOT_YET.contains(&ty) {
@@ -278,11 +318,8 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             let center = props.point(ctx, &["center"])?.unwrap_or(Vec3::ZERO);
             let radius = match props.opt_float_pos(ctx, &["radius"])? {
                 None => 1.0,
-                Some((r, pos)) if r < 0.0 => {
-                    return Err(ctx.err(
-                        pos,
-                        format!("sphere radius must not be negative, found {r}"),
-                    ))
+                Some((r, pos)) if r <= 0.0 => {
+                    return Err(ctx.err(pos, format!("sphere radius must be positive, found {r}")))
                 }
                 Some((r, _)) => r,
             };
@@ -292,6 +329,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         "cube" => Geometry::Mesh(cube_mesh()),
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };
+
+    if let Some(problem) = world_problem(&geometry, to_world) {
+        return Err(ctx.err(elem.pos, format!("{}: {problem}", props.owner)));
+    }
 
     let mut candidates: Vec<&Element> = props.take_tag("bsdf");
     for r in props.take_tag("ref") {

@@ -2,6 +2,7 @@
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
+use crate::files::input_file;
 use crate::props::Props;
 use crate::scene::{Bitmap, FilterType, Texture, TextureId, TextureKind, WrapMode};
 use crate::transform::to_affine2;
@@ -44,17 +45,7 @@ pub(crate) fn parse_bitmap(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> 
             format!("missing required parameter 'filename' of {}", props.owner),
         ));
     };
-    let filename = ctx.resolve(&file.value, file.value_pos);
-    if !filename.is_file() {
-        return Err(ctx.err(
-            file.value_pos,
-            format!(
-                "texture file '{}' not found (looked for '{}')",
-                file.value,
-                filename.display()
-            ),
-        ));
-    }
+    let filename = input_file(ctx, file, "texture")?;
     let to_uv = uv_transform(ctx, props)?;
     let raw = props.boolean(ctx, &["raw"], false)?;
     let filter = match props.string(ctx, &["filter_type"])? {
