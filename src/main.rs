@@ -81,6 +81,8 @@ enum BvhWidthArg {
     Four,
     #[value(name = "8")]
     Eight,
+    #[value(name = "16")]
+    Sixteen,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -143,6 +145,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         BvhWidthArg::Auto => torrey_renderer::BvhWidth::Auto,
         BvhWidthArg::Four => torrey_renderer::BvhWidth::Four,
         BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
+        BvhWidthArg::Sixteen => torrey_renderer::BvhWidth::Sixteen,
     };
     let render_scene =
         torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width)
