@@ -87,6 +87,9 @@ pub fn render(
             let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             let mut bad = 0u64;
             let mut rays = RayCount::default();
+            // One Sobol sampler per tile: its table of points is reused from pixel to pixel.
+            let mut sobol = (settings.sampler == SamplerKind::Sobol)
+                .then(|| SobolSampler::tabled(settings.seed, 0, spp));
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
@@ -99,14 +102,11 @@ pub fn render(
                             &mut PcgSampler::new(settings.seed, pixel_index),
                             &mut rays,
                         ),
-                        SamplerKind::Sobol => render_pixel(
-                            scene,
-                            (x, y),
-                            settings,
-                            path,
-                            &mut SobolSampler::new(settings.seed, pixel_index),
-                            &mut rays,
-                        ),
+                        SamplerKind::Sobol => {
+                            let sampler = sobol.as_mut().expect("made for the Sobol sampler");
+                            sampler.restart(settings.seed, pixel_index, spp);
+                            render_pixel(scene, (x, y), settings, path, sampler, &mut rays)
+                        }
                     };
                     bad += dropped;
                     out.push((mean, var_of_mean));

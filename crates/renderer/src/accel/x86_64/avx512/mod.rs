@@ -13,10 +13,14 @@ use crate::accel::ClosestHit;
 use crate::ray::Ray;
 use std::mem::MaybeUninit;
 
-/// True when this CPU can run these kernels: AVX-512 Foundation, and the AVX2 and FMA of the
-/// eight-wide kernels (every AVX-512 CPU has them).
+/// True when this CPU can run these kernels: AVX-512 Foundation with the byte/word and
+/// vector-length extensions (every AVX-512 CPU since Skylake-SP; other kernels at this level,
+/// such as the Sobol sampler's columns, use them), and the AVX2 and FMA of the eight-wide kernels.
 pub fn available() -> bool {
-    is_x86_feature_detected!("avx512f") && super::avx2::available()
+    is_x86_feature_detected!("avx512f")
+        && is_x86_feature_detected!("avx512bw")
+        && is_x86_feature_detected!("avx512vl")
+        && super::avx2::available()
 }
 
 /// [`traversal::closest_hit`] over sixteen-wide nodes, compiled with AVX-512.
