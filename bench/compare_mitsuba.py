@@ -106,8 +106,9 @@ def main():
     result = {
         "generator": "bench/compare_mitsuba.py",
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "git": common.git_rev(), "host": platform.node(), "cpu": cpu_name(), "cores": os.cpu_count(),
+        "git": common.git_rev(), "host": platform.node(), "cpu": common.cpu_name(), "cores": os.cpu_count(),
         "threads": a.threads, "runs": a.runs, "spp_scale": a.spp_scale, "mitsuba": mitsuba_line,
+        "mitsuba_llvm_simd": common.mitsuba_llvm_simd(), "torrey_simd": None,
         "llvm_cache": "warm (~/.drjit kept)" if a.warm_cache else "cold (empty HOME per process)",
         "torrey_args": torrey_extra, "torrey_bin": os.path.relpath(common.TORREY, common.REPO), "loadavg_start": common.loadavg(), "scenes": {}, "skipped": {},
     }
@@ -151,6 +152,7 @@ def main():
                     if os.path.exists(f):
                         os.unlink(f)
             entry["runs"]["torrey"].append(r)
+            result["torrey_simd"] = result["torrey_simd"] or "%s, %s-wide BVH" % (r.get("simd"), r.get("bvh_width"))
             log("  run %d torrey        render %6.2f s  load+build %.2f s  rss %5.0f MB  (load avg %s)" % (
                 i, r["render_s"], r["load_s"] + r["build_s"], r["peak_rss_mb"], r["loadavg_before"][0]))
             for v in variants:
@@ -236,6 +238,8 @@ def print_table(result):
           "render incl. JIT (%s kernel cache); load avg start %s end %s" % (
               result["git"], result["mitsuba"], result["threads"], result["runs"], result["llvm_cache"],
               result["loadavg_start"], result["loadavg_end"]))
+    print("CPU %s; SIMD: torrey %s; Mitsuba llvm kernels %s" % (
+        result["cpu"], result["torrey_simd"], result["mitsuba_llvm_simd"]))
     print(line(hdr))
     for r in rows:
         print(line(r))
@@ -256,17 +260,6 @@ def print_table(result):
             extra.append("torrey %.2f M rays/s, first pixel after %s s (load + build + first tile)" % (
                 t["mrays_s_median"], fmt(t.get("time_to_first_pixel_s_median"), "%.3f")))
         print("  %s: %s" % (name, "; ".join(extra)))
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
 
 
 if __name__ == "__main__":

@@ -64,8 +64,9 @@ struct RenderArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     quiet: bool,
-    /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4` or `8` (8 needs AVX2 and FMA,
-    /// else 4 is used). Both find the same hits; this is for comparing their speed.
+    /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4`, `8` (needs AVX2 and FMA, else
+    /// 4 is used) or `16` (needs AVX-512, else the widest available). All find the same hits;
+    /// this is for comparing their speed.
     #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
     bvh_width: BvhWidthArg,
     /// Trace every camera ray alone instead of each pixel's in packets of eight (packets need
@@ -214,7 +215,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH",
+        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}",
         scene_path.display(),
         width,
         height,
@@ -230,6 +231,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.rays.shadow,
         out.first_tile.as_secs_f64(),
         render_scene.accel().bvh_width(),
+        torrey_renderer::Simd::detect().name(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

@@ -41,16 +41,13 @@ fn main() {
         "{:<34} {:>10} {:>12} {:>12} {:>12} {:>12} {:>12}",
         "scene", "triangles", "primary", "secondary", "shadow", "camera x8", "packets"
     );
-    for (path, bvh_width, nodes) in scenes
-        .iter()
-        .flat_map(|p| {
-            [
-                (p, BvhWidth::Four, 4),
-                (p, BvhWidth::Eight, 8),
-                (p, BvhWidth::Sixteen, 16),
-            ]
-        })
-    {
+    for (path, bvh_width, nodes) in scenes.iter().flat_map(|p| {
+        [
+            (p, BvhWidth::Four, 4),
+            (p, BvhWidth::Eight, 8),
+            (p, BvhWidth::Sixteen, 16),
+        ]
+    }) {
         let desc = torrey_parser::load_scene(path, &[]).expect("scene loads");
         let scene =
             RenderScene::build_with_width(&desc, 256, 256, bvh_width).expect("scene builds");

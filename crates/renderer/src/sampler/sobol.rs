@@ -414,7 +414,11 @@ mod tests {
         let bits = (0..32).map(|b| 1u32 << b);
         let random = (0..10_000).map(|_| (rng.range(0.0, 1.0) * 4_294_967_000.0) as u32);
         for i in bits.chain(random).chain([0, u32::MAX]) {
-            assert_eq!(sobol_dim1_reversed_bits(i), sobol_dim1_reversed(i), "index {i}");
+            assert_eq!(
+                sobol_dim1_reversed_bits(i),
+                sobol_dim1_reversed(i),
+                "index {i}"
+            );
         }
     }
 

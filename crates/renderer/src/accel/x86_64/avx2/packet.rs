@@ -13,10 +13,10 @@
 //! in largest axis (a pixel straddling a plane) are not packed: the caller traces them one by one.
 
 use super::Nodes8;
-use crate::accel::x86_64::avx512::Nodes16;
 use crate::accel::leaves::Leaves;
 use crate::accel::traversal::{nearest_first, reciprocal, ChildRef, NEAR_FAR, STACK_SIZE};
 use crate::accel::triangle4::{Ray4, Triangle4};
+use crate::accel::x86_64::avx512::Nodes16;
 use crate::accel::ClosestHit;
 use crate::ray::Ray;
 use crate::shapes::triangle::{WatertightRay, PERMUTATION};
