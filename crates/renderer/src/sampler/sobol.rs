@@ -97,7 +97,7 @@ impl SobolSampler {
 
     /// The tabled point of the current sample's next request, if the table holds it.
     #[inline(always)]
-    fn from_table(&mut self) -> Option<(f32, f32)> {
+    fn tabled_point(&mut self) -> Option<(f32, f32)> {
         let table = self.table.as_deref_mut()?;
         let sample = self.index.wrapping_sub(table.base);
         let request = self.dimension;
@@ -229,7 +229,7 @@ impl Sampler for SobolSampler {
 
     #[inline]
     fn next_1d(&mut self) -> f32 {
-        if let Some((x, _)) = self.from_table() {
+        if let Some((x, _)) = self.tabled_point() {
             return x;
         }
         let seed = self.dimension_seed();
@@ -240,7 +240,7 @@ impl Sampler for SobolSampler {
 
     #[inline]
     fn next_2d(&mut self) -> glam::Vec2 {
-        if let Some((x, y)) = self.from_table() {
+        if let Some((x, y)) = self.tabled_point() {
             return glam::Vec2::new(x, y);
         }
         let seed = self.dimension_seed();
