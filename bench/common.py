@@ -27,7 +27,8 @@ SUMMARY_RE = re.compile(
     r"(?P<msps>[\d.]+) M samples/s"
     r"(?:, (?P<mrays>[\d.]+) M rays/s \((?P<closest>\d+) closest \+ (?P<shadow>\d+) shadow\), "
     r"first tile after (?P<first_tile>[\d.]+) s)?"
-    r"(?:, (?P<bvh_width>\d+)-wide BVH)?(?:, SIMD (?P<simd>[\w+-]+))?")
+    r"(?:, (?P<bvh_width>\d+)-wide BVH)?(?:, SIMD (?P<simd>[\w+-]+))?"
+    r"(?:, render CPU (?P<render_cpu>[\d.]+) s)?")
 
 
 def log(msg):
@@ -119,7 +120,8 @@ def run_torrey(scene, width, height, spp, depth, threads, seed, out_exr, extra=(
             "rays_shadow": int(d["shadow"]) if d.get("shadow") else None,
             "first_tile_s": float(d["first_tile"]) if d.get("first_tile") else None,
             "bvh_width": int(d["bvh_width"]) if d.get("bvh_width") else None,
-            "simd": d.get("simd")}
+            "simd": d.get("simd"),
+            "render_cpu_s": float(d["render_cpu"]) if d.get("render_cpu") else None}
 
 
 def mitsuba_llvm_simd():

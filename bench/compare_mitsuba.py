@@ -161,6 +161,7 @@ def main():
                 r = common.run_mitsuba(v, xml, spp, a.threads, i, plugins, warm=warm, out_exr=m_exr,
                                        cold_cache=not a.warm_cache)
                 r["render_s"] = r["warm_render_s"] if warm else r["first_render_s"]
+                r["render_cpu_s"] = r.get("warm_render_cpu_s") if warm else r.get("first_render_cpu_s")
                 entry["runs"]["mitsuba-" + v].append(r)
                 log("  run %d %-13s render %6.2f s  first %6.2f s  load %.2f s  rss %5.0f MB  (load avg %s)" % (
                     i, v, r["render_s"], r["first_render_s"], r["load_s"], r["peak_rss_mb"],
@@ -184,6 +185,7 @@ def summarize(entry):
     for key, runs in entry["runs"].items():
         med = median([r["render_s"] for r in runs])
         d = {"render_s_median": med, "render_s_all": [r["render_s"] for r in runs],
+             "render_cpu_s_median": median([r.get("render_cpu_s") for r in runs]),
              "msamples_s": samples / med / 1e6 if med else None,
              "peak_rss_mb_max": max(r["peak_rss_mb"] for r in runs),
              "process_wall_s_median": median([r["process_wall_s"] for r in runs]),
@@ -209,6 +211,9 @@ def summarize(entry):
     if t and llvm.get("render_s_median"):
         s["ratio_llvm_warm_over_torrey"] = llvm["render_s_median"] / t
         s["ratio_llvm_first_over_torrey"] = llvm["first_render_s_median"] / t
+    tc = s["torrey"]["render_cpu_s_median"]
+    if tc and llvm.get("render_cpu_s_median"):
+        s["ratio_llvm_warm_over_torrey_cpu"] = llvm["render_cpu_s_median"] / tc
     sc = s.get("mitsuba-scalar_rgb", {})
     if t and sc.get("render_s_median"):
         s["ratio_scalar_over_torrey"] = sc["render_s_median"] / t
@@ -220,6 +225,7 @@ def summarize(entry):
 
 def print_table(result):
     hdr = ("scene", "size", "spp", "d", "torrey s", "llvm s", "llvm 1st", "scalar s", "llvm/t",
+           "t cpu s", "llvm cpu s", "llvm/t cpu",
            "t Ms/s", "llvm Ms/s", "t MB", "llvm MB", "scal MB")
     rows = []
     for name, e in result["scenes"].items():
@@ -228,7 +234,9 @@ def print_table(result):
         rows.append((name, "%dx%d" % (e["width"], e["height"]), str(e["spp"]), str(e["max_depth"]),
                      fmt(t["render_s_median"]), fmt(l.get("render_s_median")),
                      fmt(l.get("first_render_s_median")), fmt(sc.get("render_s_median")),
-                     fmt(s.get("ratio_llvm_warm_over_torrey")), fmt(t["msamples_s"]),
+                     fmt(s.get("ratio_llvm_warm_over_torrey")), fmt(t.get("render_cpu_s_median")),
+                     fmt(l.get("render_cpu_s_median")), fmt(s.get("ratio_llvm_warm_over_torrey_cpu")),
+                     fmt(t["msamples_s"]),
                      fmt(l.get("msamples_s")), fmt(t["peak_rss_mb_max"], "%.0f"),
                      fmt(l.get("peak_rss_mb_max"), "%.0f"), fmt(sc.get("peak_rss_mb_max"), "%.0f")))
     widths = [max(len(str(r[i])) for r in rows + [hdr]) for i in range(len(hdr))]

@@ -196,7 +196,9 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let cpu_before = process_cpu_seconds();
     let out = pool.install(|| torrey_renderer::render(&render_scene, &settings, &progress));
+    let render_cpu = process_cpu_seconds().zip(cpu_before).map(|(a, b)| a - b);
     bar.finish_and_clear();
 
     torrey_texture::write_exr(&output, &out.image).map_err(|e| e.to_string())?;
@@ -215,7 +217,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = width as u64 * height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}",
+        "{}: {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}",
         scene_path.display(),
         width,
         height,
@@ -232,6 +234,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.first_tile.as_secs_f64(),
         render_scene.accel().bvh_width(),
         torrey_renderer::Simd::detect().name(),
+        render_cpu.map_or(String::new(), |s| format!(", render CPU {s:.2} s")),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(
@@ -256,4 +259,18 @@ fn output_path(explicit: Option<&Path>, scene: &Path, film_name: Option<&str>) -
         .file_stem()
         .map_or("render".into(), |s| s.to_string_lossy().into_owned());
     PathBuf::from(format!("{stem}.exr"))
+}
+
+/// CPU seconds (user + system, all threads) this process has used, from `/proc/self/stat`
+/// (Linux; None elsewhere). Benchmarks compare it between renderers because, unlike wall time,
+/// it hardly depends on other load on the machine.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let mut fields = rest.split_whitespace().skip(11);
+    let utime: u64 = fields.next()?.parse().ok()?;
+    let stime: u64 = fields.next()?.parse().ok()?;
+    // Clock ticks; USER_HZ is 100 on every Linux architecture's user-space ABI.
+    Some((utime + stime) as f64 / 100.0)
 }
