@@ -62,9 +62,11 @@ impl SobolSampler {
         }
     }
 
-    /// A sampler for a pixel rendered with `spp` samples, numbered 0 to spp - 1, that computes
-    /// its points a column at a time (the same points as [`SobolSampler::new`]). Its table
-    /// (20 KiB) is reused by [`SobolSampler::restart`] for the next pixel.
+    /// A sampler that computes its points a column at a time (the same points as
+    /// [`SobolSampler::new`]), for a pixel whose sample indices end before `spp` (0 to spp - 1,
+    /// or a sub-range of them). `spp` only sizes the last block: indices at or past it are
+    /// still drawn correctly, one at a time. Its table (20 KiB) is reused by
+    /// [`SobolSampler::restart`] for the next pixel.
     pub fn tabled(seed: u64, pixel: u64, spp: u32) -> Self {
         let mut sampler = Self::new(seed, pixel);
         sampler.spp = spp.max(1);
