@@ -457,6 +457,44 @@ mod tests {
         }
     }
 
+    /// Every SIMD version of the column loop this CPU runs gives the portable loop's points
+    /// (whichever level `Simd::detect` picks, the others are checked here too).
+    #[test]
+    fn column_kernels_agree() {
+        let reference = |base| {
+            let (mut x, mut y) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
+            column_lanes(base, 11, 22, 33, &mut x, &mut y);
+            (x, y)
+        };
+        for base in [0u32, 64, 4_294_967_232] {
+            let want = reference(base);
+            #[cfg(target_arch = "x86_64")]
+            {
+                let (mut x, mut y) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
+                if crate::accel::x86_64::avx2::available() {
+                    // SAFETY: checked just above.
+                    unsafe { column_avx2(base, 11, 22, 33, &mut x, &mut y) };
+                    assert_eq!((x, y), want, "avx2, base {base}");
+                }
+                if crate::accel::x86_64::avx512::available() {
+                    // SAFETY: checked just above.
+                    unsafe { column_avx512(base, 11, 22, 33, &mut x, &mut y) };
+                    assert_eq!((x, y), want, "avx512, base {base}");
+                }
+            }
+            // And the portable loop gives the reference formulas' points.
+            for (k, (&x, &y)) in want.0.iter().zip(&want.1).enumerate() {
+                let i = laine_karras((base + k as u32).reverse_bits(), 11).reverse_bits();
+                assert_eq!(x, to_unit(laine_karras(i, 22).reverse_bits()));
+                assert_eq!(
+                    y,
+                    to_unit(owen_scramble(sobol_dim1(i), 33)),
+                    "base {base} k {k}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn sobol_dimension_one_matches_known_values() {
         // The first points of Sobol dimension 1 (direction numbers 1/2, 3/4, 5/8, ..., no Gray code).
