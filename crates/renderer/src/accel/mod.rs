@@ -11,6 +11,9 @@
 //! - [`x86_64::avx2`]: eight-wide nodes tested with AVX2 and FMA, and camera-ray packets of
 //!   eight. Two thirds of the levels, each one 8-wide test: 11-28% more rays per second than
 //!   four-wide nodes on the project's scenes (`cargo bench --bench traversal`).
+//! - [`x86_64::avx512`]: sixteen-wide nodes tested with AVX-512, with the same packets, on
+//!   request (`BvhWidth::Sixteen`): on a Zen 5 CPU they measured no faster than eight-wide ones,
+//!   which stay the default there.
 //!
 //! The instruction set is chosen once, at start-up ([`Simd::detect`]); a layout for a new ISA is a
 //! node file implementing [`traversal::InnerNodes`] plus a variant of [`Layout`].
@@ -57,7 +60,7 @@ pub struct ClosestHit {
 /// Which node width to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhWidth {
-    /// The widest layout the instruction set chosen at start-up supports ([`Simd::detect`]).
+    /// The default of the instruction set chosen at start-up ([`Simd::auto_width`]).
     Auto,
     Four,
     /// Eight-wide nodes; falls back to four without AVX2 and FMA.
