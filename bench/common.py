@@ -4,6 +4,7 @@ Standard library only at import time; the Mitsuba child code imports mitsuba laz
 """
 import json
 import os
+import platform
 import re
 import shutil
 import subprocess
@@ -25,7 +26,9 @@ SUMMARY_RE = re.compile(
     r"load (?P<load>[\d.]+) s, build (?P<build>[\d.]+) s, render (?P<render>[\d.]+) s, "
     r"(?P<msps>[\d.]+) M samples/s"
     r"(?:, (?P<mrays>[\d.]+) M rays/s \((?P<closest>\d+) closest \+ (?P<shadow>\d+) shadow\), "
-    r"first tile after (?P<first_tile>[\d.]+) s)?")
+    r"first tile after (?P<first_tile>[\d.]+) s)?"
+    r"(?:, (?P<bvh_width>\d+)-wide BVH)?(?:, SIMD (?P<simd>[\w+-]+))?"
+    r"(?:, render CPU (?P<render_cpu>[\d.]+) s)?")
 
 
 def log(msg):
@@ -115,7 +118,31 @@ def run_torrey(scene, width, height, spp, depth, threads, seed, out_exr, extra=(
             "mrays_s_reported": float(d["mrays"]) if d.get("mrays") else None,
             "rays_closest": int(d["closest"]) if d.get("closest") else None,
             "rays_shadow": int(d["shadow"]) if d.get("shadow") else None,
-            "first_tile_s": float(d["first_tile"]) if d.get("first_tile") else None}
+            "first_tile_s": float(d["first_tile"]) if d.get("first_tile") else None,
+            "bvh_width": int(d["bvh_width"]) if d.get("bvh_width") else None,
+            "simd": d.get("simd"),
+            "render_cpu_s": float(d["render_cpu"]) if d.get("render_cpu") else None}
+
+
+def mitsuba_llvm_simd():
+    """The vector width and target CPU of the kernels Mitsuba's LLVM backend compiles on this
+    machine, read from the IR of a tiny kernel (drjit's PrintIR flag): e.g. "16 x f32, znver5"."""
+    probe = ("import drjit as dr, mitsuba as mi\n"
+             "mi.set_variant('llvm_ad_rgb')\n"
+             "dr.set_log_level(dr.LogLevel.Info)\n"
+             "dr.set_flag(dr.JitFlag.PrintIR, True)\n"
+             "x = dr.arange(mi.Float, 10) + 1\n"
+             "dr.eval(x)\n")
+    try:
+        p = subprocess.run([VENV_PY, "-c", probe], capture_output=True, text=True, timeout=300)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return "unknown (%s)" % e
+    text = p.stdout + p.stderr
+    widths = sorted(set(int(w) for w in re.findall(r"<(\d+) x float>", text)))
+    cpu = re.search(r'"target-cpu"="([^"]+)"', text)
+    if not widths:
+        return "unknown"
+    return "%d x f32, %s" % (widths[-1], cpu.group(1) if cpu else "?")
 
 
 def run_mitsuba_budget(variant, xml, budget_s, threads, seed, plugins, out_exr, calib_spp=4):
@@ -196,3 +223,14 @@ def rel_rmse(img, ref, eps=1e-2):
     """sqrt(mean((img - ref)^2 / (ref^2 + eps))) over pixels and channels."""
     import numpy as np
     return float(np.sqrt(np.mean((img - ref) ** 2 / (ref ** 2 + eps))))
+
+
+def cpu_name():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()

@@ -106,8 +106,9 @@ def main():
     result = {
         "generator": "bench/compare_mitsuba.py",
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "git": common.git_rev(), "host": platform.node(), "cpu": cpu_name(), "cores": os.cpu_count(),
+        "git": common.git_rev(), "host": platform.node(), "cpu": common.cpu_name(), "cores": os.cpu_count(),
         "threads": a.threads, "runs": a.runs, "spp_scale": a.spp_scale, "mitsuba": mitsuba_line,
+        "mitsuba_llvm_simd": common.mitsuba_llvm_simd(), "torrey_simd": None,
         "llvm_cache": "warm (~/.drjit kept)" if a.warm_cache else "cold (empty HOME per process)",
         "torrey_args": torrey_extra, "torrey_bin": os.path.relpath(common.TORREY, common.REPO), "loadavg_start": common.loadavg(), "scenes": {}, "skipped": {},
     }
@@ -151,6 +152,7 @@ def main():
                     if os.path.exists(f):
                         os.unlink(f)
             entry["runs"]["torrey"].append(r)
+            result["torrey_simd"] = result["torrey_simd"] or "%s, %s-wide BVH" % (r.get("simd"), r.get("bvh_width"))
             log("  run %d torrey        render %6.2f s  load+build %.2f s  rss %5.0f MB  (load avg %s)" % (
                 i, r["render_s"], r["load_s"] + r["build_s"], r["peak_rss_mb"], r["loadavg_before"][0]))
             for v in variants:
@@ -159,6 +161,7 @@ def main():
                 r = common.run_mitsuba(v, xml, spp, a.threads, i, plugins, warm=warm, out_exr=m_exr,
                                        cold_cache=not a.warm_cache)
                 r["render_s"] = r["warm_render_s"] if warm else r["first_render_s"]
+                r["render_cpu_s"] = r.get("warm_render_cpu_s") if warm else r.get("first_render_cpu_s")
                 entry["runs"]["mitsuba-" + v].append(r)
                 log("  run %d %-13s render %6.2f s  first %6.2f s  load %.2f s  rss %5.0f MB  (load avg %s)" % (
                     i, v, r["render_s"], r["first_render_s"], r["load_s"], r["peak_rss_mb"],
@@ -182,6 +185,7 @@ def summarize(entry):
     for key, runs in entry["runs"].items():
         med = median([r["render_s"] for r in runs])
         d = {"render_s_median": med, "render_s_all": [r["render_s"] for r in runs],
+             "render_cpu_s_median": median([r.get("render_cpu_s") for r in runs]),
              "msamples_s": samples / med / 1e6 if med else None,
              "peak_rss_mb_max": max(r["peak_rss_mb"] for r in runs),
              "process_wall_s_median": median([r["process_wall_s"] for r in runs]),
@@ -207,6 +211,9 @@ def summarize(entry):
     if t and llvm.get("render_s_median"):
         s["ratio_llvm_warm_over_torrey"] = llvm["render_s_median"] / t
         s["ratio_llvm_first_over_torrey"] = llvm["first_render_s_median"] / t
+    tc = s["torrey"]["render_cpu_s_median"]
+    if tc and llvm.get("render_cpu_s_median"):
+        s["ratio_llvm_warm_over_torrey_cpu"] = llvm["render_cpu_s_median"] / tc
     sc = s.get("mitsuba-scalar_rgb", {})
     if t and sc.get("render_s_median"):
         s["ratio_scalar_over_torrey"] = sc["render_s_median"] / t
@@ -218,6 +225,7 @@ def summarize(entry):
 
 def print_table(result):
     hdr = ("scene", "size", "spp", "d", "torrey s", "llvm s", "llvm 1st", "scalar s", "llvm/t",
+           "t cpu s", "llvm cpu s", "llvm/t cpu",
            "t Ms/s", "llvm Ms/s", "t MB", "llvm MB", "scal MB")
     rows = []
     for name, e in result["scenes"].items():
@@ -226,7 +234,9 @@ def print_table(result):
         rows.append((name, "%dx%d" % (e["width"], e["height"]), str(e["spp"]), str(e["max_depth"]),
                      fmt(t["render_s_median"]), fmt(l.get("render_s_median")),
                      fmt(l.get("first_render_s_median")), fmt(sc.get("render_s_median")),
-                     fmt(s.get("ratio_llvm_warm_over_torrey")), fmt(t["msamples_s"]),
+                     fmt(s.get("ratio_llvm_warm_over_torrey")), fmt(t.get("render_cpu_s_median")),
+                     fmt(l.get("render_cpu_s_median")), fmt(s.get("ratio_llvm_warm_over_torrey_cpu")),
+                     fmt(t["msamples_s"]),
                      fmt(l.get("msamples_s")), fmt(t["peak_rss_mb_max"], "%.0f"),
                      fmt(l.get("peak_rss_mb_max"), "%.0f"), fmt(sc.get("peak_rss_mb_max"), "%.0f")))
     widths = [max(len(str(r[i])) for r in rows + [hdr]) for i in range(len(hdr))]
@@ -236,6 +246,8 @@ def print_table(result):
           "render incl. JIT (%s kernel cache); load avg start %s end %s" % (
               result["git"], result["mitsuba"], result["threads"], result["runs"], result["llvm_cache"],
               result["loadavg_start"], result["loadavg_end"]))
+    print("CPU %s; SIMD: torrey %s; Mitsuba llvm kernels %s" % (
+        result["cpu"], result["torrey_simd"], result["mitsuba_llvm_simd"]))
     print(line(hdr))
     for r in rows:
         print(line(r))
@@ -256,17 +268,6 @@ def print_table(result):
             extra.append("torrey %.2f M rays/s, first pixel after %s s (load + build + first tile)" % (
                 t["mrays_s_median"], fmt(t.get("time_to_first_pixel_s_median"), "%.3f")))
         print("  %s: %s" % (name, "; ".join(extra)))
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
 
 
 if __name__ == "__main__":

@@ -43,6 +43,9 @@ SCENES = {
     "cbox": (os.path.join(SHARED, "scenes", "torrey", "cbox", "cbox.xml"), 256, 256, 8),
     "textured_mesh": (os.path.join(REPO, "scenes", "textured_mesh.xml"), None, None, 8),
     "envmap_sky": (os.path.join(REPO, "scenes", "envmap_sky.xml"), None, None, 8),
+    # Half the benchmark's 640x360, to keep the 1024-spp reference affordable; `direct` = depth 2.
+    "living_room": (os.path.join(SHARED, "scenes", "torrey", "living-room-Wig42", "scene_bgonly_available.xml"),
+                    320, 180, 2),
 }
 SEED = 7
 
@@ -70,7 +73,8 @@ def main():
     result = {"generator": "bench/equal_time_error.py", "date": datetime.datetime.now().isoformat(timespec="seconds"),
               "git": common.git_rev(), "mitsuba": mitsuba_line, "threads": a.threads, "budget_s": a.budget,
               "ref_spp": a.ref_spp, "torrey_args": extra, "loadavg_start": common.loadavg(), "scenes": {},
-              "skipped": {}}
+              "skipped": {}, "cpu": common.cpu_name(), "mitsuba_llvm_simd": common.mitsuba_llvm_simd(),
+              "torrey_simd": None}
     log("load average at start: %s" % result["loadavg_start"])
 
     for name in a.only.split(","):
@@ -107,6 +111,7 @@ def main():
         t_spp = max(1, int(a.budget * t_rate / pixels))
         t_exr = os.path.join(work, name + "_torrey.exr")
         tr = common.run_torrey(path, w, h, t_spp, depth, a.threads, SEED, t_exr, extra)
+        result["torrey_simd"] = "%s, %s-wide BVH" % (tr.get("simd"), tr.get("bvh_width"))
         t_err = common.rel_rmse(common.read_exr(t_exr), ref)
 
         # mitsuba llvm: calibrate and render inside one process
@@ -136,6 +141,8 @@ def main():
     print("equal-time error, budget %.1f s render time each, %d threads, reference torrey %d spp%s; "
           "load avg start %s end %s" % (a.budget, a.threads, a.ref_spp, " (no mip-mapping)" if extra else "",
                                         result["loadavg_start"], result["loadavg_end"]))
+    print("CPU %s; SIMD: torrey %s; Mitsuba llvm kernels %s" % (
+        result["cpu"], result["torrey_simd"], result["mitsuba_llvm_simd"]))
     print("%-14s %9s %8s %9s | %9s %8s %9s | %9s %12s" % (
         "scene", "torrey spp", "s", "relRMSE", "llvm spp", "s", "relRMSE", "ref noise", "relMSE*s m/t"))
     for name, e in result["scenes"].items():

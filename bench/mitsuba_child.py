@@ -10,6 +10,7 @@ Prints one JSON line on stdout:
   first_render_s  the first mi.render + dr.eval + dr.sync_thread in this process: for llvm
              variants it includes tracing and LLVM compilation of the kernel (cold kernel cache
              when the caller points HOME to an empty directory);
+  *_cpu_s    the same spans' process CPU time (all threads; robust to other load on the machine);
   warm_render_s   (--warm) a second render with seed+1000: the kernel comes from drjit's in-memory
              cache, so this is the steady-state render time;
   mean_rgb   image mean of the last render (sanity check against torrey's image).
@@ -30,11 +31,17 @@ import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
 
+CPU = {}
+
+
 def render(scene, spp, seed):
-    t = time.perf_counter()
+    """Renders; returns the image and the wall seconds, and leaves the process CPU seconds (all
+    threads) of the same span in CPU["last"]."""
+    t, c = time.perf_counter(), time.process_time()
     img = mi.render(scene, seed=seed, spp=spp)
     dr.eval(img)
     dr.sync_thread()
+    CPU["last"] = time.process_time() - c
     return img, time.perf_counter() - t
 
 
@@ -76,9 +83,11 @@ def main():
         r.update(spp=spp, render_s=secs)
     else:
         img, r["first_render_s"] = render(scene, a.spp, a.seed)
+        r["first_render_cpu_s"] = CPU["last"]
         r["spp"] = a.spp
         if a.warm:
             img, r["warm_render_s"] = render(scene, a.spp, a.seed + 1000)
+            r["warm_render_cpu_s"] = CPU["last"]
     arr = __import__("numpy").array(img)[..., :3]
     r["mean_rgb"] = [float(x) for x in arr.reshape(-1, 3).mean(axis=0)]
     r["width"], r["height"] = int(w), int(h)

@@ -79,8 +79,9 @@ struct RenderArgs {
     /// mesh_vertices, scene_bytes, nesting_depth, threads. See docs/robustness.md.
     #[arg(long = "limit", value_parser = limits::parse_limit)]
     limits: Vec<(String, u64)>,
-    /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4` or `8` (8 needs AVX2 and FMA,
-    /// else 4 is used). Both find the same hits; this is for comparing their speed.
+    /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4`, `8` (needs AVX2 and FMA, else
+    /// 4 is used) or `16` (needs AVX-512, else the widest available). All find the same hits;
+    /// this is for comparing their speed.
     #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
     bvh_width: BvhWidthArg,
     /// Trace every camera ray alone instead of each pixel's in packets of eight (packets need
@@ -104,6 +105,8 @@ enum BvhWidthArg {
     Four,
     #[value(name = "8")]
     Eight,
+    #[value(name = "16")]
+    Sixteen,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -234,6 +237,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         BvhWidthArg::Auto => torrey_renderer::BvhWidth::Auto,
         BvhWidthArg::Four => torrey_renderer::BvhWidth::Four,
         BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
+        BvhWidthArg::Sixteen => torrey_renderer::BvhWidth::Sixteen,
     };
     let render_scene =
         torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width)
@@ -289,8 +293,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     };
     slice.validate(width, height, settings.spp)?;
     let meta = slicing::part_meta(&scene, &args.define, &settings, (width, height), &slice)?;
+    let cpu_before = process_cpu_seconds();
     let out = pool
         .install(|| torrey_renderer::render_slice(&render_scene, &settings, &slice, &progress))?;
+    let render_cpu = process_cpu_seconds().zip(cpu_before).map(|(a, b)| a - b);
     bar.finish_and_clear();
 
     let png = slicing::write_outputs(&output, &torrey_parts::Part::from_output(meta, &out))?;
@@ -298,7 +304,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = out.image.width as u64 * out.image.height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH ({})",
+        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}",
         scene_path.display(),
         scene.dialect,
         scene.dialect_reason,
@@ -316,7 +322,8 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.rays.shadow,
         out.first_tile.as_secs_f64(),
         render_scene.accel().bvh_width(),
-        render_scene.accel().simd().name(),
+        torrey_renderer::Simd::detect().name(),
+        render_cpu.map_or(String::new(), |s| format!(", render CPU {s:.2} s")),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(
@@ -342,4 +349,18 @@ fn output_path(explicit: Option<&Path>, scene: &Path, film_name: Option<&str>) -
         .file_stem()
         .map_or("render".into(), |s| s.to_string_lossy().into_owned());
     PathBuf::from(format!("{stem}.exr"))
+}
+
+/// CPU seconds (user + system, all threads) this process has used, from `/proc/self/stat`
+/// (Linux; None elsewhere). Benchmarks compare it between renderers because, unlike wall time,
+/// it hardly depends on other load on the machine.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let mut fields = rest.split_whitespace().skip(11);
+    let utime: u64 = fields.next()?.parse().ok()?;
+    let stime: u64 = fields.next()?.parse().ok()?;
+    // Clock ticks; USER_HZ is 100 on every Linux architecture's user-space ABI.
+    Some((utime + stime) as f64 / 100.0)
 }

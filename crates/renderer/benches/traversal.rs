@@ -7,7 +7,8 @@
 //! last two columns trace eight jittered camera rays per pixel, as a render's samples, one by
 //! one and in packets (`torrey_renderer::packet`; eight-wide nodes only).
 //! `cargo bench -p torrey-renderer --bench traversal -- cbox` runs only scenes whose file name
-//! contains "cbox". Each scene is measured with 4-wide and, on CPUs with AVX2, 8-wide BVH nodes.
+//! contains "cbox". Each scene is measured with 4-wide and, on CPUs with AVX2, 8-wide BVH nodes
+//! (and 16-wide ones on CPUs with AVX-512).
 //! A plain `harness = false` bench: no extra dependency in the test build.
 
 use glam::{Vec2, Vec3A};
@@ -39,15 +40,18 @@ fn main() {
         "{:<34} {:>10} {:>12} {:>12} {:>12} {:>12} {:>12}",
         "scene", "triangles", "primary", "secondary", "shadow", "camera x8", "packets"
     );
-    for (path, bvh_width) in scenes
-        .iter()
-        .flat_map(|p| [(p, BvhWidth::Four), (p, BvhWidth::Eight)])
-    {
+    for (path, bvh_width, nodes) in scenes.iter().flat_map(|p| {
+        [
+            (p, BvhWidth::Four, 4),
+            (p, BvhWidth::Eight, 8),
+            (p, BvhWidth::Sixteen, 16),
+        ]
+    }) {
         let desc = torrey_parser::load_scene(path, &[]).expect("scene loads");
         let scene =
             RenderScene::build_with_width(&desc, 256, 256, bvh_width).expect("scene builds");
-        if bvh_width == BvhWidth::Eight && scene.accel().bvh_width() != 8 {
-            continue; // no AVX2
+        if scene.accel().bvh_width() != nodes {
+            continue; // the CPU lacks AVX2 (8) or AVX-512 (16)
         }
         let (primary, secondary, shadow) = make_rays(&scene);
         let (origin, pixels) = camera_samples(&scene);
@@ -111,7 +115,7 @@ fn main() {
             rate(secondary.len(), &|| closest(&secondary)),
             rate(shadow.len(), &|| any(&shadow)),
             rate(samples, &singly),
-            if scene.accel().bvh_width() == 8 {
+            if scene.accel().packet_width() == PACKET {
                 rate(samples, &packed)
             } else {
                 "-".to_string()

@@ -159,6 +159,9 @@ pub fn render_slice(
             let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
             let mut bad = 0u64;
             let mut rays = RayCount::default();
+            // One Sobol sampler per tile: its table of points is reused from pixel to pixel.
+            let mut sobol = (settings.sampler == SamplerKind::Sobol)
+                .then(|| SobolSampler::tabled(settings.seed, 0, samples.end));
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
@@ -172,15 +175,20 @@ pub fn render_slice(
                             &mut PcgSampler::new(settings.seed, pixel_index),
                             &mut rays,
                         ),
-                        SamplerKind::Sobol => render_pixel(
-                            scene,
-                            (x, y),
-                            settings,
-                            samples.clone(),
-                            path,
-                            &mut SobolSampler::new(settings.seed, pixel_index),
-                            &mut rays,
-                        ),
+                        SamplerKind::Sobol => {
+                            // Tables cover the samples up to the range's end (one past its last).
+                            let sampler = sobol.as_mut().expect("made for the Sobol sampler");
+                            sampler.restart(settings.seed, pixel_index, samples.end);
+                            render_pixel(
+                                scene,
+                                (x, y),
+                                settings,
+                                samples.clone(),
+                                path,
+                                sampler,
+                                &mut rays,
+                            )
+                        }
                     };
                     bad += dropped;
                     out.push((mean, var_of_mean, counted));

@@ -1,4 +1,4 @@
-//! Building the wide BVH: obvhs's binary BVH, flattened into nodes of four or eight children and
+//! Building the wide BVH: obvhs's binary BVH, flattened into nodes of four, eight or sixteen children and
 //! leaves of triangle blocks.
 
 use super::leaves::Leaves;
@@ -118,10 +118,10 @@ impl WideBuilder<'_> {
 /// the slowest, best one, which would take seconds.
 const LARGE_SCENE: usize = 100_000;
 
-/// Builds the nodes and leaves over `geoms` (eight-wide when `eight`, which the caller sets only
-/// on CPUs with AVX2 and FMA): the layout, the leaves, the root reference and the depth of the
-/// inner nodes below the root.
-pub(super) fn build(geoms: &[PrimGeom], eight: bool) -> (Layout, Leaves, ChildRef, usize) {
+/// Builds the nodes and leaves over `geoms`, `width` children per node (8 only on CPUs with AVX2
+/// and FMA, 16 only with AVX-512, which the caller checks; 4 otherwise): the layout, the leaves,
+/// the root reference and the depth of the inner nodes below the root.
+pub(super) fn build(geoms: &[PrimGeom], width: usize) -> (Layout, Leaves, ChildRef, usize) {
     let mut leaves = Leaves::new();
     let empty_layout = || Layout::Four(Nodes4::empty());
     if geoms.is_empty() {
@@ -152,12 +152,19 @@ pub(super) fn build(geoms: &[PrimGeom], eight: bool) -> (Layout, Leaves, ChildRe
         depth: 0,
     };
     #[cfg(target_arch = "x86_64")]
-    if eight {
-        let (nodes, root) = super::x86_64::avx2::Nodes8::build(&mut builder);
-        return (Layout::Eight(nodes), builder.leaves, root, builder.depth);
+    match width {
+        8 => {
+            let (nodes, root) = super::x86_64::avx2::Nodes8::build(&mut builder);
+            return (Layout::Eight(nodes), builder.leaves, root, builder.depth);
+        }
+        16 => {
+            let (nodes, root) = super::x86_64::avx512::Nodes16::build(&mut builder);
+            return (Layout::Sixteen(nodes), builder.leaves, root, builder.depth);
+        }
+        _ => {}
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = eight; // four-wide nodes only
+    let _ = width; // four-wide nodes only
     let (nodes, root) = Nodes4::build(&mut builder);
     (Layout::Four(nodes), builder.leaves, root, builder.depth)
 }

@@ -11,6 +11,9 @@
 //! - [`x86_64::avx2`]: eight-wide nodes tested with AVX2 and FMA, and camera-ray packets of
 //!   eight. Two thirds of the levels, each one 8-wide test: 11-28% more rays per second than
 //!   four-wide nodes on the project's scenes (`cargo bench --bench traversal`).
+//! - [`x86_64::avx512`]: sixteen-wide nodes tested with AVX-512, with the same packets, on
+//!   request (`BvhWidth::Sixteen`): on a Zen 5 CPU they measured no faster than eight-wide ones,
+//!   which stay the default there.
 //!
 //! The instruction set is chosen once, at start-up ([`Simd::detect`]); a layout for a new ISA is a
 //! node file implementing [`traversal::InnerNodes`] plus a variant of [`Layout`].
@@ -57,11 +60,13 @@ pub struct ClosestHit {
 /// Which node width to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhWidth {
-    /// The widest layout the instruction set chosen at start-up supports ([`Simd::detect`]).
+    /// The default of the instruction set chosen at start-up ([`Simd::auto_width`]).
     Auto,
     Four,
     /// Eight-wide nodes; falls back to four without AVX2 and FMA.
     Eight,
+    /// Sixteen-wide nodes; falls back to eight without AVX-512 (and to four without AVX2).
+    Sixteen,
 }
 
 /// The instruction set the traversal kernels use, chosen once per process.
@@ -71,16 +76,31 @@ pub enum Simd {
     Portable,
     /// AVX2 and FMA: eight-wide nodes and packets of eight camera rays.
     Avx2,
+    /// AVX-512 (F, BW, VL, with AVX2 and FMA): the Sobol sampler's columns sixteen lanes wide,
+    /// and sixteen-wide nodes on request.
+    Avx512,
 }
 
 impl Simd {
-    /// The best level this CPU runs, unless the environment variable `TORREY_SIMD=portable`
-    /// forces the portable kernels (CI runs the test suite both ways).
+    /// The best level this CPU runs, unless the environment variable `TORREY_SIMD` caps it:
+    /// `portable` forces the portable kernels (CI runs the test suite both ways), `avx2` stops
+    /// below AVX-512.
     pub fn detect() -> Simd {
         static LEVEL: OnceLock<Simd> = OnceLock::new();
         *LEVEL.get_or_init(|| {
             if std::env::var("TORREY_SIMD").is_ok_and(|v| v.eq_ignore_ascii_case("portable")) {
                 return Simd::Portable;
+            }
+            #[cfg(target_arch = "x86_64")]
+            if std::env::var("TORREY_SIMD").is_ok_and(|v| v.eq_ignore_ascii_case("avx2")) {
+                if x86_64::avx2::available() {
+                    return Simd::Avx2;
+                }
+                return Simd::Portable;
+            }
+            #[cfg(target_arch = "x86_64")]
+            if x86_64::avx512::available() {
+                return Simd::Avx512;
             }
             #[cfg(target_arch = "x86_64")]
             if x86_64::avx2::available() {
@@ -95,15 +115,34 @@ impl Simd {
         match self {
             Simd::Portable => "portable",
             Simd::Avx2 => "avx2+fma",
+            Simd::Avx512 => "avx512",
+        }
+    }
+
+    /// The node width [`BvhWidth::Auto`] builds at this level.
+    pub fn auto_width(self) -> usize {
+        match self {
+            Simd::Portable => 4,
+            Simd::Avx2 => 8,
+            Simd::Avx512 => AVX512_AUTO_WIDTH,
         }
     }
 }
+
+/// The node width chosen by default on AVX-512 CPUs: eight. Sixteen-wide nodes measured no
+/// faster on an AMD EPYC (Zen 5) with full-width AVX-512 (renders, one thread, 5 rounds
+/// round-robin, 16 against 8: cbox 0%, textured_mesh +4.5%, envmap_sky -1.3%, living room 0%):
+/// a node test covers twice the boxes for a quarter fewer levels, and the nearest-first order of
+/// up to sixteen children costs what the shallower tree saves. `--bvh-width 16` selects them.
+const AVX512_AUTO_WIDTH: usize = 8;
 
 /// The node layout a BVH was built with: one variant per width and instruction set.
 enum Layout {
     Four(Nodes4),
     #[cfg(target_arch = "x86_64")]
     Eight(x86_64::avx2::Nodes8),
+    #[cfg(target_arch = "x86_64")]
+    Sixteen(x86_64::avx512::Nodes16),
 }
 
 /// The scene's BVH.
@@ -122,11 +161,20 @@ impl Accel {
     /// empty scene gives an accelerator that every ray misses. Primitives with non-finite bounds
     /// must have been removed by the caller (obvhs's builder cannot order them).
     pub fn build(geoms: &[PrimGeom], width: BvhWidth) -> Self {
-        let eight = match width {
-            BvhWidth::Four => false,
-            BvhWidth::Auto | BvhWidth::Eight => Simd::detect() == Simd::Avx2,
+        let simd = Simd::detect();
+        let widest = match simd {
+            Simd::Portable => 4,
+            Simd::Avx2 => 8,
+            Simd::Avx512 => 16,
         };
-        let (layout, leaves, root, depth) = build::build(geoms, eight);
+        let width = match width {
+            BvhWidth::Auto => simd.auto_width(),
+            BvhWidth::Four => 4,
+            BvhWidth::Eight => 8,
+            BvhWidth::Sixteen => 16,
+        }
+        .min(widest);
+        let (layout, leaves, root, depth) = build::build(geoms, width);
         Self {
             // A node pushes at most all but one of its children, at each level below the root.
             stack_needed: (layout.width() - 1) * depth + 1,
@@ -137,7 +185,7 @@ impl Accel {
         }
     }
 
-    /// Children per inner node (4 or 8).
+    /// Children per inner node (4, 8 or 16).
     pub fn bvh_width(&self) -> usize {
         self.layout.width()
     }
@@ -148,6 +196,8 @@ impl Accel {
             Layout::Four(_) => Simd::Portable,
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(_) => Simd::Avx2,
+            #[cfg(target_arch = "x86_64")]
+            Layout::Sixteen(_) => Simd::Avx512,
         }
     }
 
@@ -186,7 +236,9 @@ impl Accel {
     pub fn packet_width(&self) -> usize {
         match &self.layout {
             #[cfg(target_arch = "x86_64")]
-            Layout::Eight(_) if self.stack_needed <= STACK_SIZE => x86_64::avx2::PACKET,
+            Layout::Eight(_) | Layout::Sixteen(_) if self.stack_needed <= STACK_SIZE => {
+                x86_64::avx2::PACKET
+            }
             _ => 0,
         }
     }
@@ -212,6 +264,24 @@ impl Accel {
                 // built under an inner root (never for an empty scene).
                 unsafe {
                     x86_64::avx2::packet::closest_hits(
+                        nodes,
+                        &self.leaves,
+                        self.root,
+                        origin,
+                        dirs,
+                        hits,
+                    )
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Layout::Sixteen(nodes) if self.stack_needed <= STACK_SIZE => {
+                let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
+                    return false;
+                };
+                // SAFETY: `Nodes16` exists only on CPUs with AVX-512, AVX2 and FMA, under an
+                // inner root.
+                unsafe {
+                    x86_64::avx2::packet::closest_hits16(
                         nodes,
                         &self.leaves,
                         self.root,
@@ -261,6 +331,11 @@ impl Layout {
             Layout::Eight(nodes) => unsafe {
                 x86_64::avx2::closest_hit(nodes, leaves, root, ray, stack)
             },
+            // SAFETY: `Nodes16` exists only on CPUs with AVX-512 (checked in its build).
+            #[cfg(target_arch = "x86_64")]
+            Layout::Sixteen(nodes) => unsafe {
+                x86_64::avx512::closest_hit(nodes, leaves, root, ray, stack)
+            },
         }
     }
 
@@ -280,6 +355,11 @@ impl Layout {
             Layout::Eight(nodes) => unsafe {
                 x86_64::avx2::any_hit(nodes, leaves, root, ray, stack)
             },
+            // SAFETY: as in `closest_hit`.
+            #[cfg(target_arch = "x86_64")]
+            Layout::Sixteen(nodes) => unsafe {
+                x86_64::avx512::any_hit(nodes, leaves, root, ray, stack)
+            },
         }
     }
 
@@ -289,6 +369,8 @@ impl Layout {
             Layout::Four(_) => <Nodes4 as InnerNodes>::WIDTH,
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(_) => <x86_64::avx2::Nodes8 as InnerNodes>::WIDTH,
+            #[cfg(target_arch = "x86_64")]
+            Layout::Sixteen(_) => <x86_64::avx512::Nodes16 as InnerNodes>::WIDTH,
         }
     }
 }

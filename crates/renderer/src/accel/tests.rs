@@ -43,7 +43,8 @@ fn bvh_agrees_with_brute_force() {
             geoms.push(PrimGeom::Triangle { p0: c, p1, p2 });
         }
     }
-    for width in [BvhWidth::Four, BvhWidth::Eight] {
+    // Widths the CPU lacks fall back to narrower ones (and are tested where it has them).
+    for width in [BvhWidth::Four, BvhWidth::Eight, BvhWidth::Sixteen] {
         let accel = Accel::build(&geoms, width);
         check_against_brute_force(&accel, &geoms, &mut rnd);
     }
@@ -136,7 +137,14 @@ fn packets_find_the_hits_of_single_rays() {
             });
         }
     }
-    let accel = Accel::build(&geoms, BvhWidth::Eight);
+    for width in [BvhWidth::Eight, BvhWidth::Sixteen] {
+        let accel = Accel::build(&geoms, width);
+        check_packets(&accel, &mut rnd);
+    }
+}
+
+/// The checks of [`packets_find_the_hits_of_single_rays`] on one layout.
+fn check_packets(accel: &Accel, rnd: &mut impl FnMut() -> f32) {
     const PACKET: usize = 8;
     assert_eq!(accel.packet_width(), PACKET);
     let (mut packed, mut hits, mut vertex_hits) = (0, 0, 0);
@@ -196,7 +204,7 @@ fn packets_find_the_hits_of_single_rays() {
 
 #[test]
 fn empty_scene_misses() {
-    for width in [BvhWidth::Four, BvhWidth::Eight] {
+    for width in [BvhWidth::Four, BvhWidth::Eight, BvhWidth::Sixteen] {
         let accel = Accel::build(&[], width);
         let ray = Ray {
             origin: Vec3A::ZERO,
@@ -208,8 +216,8 @@ fn empty_scene_misses() {
     }
 }
 
-/// Eight-wide nodes are built when asked for on a CPU with AVX2 and FMA (so that the test above
-/// covers them on such machines), four-wide otherwise.
+/// Eight-wide nodes are built when asked for on a CPU with AVX2 and FMA, sixteen-wide ones on a
+/// CPU with AVX-512 (so that the tests above cover them on such machines), narrower otherwise.
 #[test]
 fn width_follows_the_request() {
     let geoms: Vec<PrimGeom> = (0..64)
@@ -223,8 +231,20 @@ fn width_follows_the_request() {
         })
         .collect();
     assert_eq!(Accel::build(&geoms, BvhWidth::Four).bvh_width(), 4);
+    let simd = Simd::detect();
     let eight = Accel::build(&geoms, BvhWidth::Eight).bvh_width();
-    assert_eq!(eight, if Simd::detect() == Simd::Avx2 { 8 } else { 4 });
+    assert_eq!(eight, if simd == Simd::Portable { 4 } else { 8 });
+    let sixteen = Accel::build(&geoms, BvhWidth::Sixteen).bvh_width();
+    let widest = match simd {
+        Simd::Portable => 4,
+        Simd::Avx2 => 8,
+        Simd::Avx512 => 16,
+    };
+    assert_eq!(sixteen, widest);
+    assert_eq!(
+        Accel::build(&geoms, BvhWidth::Auto).bvh_width(),
+        simd.auto_width()
+    );
 }
 
 /// Rays with NaN or infinite components pass every box test (the SIMD minimum and maximum

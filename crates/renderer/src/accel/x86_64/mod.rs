@@ -3,3 +3,4 @@
 //! functions carry `#[target_feature]` and are only called after the CPU was checked.
 
 pub(crate) mod avx2;
+pub(crate) mod avx512;
