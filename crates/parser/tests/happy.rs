@@ -206,7 +206,9 @@ fn twosided_and_plastic_dialects() {
         s.bsdfs[1].kind,
         BsdfKind::Plastic {
             reflectance: ColorParam::Constant(Vec3::splat(0.3)),
-            eta: 1.5
+            eta: 1.5,
+            specular_reflectance: ColorParam::Constant(Vec3::ONE),
+            nonlinear: false,
         }
     );
     let BsdfKind::Plastic { eta, .. } = s.bsdfs[2].kind else {

@@ -132,6 +132,7 @@ fn matpreview_mitsuba3_scene() {
         BsdfKind::Plastic {
             reflectance: ColorParam::Constant(c),
             eta,
+            ..
         } => {
             assert!((c.x - 0.94).abs() < 1e-6);
             assert!((eta - 1.9 / 1.000277).abs() < 1e-6);
