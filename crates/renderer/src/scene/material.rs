@@ -20,9 +20,11 @@ pub struct Material {
 impl Material {
     /// The material of a parsed bsdf; every material of a torrey-dialect scene is two-sided.
     pub fn from_desc(b: &desc::Bsdf, torrey_dialect: bool) -> Self {
+        let bsdf = BsdfParams::from_desc(&b.kind, torrey_dialect);
         Material {
-            bsdf: BsdfParams::from_desc(&b.kind),
-            two_sided: b.two_sided || torrey_dialect,
+            // A transmitting BSDF handles its back side itself (it refracts out of it).
+            two_sided: (b.two_sided || torrey_dialect) && !bsdf.transmits(),
+            bsdf,
             normal_map: b.normal_map.map(|t| t as u32),
         }
     }
@@ -35,7 +37,7 @@ impl Material {
 
     /// The BSDF at a hit, its textured parameters looked up through `q`.
     #[inline(always)]
-    pub fn bsdf(&self, q: &TextureQuery) -> SurfaceBsdf {
+    pub fn bsdf<'a>(&'a self, q: &TextureQuery) -> SurfaceBsdf<'a> {
         let front = self.bsdf.resolve(q);
         SurfaceBsdf {
             front,
