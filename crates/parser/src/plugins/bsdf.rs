@@ -274,13 +274,15 @@ fn roughness(
         Some(a) => match a.value.to_ascii_lowercase().as_str() {
             "beckmann" => MicrofacetType::Beckmann,
             "ggx" => MicrofacetType::Ggx,
-            other => return Err(ctx.err(
-                a.value_pos,
-                format!(
+            other => {
+                return Err(ctx.err(
+                    a.value_pos,
+                    format!(
                     "unknown microfacet distribution '{other}' in {} (expected beckmann or ggx)",
                     props.owner
                 ),
-            )),
+                ))
+            }
         },
     };
     // sample_visible: torrey always samples visible normals (the same image, less noise).

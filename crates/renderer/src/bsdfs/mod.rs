@@ -448,6 +448,19 @@ impl BsdfParams {
         }
     }
 
+    /// Whether the model's lobes depend on the tangent's direction (α_u ≠ α_v, or textured).
+    pub fn anisotropic(&self) -> bool {
+        let differ = |u: &FloatSource, v: &FloatSource| match (u, v) {
+            (FloatSource::Constant(a), FloatSource::Constant(b)) => a != b,
+            _ => true,
+        };
+        match self {
+            BsdfParams::RoughConductor(p) => differ(&p.alpha_u, &p.alpha_v),
+            BsdfParams::RoughDielectric(p) => differ(&p.alpha_u, &p.alpha_v),
+            _ => false,
+        }
+    }
+
     /// Whether the model transmits light: it then handles both sides itself and a two-sided
     /// material does not mirror its back (a torrey-dialect glass must refract on the way out).
     pub fn transmits(&self) -> bool {

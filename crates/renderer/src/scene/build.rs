@@ -60,6 +60,7 @@ impl RenderScene {
             }),
             two_sided: torrey_dialect,
             normal_map: None,
+            anisotropic: false,
         });
 
         let mut mesh = MeshData::default();

@@ -15,6 +15,8 @@ pub struct Material {
     /// Shades both sides (torrey-dialect scenes, or Mitsuba's `twosided`).
     pub two_sided: bool,
     pub normal_map: Option<u32>,
+    /// The BSDF depends on the tangent's direction (anisotropic roughness).
+    pub anisotropic: bool,
 }
 
 impl Material {
@@ -24,6 +26,7 @@ impl Material {
         Material {
             // A transmitting BSDF handles its back side itself (it refracts out of it).
             two_sided: (b.two_sided || torrey_dialect) && !bsdf.transmits(),
+            anisotropic: bsdf.anisotropic(),
             bsdf,
             normal_map: b.normal_map.map(|t| t as u32),
         }
@@ -63,6 +66,11 @@ impl Material {
     ) -> Frame {
         let Some(tex) = self.normal_map else {
             // The common case, inline in the path loop; normal maps take the call below.
+            // Anisotropic BSDFs are oriented by the surface's tangent dp/du, as Mitsuba's
+            // shading frame is; for the others the tangent's direction does not matter.
+            if self.anisotropic {
+                return Frame::from_normal_tangent(hit.ns, hit.dpdu);
+            }
             return Frame::from_normal(hit.ns);
         };
         self.normal_mapped_frame(textures, hit, wo, tex, footprint)
