@@ -256,6 +256,12 @@ pub enum BsdfKind {
         k: ColorParam,
         specular_reflectance: ColorParam,
     },
+    /// Mitsuba's `twosided` with two nested bsdfs: `front` seen from the normal's side,
+    /// `back` from the other (evaluated with directions mirrored to its front).
+    TwoSided {
+        front: Box<Bsdf>,
+        back: Box<Bsdf>,
+    },
     /// Mitsuba's `roughplastic` (isotropic).
     RoughPlastic {
         distribution: MicrofacetType,

@@ -180,7 +180,50 @@ fn normal_map_param(ctx: &mut Ctx, props: &mut Props, names: &[&str]) -> Result<
     Ok(Some(index))
 }
 
-/// The bsdf inside `twosided`/`normalmap`: a nested `<bsdf>` or a `<ref>` to one.
+/// The bsdfs inside `twosided`/`normalmap`: nested `<bsdf>`s or `<ref>`s to them, at most `max`
+/// (extra ones are warned about and ignored), at least one.
+fn nested_bsdfs(ctx: &mut Ctx, props: &mut Props, elem: &Element, max: usize) -> Result<Vec<Bsdf>> {
+    let mut nested: Vec<&Element> = props.take_tag("bsdf");
+    nested.extend(props.take_tag("ref"));
+    nested.sort_by_key(|e| (e.pos.line, e.pos.column));
+    if nested.is_empty() {
+        return Err(ctx.err(elem.pos, format!("{} needs a nested <bsdf>", props.owner)));
+    }
+    for extra in nested.iter().skip(max) {
+        ctx.warn(
+            extra.pos,
+            format!(
+                "{} uses only its first {max} nested bsdf(s); this one is ignored",
+                props.owner
+            ),
+        );
+    }
+    nested
+        .iter()
+        .take(max)
+        .map(|e| nested_bsdf_value(ctx, e))
+        .collect()
+}
+
+/// One nested `<bsdf>` or `<ref>` to a bsdf.
+fn nested_bsdf_value(ctx: &mut Ctx, first: &Element) -> Result<Bsdf> {
+    if first.tag == "ref" {
+        match ctx.lookup(first)? {
+            IdTarget::Bsdf(b) => Ok(ctx.bsdfs[b].clone()),
+            _ => Err(ctx.err(
+                first.pos,
+                format!(
+                    "<ref id=\"{}\"> must name a bsdf here",
+                    first.attr_value("id").unwrap_or("")
+                ),
+            )),
+        }
+    } else {
+        parse_bsdf_value(ctx, first)
+    }
+}
+
+/// The bsdf inside `normalmap`: a nested `<bsdf>` or a `<ref>` to one.
 fn nested_bsdf(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Bsdf> {
     let mut nested: Vec<&Element> = props.take_tag("bsdf");
     nested.extend(props.take_tag("ref"));
@@ -369,7 +412,7 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | `phong`, `blinn`, `blinnphong`, `blinn_microfacet` | `reflectance` | colour or texture | 0.5 |
 /// | same | `exponent` (or `alpha`) | float | 5 |
 /// | any but wrappers | `normal_map` (or `normalmap`) | bitmap texture | none; read raw |
-/// | `twosided` | nested `<bsdf>` or `<ref>` | bsdf | required |
+/// | `twosided` | nested `<bsdf>` or `<ref>` | bsdf | required; a second one is the back's |
 /// | `normalmap` | `normalmap` texture + nested bsdf | bitmap, bsdf | required |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
@@ -385,9 +428,25 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     };
     let mut bsdf = match ty {
         "twosided" => {
-            let mut inner = nested_bsdf(ctx, &mut props, elem)?;
-            inner.two_sided = true;
-            inner
+            let mut nested = nested_bsdfs(ctx, &mut props, elem, 2)?;
+            if nested.len() == 2 {
+                // Mitsuba's twosided with a different bsdf on the back.
+                let back = nested.pop().unwrap();
+                let front = nested.pop().unwrap();
+                Bsdf {
+                    id: None,
+                    kind: BsdfKind::TwoSided {
+                        front: Box::new(front),
+                        back: Box::new(back),
+                    },
+                    two_sided: true,
+                    normal_map: None,
+                }
+            } else {
+                let mut inner = nested.pop().unwrap();
+                inner.two_sided = true;
+                inner
+            }
         }
         "normalmap" => {
             let Some(map) = normal_map_param(ctx, &mut props, &["normalmap", "normal_map"])? else {
