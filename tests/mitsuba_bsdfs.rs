@@ -163,6 +163,8 @@ verdict_tests!(
     plastic_area,
     roughplastic_env,
     roughplastic_area,
+    twosided_env,
+    twosided_area,
 );
 
 /// The verdict itself must reject a render that is off by a few percent where it is well

@@ -284,6 +284,8 @@ impl BsdfParams {
             MicrofacetType::Ggx => MicrofacetKind::Ggx,
         };
         match kind {
+            // The material takes the back apart (`Material::from_desc`); this is the front.
+            BsdfKind::TwoSided { front, .. } => Self::from_desc(&front.kind, torrey_dialect),
             BsdfKind::Plastic {
                 reflectance,
                 eta,

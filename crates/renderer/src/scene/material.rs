@@ -12,6 +12,8 @@ use torrey_parser as desc;
 #[derive(Clone, Copy, Debug)]
 pub struct Material {
     pub bsdf: BsdfParams,
+    /// A different BSDF for the back (Mitsuba's `twosided` with two nested bsdfs).
+    pub back: Option<BsdfParams>,
     /// Shades both sides (torrey-dialect scenes, or Mitsuba's `twosided`).
     pub two_sided: bool,
     pub normal_map: Option<u32>,
@@ -23,29 +25,40 @@ impl Material {
     /// The material of a parsed bsdf; every material of a torrey-dialect scene is two-sided.
     pub fn from_desc(b: &desc::Bsdf, torrey_dialect: bool) -> Self {
         let bsdf = BsdfParams::from_desc(&b.kind, torrey_dialect);
+        let (back, normal_map) = match &b.kind {
+            desc::BsdfKind::TwoSided { front, back } => (
+                Some(BsdfParams::from_desc(&back.kind, torrey_dialect)),
+                front.normal_map,
+            ),
+            _ => (None, b.normal_map),
+        };
         Material {
+            back,
             // A transmitting BSDF handles its back side itself (it refracts out of it).
             two_sided: (b.two_sided || torrey_dialect) && !bsdf.transmits(),
-            anisotropic: bsdf.anisotropic(),
+            anisotropic: bsdf.anisotropic() || back.as_ref().is_some_and(|b| b.anisotropic()),
             bsdf,
-            normal_map: b.normal_map.map(|t| t as u32),
+            normal_map: normal_map.map(|t| t as u32),
         }
     }
 
     /// Whether shading reads any texture, i.e. needs uv and a ray-cone footprint.
     #[inline]
     pub fn is_textured(&self) -> bool {
-        self.normal_map.is_some() || self.bsdf.is_textured()
+        self.normal_map.is_some()
+            || self.bsdf.is_textured()
+            || self.back.as_ref().is_some_and(|b| b.is_textured())
     }
 
     /// The BSDF at a hit, its textured parameters looked up through `q`.
     #[inline(always)]
     pub fn bsdf<'a>(&'a self, q: &TextureQuery) -> SurfaceBsdf<'a> {
         let front = self.bsdf.resolve(q);
-        SurfaceBsdf {
-            front,
-            back: self.two_sided.then_some(front),
-        }
+        let back = match &self.back {
+            Some(b) => Some(b.resolve(q)),
+            None => self.two_sided.then_some(front),
+        };
+        SurfaceBsdf { front, back }
     }
 
     /// The local shading frame at a hit: the shading normal as the shape gives it (the BSDF
