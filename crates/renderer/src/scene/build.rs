@@ -195,7 +195,7 @@ impl RenderScene {
 fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, BuildError> {
     let linear = Mat3::from_mat4(c.to_world);
     let det = linear.determinant();
-    if !c.to_world.is_finite() || !(det.is_finite() && det != 0.0) {
+    if !(c.to_world.is_finite() && det.is_finite() && det != 0.0) {
         return Err(BuildError::Other(
             "error: the camera's transform is degenerate (zero scale, or non-finite)".into(),
         ));
