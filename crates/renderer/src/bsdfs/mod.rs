@@ -247,8 +247,10 @@ impl Bsdf<'_> {
 }
 
 /// A material's BSDF parameters, possibly textured: what [`BsdfParams::resolve`] turns into a
-/// [`Bsdf`] at a hit.
+/// [`Bsdf`] at a hit. (`RoughPlastic` carries its 64-entry coating table inline: a scene has
+/// few materials, and the per-hit BSDF only borrows it.)
 #[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)]
 pub enum BsdfParams {
     Diffuse(DiffuseParams),
     Mirror(MirrorParams),
