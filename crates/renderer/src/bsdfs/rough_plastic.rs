@@ -36,7 +36,7 @@ pub struct RoughPlasticParams {
 /// Gauss-Legendre; both converge to the same integral). With single scattering the two need not
 /// sum to 1.
 fn coating_energy(distr: &Microfacet, mu: f32, eta: f32, transmit: bool) -> f32 {
-    let n = if eta > 1.0 { 48 } else { 128 };
+    let n = if eta > 1.0 { 32 } else { 64 };
     let wi = Vec3A::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
     let mut sum = 0.0f64;
     for i in 0..n {
