@@ -262,6 +262,12 @@ pub enum BsdfKind {
         front: Box<Bsdf>,
         back: Box<Bsdf>,
     },
+    /// Mitsuba's `blendbsdf`: (1 − weight) · first + weight · second.
+    Blend {
+        weight: ColorParam,
+        first: Box<Bsdf>,
+        second: Box<Bsdf>,
+    },
     /// Mitsuba's `roughplastic` (isotropic).
     RoughPlastic {
         distribution: MicrofacetType,

@@ -1,7 +1,7 @@
 //! BSDF plugins: `diffuse`, `mirror`, `plastic`, `phong`, `blinn`/`blinnphong`,
 //! `blinn_microfacet`/`blinnphong_microfacet`; Mitsuba 3's `dielectric`, `thindielectric`,
 //! `roughdielectric`, `conductor`, `roughconductor`, `roughplastic`; and the wrappers
-//! `twosided` and `normalmap`.
+//! `twosided`, `blendbsdf` and `normalmap`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -28,6 +28,7 @@ const KNOWN: &[&str] = &[
     "conductor",
     "roughconductor",
     "roughplastic",
+    "blendbsdf",
     "twosided",
     "normalmap",
 ];
@@ -413,6 +414,7 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | same | `exponent` (or `alpha`) | float | 5 |
 /// | any but wrappers | `normal_map` (or `normalmap`) | bitmap texture | none; read raw |
 /// | `twosided` | nested `<bsdf>` or `<ref>` | bsdf | required; a second one is the back's |
+/// | `blendbsdf` | `weight`; two nested bsdfs | float or texture; bsdfs | required: (1 − weight) first + weight second |
 /// | `normalmap` | `normalmap` texture + nested bsdf | bitmap, bsdf | required |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
@@ -493,6 +495,26 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                 eta,
                 specular_reflectance,
                 nonlinear,
+            })
+        }
+        "blendbsdf" => {
+            if !props.has(&["weight"]) {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'blendbsdf' needs a weight (float or texture)",
+                ));
+            }
+            let weight = float_param(ctx, &mut props, &["weight"], 0.5)?;
+            let mut nested = nested_bsdfs(ctx, &mut props, elem, 2)?;
+            if nested.len() != 2 {
+                return Err(ctx.err(elem.pos, "bsdf 'blendbsdf' needs two nested bsdfs"));
+            }
+            let second = nested.pop().unwrap();
+            let first = nested.pop().unwrap();
+            plain(BsdfKind::Blend {
+                weight,
+                first: Box::new(first),
+                second: Box::new(second),
             })
         }
         "dielectric" | "thindielectric" => plain(BsdfKind::Dielectric {
