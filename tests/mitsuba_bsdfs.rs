@@ -165,6 +165,8 @@ verdict_tests!(
     roughplastic_area,
     twosided_env,
     twosided_area,
+    blendbsdf_env,
+    blendbsdf_area,
 );
 
 /// The verdict itself must reject a render that is off by a few percent where it is well

@@ -27,6 +27,7 @@
 // Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod blend;
 mod blinn;
 mod blinn_microfacet;
 mod conductor;
@@ -47,6 +48,7 @@ mod tests;
 #[cfg(test)]
 mod tests_mitsuba;
 
+pub use blend::{Blend, BlendParams};
 pub use blinn::{Blinn, BlinnParams};
 pub use blinn_microfacet::{BlinnMicrofacet, BlinnMicrofacetParams};
 pub use conductor::{Conductor, ConductorParams};
@@ -131,6 +133,7 @@ pub enum Bsdf<'a> {
     RoughConductor(RoughConductor),
     SmoothPlastic(SmoothPlastic),
     RoughPlastic(RoughPlastic<'a>),
+    Blend(Blend<'a>),
 }
 
 impl Bsdf<'_> {
@@ -151,6 +154,7 @@ impl Bsdf<'_> {
             Bsdf::RoughConductor(b) => b.eval(wo, wi),
             Bsdf::SmoothPlastic(b) => b.eval(wo, wi),
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
+            Bsdf::Blend(b) => b.eval(wo, wi),
         }
     }
 
@@ -172,6 +176,7 @@ impl Bsdf<'_> {
             Bsdf::RoughConductor(b) => b.pdf(wo, wi),
             Bsdf::SmoothPlastic(b) => b.pdf(wo, wi),
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
+            Bsdf::Blend(b) => b.pdf(wo, wi),
         }
     }
 
@@ -203,6 +208,7 @@ impl Bsdf<'_> {
             Bsdf::RoughConductor(b) => b.sample(wo, u),
             Bsdf::SmoothPlastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Blend(b) => b.sample(wo, u, u_lobe),
         }
     }
 
@@ -222,6 +228,7 @@ impl Bsdf<'_> {
             Bsdf::RoughConductor(_) => RoughConductor::FLAGS,
             Bsdf::SmoothPlastic(_) => SmoothPlastic::FLAGS,
             Bsdf::RoughPlastic(_) => RoughPlastic::FLAGS,
+            Bsdf::Blend(b) => b.flags(),
         }
     }
 
@@ -239,6 +246,7 @@ impl Bsdf<'_> {
             Bsdf::RoughDielectric(b) => b.roughness(),
             Bsdf::RoughConductor(b) => b.roughness(),
             Bsdf::RoughPlastic(b) => b.roughness(),
+            Bsdf::Blend(b) => b.roughness(),
             Bsdf::Phong(b) => b.roughness(),
             Bsdf::Blinn(b) => b.roughness(),
             Bsdf::BlinnMicrofacet(b) => b.roughness(),
@@ -249,7 +257,7 @@ impl Bsdf<'_> {
 /// A material's BSDF parameters, possibly textured: what [`BsdfParams::resolve`] turns into a
 /// [`Bsdf`] at a hit. (`RoughPlastic` carries its 64-entry coating table inline: a scene has
 /// few materials, and the per-hit BSDF only borrows it.)
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)]
 pub enum BsdfParams {
     Diffuse(DiffuseParams),
@@ -265,6 +273,7 @@ pub enum BsdfParams {
     RoughConductor(RoughConductorParams),
     SmoothPlastic(SmoothPlasticParams),
     RoughPlastic(RoughPlasticParams),
+    Blend(BlendParams),
 }
 
 impl BsdfParams {
@@ -288,6 +297,17 @@ impl BsdfParams {
         match kind {
             // The material takes the back apart (`Material::from_desc`); this is the front.
             BsdfKind::TwoSided { front, .. } => Self::from_desc(&front.kind, torrey_dialect),
+            BsdfKind::Blend {
+                weight,
+                first,
+                second,
+            } => BsdfParams::Blend(BlendParams {
+                weight: float_tex(weight),
+                children: Box::new([
+                    Self::from_desc(&first.kind, torrey_dialect),
+                    Self::from_desc(&second.kind, torrey_dialect),
+                ]),
+            }),
             BsdfKind::Plastic {
                 reflectance,
                 eta,
@@ -412,7 +432,7 @@ impl BsdfParams {
 
     /// The BSDF at a hit whose textures `q` looks up.
     #[inline(always)]
-    pub fn resolve<'a>(&'a self, q: &TextureQuery) -> Bsdf<'a> {
+    pub fn resolve<'a>(&'a self, q: &TextureQuery<'a>) -> Bsdf<'a> {
         match self {
             BsdfParams::Diffuse(p) => Bsdf::Diffuse(p.resolve(q)),
             BsdfParams::Mirror(p) => Bsdf::Mirror(p.resolve(q)),
@@ -427,6 +447,7 @@ impl BsdfParams {
             BsdfParams::RoughConductor(p) => Bsdf::RoughConductor(p.resolve(q)),
             BsdfParams::SmoothPlastic(p) => Bsdf::SmoothPlastic(p.resolve(q)),
             BsdfParams::RoughPlastic(p) => Bsdf::RoughPlastic(p.resolve(q)),
+            BsdfParams::Blend(p) => Bsdf::Blend(p.resolve(q)),
         }
     }
 
@@ -449,6 +470,7 @@ impl BsdfParams {
             BsdfParams::RoughConductor(p) => p.is_textured(),
             BsdfParams::SmoothPlastic(p) => p.is_textured(),
             BsdfParams::RoughPlastic(p) => p.is_textured(),
+            BsdfParams::Blend(p) => p.is_textured(),
         }
     }
 
@@ -461,6 +483,7 @@ impl BsdfParams {
         match self {
             BsdfParams::RoughConductor(p) => differ(&p.alpha_u, &p.alpha_v),
             BsdfParams::RoughDielectric(p) => differ(&p.alpha_u, &p.alpha_v),
+            BsdfParams::Blend(p) => p.children.iter().any(|c| c.anisotropic()),
             _ => false,
         }
     }
@@ -468,12 +491,13 @@ impl BsdfParams {
     /// Whether the model transmits light: it then handles both sides itself and a two-sided
     /// material does not mirror its back (a torrey-dialect glass must refract on the way out).
     pub fn transmits(&self) -> bool {
-        matches!(
-            self,
+        match self {
             BsdfParams::Dielectric(_)
-                | BsdfParams::ThinDielectric(_)
-                | BsdfParams::RoughDielectric(_)
-        )
+            | BsdfParams::ThinDielectric(_)
+            | BsdfParams::RoughDielectric(_) => true,
+            BsdfParams::Blend(p) => p.children.iter().any(|c| c.transmits()),
+            _ => false,
+        }
     }
 }
 

@@ -61,6 +61,46 @@ fn rough_plastic(kind: MicrofacetKind, alpha: f32, d: Vec3A, eta: f32) -> Bsdf<'
     Bsdf::RoughPlastic(p.resolve(&no_textures()))
 }
 
+/// A blend (leaked, as [`rough_plastic`]) of two parameter sets with a constant weight.
+fn blend(weight: f32, a: BsdfParams, b: BsdfParams) -> Bsdf<'static> {
+    let p: &'static BlendParams = Box::leak(Box::new(BlendParams {
+        weight: crate::textures::FloatSource::Constant(weight),
+        children: Box::new([a, b]),
+    }));
+    Bsdf::Blend(p.resolve(&no_textures()))
+}
+
+fn blend_models() -> [Bsdf<'static>; 2] {
+    use crate::textures::{ColorSource::Constant, FloatSource};
+    let conductor = BsdfParams::RoughConductor(RoughConductorParams {
+        kind: MicrofacetKind::Ggx,
+        alpha_u: FloatSource::Constant(0.3),
+        alpha_v: FloatSource::Constant(0.3),
+        eta: Constant(GOLD_ETA),
+        k: Constant(GOLD_K),
+        specular_reflectance: Constant(Vec3A::ONE),
+    });
+    let plastic = BsdfParams::SmoothPlastic(SmoothPlasticParams {
+        diffuse_reflectance: Constant(Vec3A::new(0.8, 0.5, 0.2)),
+        specular_reflectance: Constant(Vec3A::ONE),
+        eta: 1.49,
+        nonlinear: false,
+        specular_sampling_weight: 0.6,
+    });
+    let glass = BsdfParams::RoughDielectric(RoughDielectricParams {
+        kind: MicrofacetKind::Beckmann,
+        alpha_u: FloatSource::Constant(0.3),
+        alpha_v: FloatSource::Constant(0.3),
+        eta: 1.5,
+        specular_reflectance: Constant(Vec3A::ONE),
+        specular_transmittance: Constant(Vec3A::ONE),
+    });
+    let diffuse = BsdfParams::Diffuse(DiffuseParams {
+        reflectance: Constant(Vec3A::splat(0.7)),
+    });
+    [blend(0.4, conductor, plastic), blend(0.7, glass, diffuse)]
+}
+
 /// A direction at `deg` from +z (beyond 90°: below the surface) at an arbitrary azimuth.
 fn dir_at(deg: f32) -> Vec3A {
     let t = deg.to_radians();
@@ -464,19 +504,27 @@ fn white_furnace() {
 #[test]
 fn reciprocity() {
     let mut rng = Rng::new(77);
+    let mut checked = 0;
     for (name, b, _) in glossy_models() {
-        let transmits = b.flags().contains(BsdfFlags::TRANSMISSION);
         let eta = match b {
             Bsdf::RoughDielectric(d) => d.eta,
+            Bsdf::Blend(bl) => match &bl.children[0] {
+                BsdfParams::RoughDielectric(d) => d.eta,
+                _ => 1.0,
+            },
             _ => 1.0,
         };
         let side_eta = |w: Vec3A| if w.z < 0.0 { eta } else { 1.0 };
-        for _ in 0..2000 {
-            let mut a = crate::sampling::square_to_uniform_sphere(rng.vec2());
-            let c = crate::sampling::square_to_uniform_sphere(rng.vec2());
-            if !transmits {
-                a.z = a.z.abs();
+        for _ in 0..4000 {
+            // Pairs from the BSDF's own sampling, so that they lie in its lobes.
+            let a = crate::sampling::square_to_uniform_sphere(rng.vec2());
+            let Some(s) = b.sample(a, rng.vec2(), rng.f32()) else {
+                continue;
+            };
+            if s.is_delta() {
+                continue;
             }
+            let c = s.wi;
             let f_ac = b.eval(a, c) / c.z.abs() / (side_eta(a) * side_eta(a));
             let f_ca = b.eval(c, a) / a.z.abs() / (side_eta(c) * side_eta(c));
             let scale = f_ac.max_element().max(f_ca.max_element());
@@ -488,8 +536,10 @@ fn reciprocity() {
                 (f_ac - f_ca).abs().max_element() <= 1e-2 * scale,
                 "{name}: {a} {c}: {f_ac} vs {f_ca}"
             );
+            checked += 1;
         }
     }
+    assert!(checked > 20_000, "{checked}");
 }
 
 /// The pdf of roughdielectric integrates to 1 on both sides (no lobe is lost but by rejected
@@ -614,4 +664,31 @@ fn eval_and_pdf_match_mitsuba() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+#[test]
+fn dbg_blend() {
+    use crate::textures::ColorSource::Constant;
+    let glass = BsdfParams::Dielectric(DielectricParams {
+        eta: 1.5,
+        specular_reflectance: Constant(Vec3A::ONE),
+        specular_transmittance: Constant(Vec3A::ONE),
+    });
+    let diffuse = BsdfParams::Diffuse(DiffuseParams {
+        reflectance: Constant(Vec3A::splat(0.5)),
+    });
+    let b = blend(0.5, glass, diffuse);
+    let wo = dir_at(40.0);
+    let mut rng = Rng::new(5);
+    let (mut sd, mut sn, mut n) = (0.0, 0.0, 0);
+    for _ in 0..100000 {
+        n += 1;
+        if let Some(s) = b.sample(wo, rng.vec2(), rng.f32()) {
+            if s.is_delta() {
+                sd += (s.weight.x * s.eta * s.eta) as f64;
+            } else {
+                sn += s.weight.x as f64;
+            }
+        }
+    }
+    panic!("delta {} nondelta {}", sd / n as f64, sn / n as f64);
 }

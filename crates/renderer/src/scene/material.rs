@@ -9,7 +9,7 @@ use glam::Vec3A;
 use torrey_parser as desc;
 
 /// A material ready to shade.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Material {
     pub bsdf: BsdfParams,
     /// A different BSDF for the back (Mitsuba's `twosided` with two nested bsdfs).
@@ -32,11 +32,12 @@ impl Material {
             ),
             _ => (None, b.normal_map),
         };
+        let anisotropic = bsdf.anisotropic() || back.as_ref().is_some_and(|b| b.anisotropic());
         Material {
             back,
             // A transmitting BSDF handles its back side itself (it refracts out of it).
             two_sided: (b.two_sided || torrey_dialect) && !bsdf.transmits(),
-            anisotropic: bsdf.anisotropic() || back.as_ref().is_some_and(|b| b.anisotropic()),
+            anisotropic,
             bsdf,
             normal_map: normal_map.map(|t| t as u32),
         }
@@ -52,7 +53,7 @@ impl Material {
 
     /// The BSDF at a hit, its textured parameters looked up through `q`.
     #[inline(always)]
-    pub fn bsdf<'a>(&'a self, q: &TextureQuery) -> SurfaceBsdf<'a> {
+    pub fn bsdf<'a>(&'a self, q: &TextureQuery<'a>) -> SurfaceBsdf<'a> {
         let front = self.bsdf.resolve(q);
         let back = match &self.back {
             Some(b) => Some(b.resolve(q)),
