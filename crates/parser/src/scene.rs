@@ -268,6 +268,13 @@ pub enum BsdfKind {
         first: Box<Bsdf>,
         second: Box<Bsdf>,
     },
+    /// Mitsuba's `null`: an invisible surface; rays pass straight through (a bounce).
+    Null,
+    /// Mitsuba's `mask`: `nested` with probability `opacity`, else passed through as `null`.
+    Mask {
+        opacity: ColorParam,
+        nested: Box<Bsdf>,
+    },
     /// Mitsuba's `roughplastic` (isotropic).
     RoughPlastic {
         distribution: MicrofacetType,

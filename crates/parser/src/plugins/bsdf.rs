@@ -1,7 +1,7 @@
 //! BSDF plugins: `diffuse`, `mirror`, `plastic`, `phong`, `blinn`/`blinnphong`,
 //! `blinn_microfacet`/`blinnphong_microfacet`; Mitsuba 3's `dielectric`, `thindielectric`,
 //! `roughdielectric`, `conductor`, `roughconductor`, `roughplastic`; and the wrappers
-//! `twosided`, `blendbsdf` and `normalmap`.
+//! `twosided`, `blendbsdf`, `mask` and `normalmap`, and `null`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -29,6 +29,8 @@ const KNOWN: &[&str] = &[
     "roughconductor",
     "roughplastic",
     "blendbsdf",
+    "mask",
+    "null",
     "twosided",
     "normalmap",
 ];
@@ -415,6 +417,8 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | any but wrappers | `normal_map` (or `normalmap`) | bitmap texture | none; read raw |
 /// | `twosided` | nested `<bsdf>` or `<ref>` | bsdf | required; a second one is the back's |
 /// | `blendbsdf` | `weight`; two nested bsdfs | float or texture; bsdfs | required: (1 − weight) first + weight second |
+/// | `mask` | `opacity`; one nested bsdf | float or texture; bsdf | 0.5; required |
+/// | `null` | none | | |
 /// | `normalmap` | `normalmap` texture + nested bsdf | bitmap, bsdf | required |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
@@ -515,6 +519,15 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                 weight,
                 first: Box::new(first),
                 second: Box::new(second),
+            })
+        }
+        "null" => plain(BsdfKind::Null),
+        "mask" => {
+            let opacity = float_param(ctx, &mut props, &["opacity"], 0.5)?;
+            let mut nested = nested_bsdfs(ctx, &mut props, elem, 1)?;
+            plain(BsdfKind::Mask {
+                opacity,
+                nested: Box::new(nested.pop().unwrap()),
             })
         }
         "dielectric" | "thindielectric" => plain(BsdfKind::Dielectric {
