@@ -37,6 +37,7 @@ mod flags;
 pub mod fresnel;
 pub mod microfacet;
 mod mirror;
+mod null;
 mod phong;
 mod plastic;
 mod rough_conductor;
@@ -57,6 +58,7 @@ pub use diffuse::{Diffuse, DiffuseParams};
 pub use flags::BsdfFlags;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use mirror::{Mirror, MirrorParams};
+pub use null::Null;
 pub use phong::{Phong, PhongParams};
 pub use plastic::{Plastic, PlasticParams};
 pub use rough_conductor::{RoughConductor, RoughConductorParams};
@@ -134,6 +136,7 @@ pub enum Bsdf<'a> {
     SmoothPlastic(SmoothPlastic),
     RoughPlastic(RoughPlastic<'a>),
     Blend(Blend<'a>),
+    Null(Null),
 }
 
 impl Bsdf<'_> {
@@ -155,6 +158,7 @@ impl Bsdf<'_> {
             Bsdf::SmoothPlastic(b) => b.eval(wo, wi),
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
             Bsdf::Blend(b) => b.eval(wo, wi),
+            Bsdf::Null(b) => b.eval(wo, wi),
         }
     }
 
@@ -177,6 +181,7 @@ impl Bsdf<'_> {
             Bsdf::SmoothPlastic(b) => b.pdf(wo, wi),
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
             Bsdf::Blend(b) => b.pdf(wo, wi),
+            Bsdf::Null(b) => b.pdf(wo, wi),
         }
     }
 
@@ -209,6 +214,7 @@ impl Bsdf<'_> {
             Bsdf::SmoothPlastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::Blend(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Null(b) => b.sample(wo),
         }
     }
 
@@ -229,6 +235,7 @@ impl Bsdf<'_> {
             Bsdf::SmoothPlastic(_) => SmoothPlastic::FLAGS,
             Bsdf::RoughPlastic(_) => RoughPlastic::FLAGS,
             Bsdf::Blend(b) => b.flags(),
+            Bsdf::Null(_) => Null::FLAGS,
         }
     }
 
@@ -242,7 +249,8 @@ impl Bsdf<'_> {
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::ThinDielectric(_)
-            | Bsdf::Conductor(_) => 0.0,
+            | Bsdf::Conductor(_)
+            | Bsdf::Null(_) => 0.0,
             Bsdf::RoughDielectric(b) => b.roughness(),
             Bsdf::RoughConductor(b) => b.roughness(),
             Bsdf::RoughPlastic(b) => b.roughness(),
@@ -274,6 +282,7 @@ pub enum BsdfParams {
     SmoothPlastic(SmoothPlasticParams),
     RoughPlastic(RoughPlasticParams),
     Blend(BlendParams),
+    Null,
 }
 
 impl BsdfParams {
@@ -297,6 +306,15 @@ impl BsdfParams {
         match kind {
             // The material takes the back apart (`Material::from_desc`); this is the front.
             BsdfKind::TwoSided { front, .. } => Self::from_desc(&front.kind, torrey_dialect),
+            BsdfKind::Null => BsdfParams::Null,
+            // A mask is a blend of `null` (weight 1 − opacity) and the nested bsdf.
+            BsdfKind::Mask { opacity, nested } => BsdfParams::Blend(BlendParams {
+                weight: float_tex(opacity),
+                children: Box::new([
+                    BsdfParams::Null,
+                    Self::from_desc(&nested.kind, torrey_dialect),
+                ]),
+            }),
             BsdfKind::Blend {
                 weight,
                 first,
@@ -448,6 +466,7 @@ impl BsdfParams {
             BsdfParams::SmoothPlastic(p) => Bsdf::SmoothPlastic(p.resolve(q)),
             BsdfParams::RoughPlastic(p) => Bsdf::RoughPlastic(p.resolve(q)),
             BsdfParams::Blend(p) => Bsdf::Blend(p.resolve(q)),
+            BsdfParams::Null => Bsdf::Null(Null),
         }
     }
 
@@ -471,6 +490,7 @@ impl BsdfParams {
             BsdfParams::SmoothPlastic(p) => p.is_textured(),
             BsdfParams::RoughPlastic(p) => p.is_textured(),
             BsdfParams::Blend(p) => p.is_textured(),
+            BsdfParams::Null => false,
         }
     }
 

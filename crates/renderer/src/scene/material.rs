@@ -30,13 +30,19 @@ impl Material {
                 Some(BsdfParams::from_desc(&back.kind, torrey_dialect)),
                 front.normal_map,
             ),
+            desc::BsdfKind::Mask { nested, .. } => (None, nested.normal_map),
             _ => (None, b.normal_map),
+        };
+        // A mask is as two-sided as what it masks (mirroring its null part changes nothing).
+        let two_sided = match &b.kind {
+            desc::BsdfKind::Mask { nested, .. } => b.two_sided || nested.two_sided,
+            _ => b.two_sided,
         };
         let anisotropic = bsdf.anisotropic() || back.as_ref().is_some_and(|b| b.anisotropic());
         Material {
             back,
             // A transmitting BSDF handles its back side itself (it refracts out of it).
-            two_sided: (b.two_sided || torrey_dialect) && !bsdf.transmits(),
+            two_sided: (two_sided || torrey_dialect) && !bsdf.transmits(),
             anisotropic,
             bsdf,
             normal_map: normal_map.map(|t| t as u32),
