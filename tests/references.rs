@@ -15,6 +15,11 @@ use serde_json::Value;
 
 const TEST_SPP: u32 = 128;
 
+/// Scenes whose noise is heavy-tailed, rendered with more samples: a sun's caustics through
+/// glass make the image mean of scenes/glass.xml move by ±3.7% from seed to seed at 128 spp
+/// (measured over 8 seeds), and the per-pixel variance underestimates that.
+const HEAVY_TAILED: &[(&str, u32)] = &[("glass", 1024)];
+
 fn check_reference(renderer: &str, name: &str, entry: &Value) -> Result<String, String> {
     let root = common::root();
     let source = entry["source"]
@@ -30,7 +35,11 @@ fn check_reference(renderer: &str, name: &str, entry: &Value) -> Result<String, 
             .join(renderer)
             .join(format!("{name}.exr")),
     );
-    let r = common::render_scene(&root.join(source), width, height, TEST_SPP, max_depth, 7);
+    let spp = HEAVY_TAILED
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or(TEST_SPP, |&(_, spp)| spp);
+    let r = common::render_scene(&root.join(source), width, height, spp, max_depth, 7);
     if r.nonfinite > 0 {
         return Err(format!("{name}: {} NaN/inf samples", r.nonfinite));
     }

@@ -80,6 +80,15 @@ pub(crate) fn scene_summary(s: &torrey_parser::Scene) -> String {
             torrey_parser::BsdfKind::Phong { .. } => "phong",
             torrey_parser::BsdfKind::Blinn { .. } => "blinn",
             torrey_parser::BsdfKind::BlinnMicrofacet { .. } => "microfacet",
+            torrey_parser::BsdfKind::Dielectric { .. } => "dielectric",
+            torrey_parser::BsdfKind::RoughDielectric { .. } => "roughdielectric",
+            torrey_parser::BsdfKind::Conductor { .. } => "conductor",
+            torrey_parser::BsdfKind::RoughConductor { .. } => "roughconductor",
+            torrey_parser::BsdfKind::RoughPlastic { .. } => "roughplastic",
+            torrey_parser::BsdfKind::TwoSided { .. } => "twosided",
+            torrey_parser::BsdfKind::Blend { .. } => "blendbsdf",
+            torrey_parser::BsdfKind::Null => "null",
+            torrey_parser::BsdfKind::Mask { .. } => "mask",
         });
         if b.normal_map.is_some() {
             kinds.insert("normalmap");

@@ -40,6 +40,7 @@ REFERENCES = {
     "textured_mesh": ("scenes/textured_mesh.xml", 96, 72, 4096, None),
     "envmap_sky": ("scenes/envmap_sky.xml", 96, 60, 16384, None),
     "envmap_rotated": ("scenes/envmap_rotated.xml", 96, 60, 16384, None),
+    "glass": ("scenes/glass.xml", 96, 54, 16384, None),
 }
 
 SHARED_SCENES = [

@@ -10,7 +10,7 @@ Standard library only; make_references.py imports `convert` from here.
 
 What it changes (each applied change is reported in the returned `conversions` list):
   * names camelCase -> snake_case (toWorld -> to_world, ...), <lookAt> -> <lookat>;
-  * every bsdf is wrapped in `twosided` (torrey shades both sides); shapes without a bsdf get
+  * every bsdf but a dielectric is wrapped in `twosided` (torrey shades both sides); shapes without a bsdf get
     a two-sided diffuse 0.5 (Mitsuba's default bsdf, made two-sided);
   * <background> -> `constant` emitter; 0.5 grey when the tag is absent and the scene has no
     `envmap` or `constant` emitter (torrey's parser drops the implicit background then too);
@@ -47,8 +47,10 @@ TRANSFORM_TAGS = {"lookat", "translate", "rotate", "scale", "matrix"}
 
 
 def snake(name):
-    """camelCase -> snake_case; names already in snake_case are unchanged."""
-    return re.sub(r"(?<=[a-z0-9])([A-Z])", lambda m: "_" + m.group(1).lower(), name)
+    """camelCase -> snake_case (a run of capitals is one word: intIOR -> int_ior); names already
+    in snake_case are unchanged."""
+    return re.sub(r"(?<=[a-z0-9])([A-Z]+)(?![a-z])|(?<=[a-z0-9])([A-Z])",
+                  lambda m: "_" + (m.group(1) or m.group(2)).lower(), name)
 
 
 class Converter:
@@ -114,6 +116,13 @@ class Converter:
             core = self.bsdf_core(inner[0]) if inner else self.default_core()
         else:
             core = self.bsdf_core(e)
+        if core.get("type") in ("dielectric", "thindielectric", "roughdielectric"):
+            # Dielectrics refract on both sides themselves (torrey never mirrors them).
+            if bid:
+                core.set("id", bid)
+            if name:
+                core.set("name", name)
+            return core
         wrap = ET.Element("bsdf", {"type": "twosided"})
         if bid:
             wrap.set("id", bid)

@@ -270,10 +270,16 @@ pub enum BsdfKind {
     Mirror {
         reflectance: ColorParam,
     },
-    /// torrey's plastic: Schlick-Fresnel (F0 from `eta`) weighted mirror over a diffuse base.
+    /// `plastic`: in torrey-dialect scenes the course's Schlick-Fresnel (F0 from `eta`)
+    /// weighted mirror over a diffuse base; in Mitsuba-dialect scenes Mitsuba's smooth plastic
+    /// (`reflectance` is its diffuse_reflectance, `eta` = int_ior / ext_ior).
     Plastic {
         reflectance: ColorParam,
         eta: f32,
+        /// Mitsuba's specular_reflectance (1 by default).
+        specular_reflectance: ColorParam,
+        /// Mitsuba's `nonlinear`.
+        nonlinear: bool,
     },
     /// Normalised Phong lobe around the mirror direction: reflectance (a+1)/(2pi) cos^a.
     Phong {
@@ -291,6 +297,73 @@ pub enum BsdfKind {
         reflectance: ColorParam,
         exponent: f32,
     },
+    /// Mitsuba's `dielectric` (`thin`: `thindielectric`); `eta` = int_ior / ext_ior.
+    Dielectric {
+        eta: f32,
+        thin: bool,
+        specular_reflectance: ColorParam,
+        specular_transmittance: ColorParam,
+    },
+    /// Mitsuba's `roughdielectric`. Float parameters that may be textured are `ColorParam`s
+    /// whose first channel is read.
+    RoughDielectric {
+        distribution: MicrofacetType,
+        alpha_u: ColorParam,
+        alpha_v: ColorParam,
+        eta: f32,
+        specular_reflectance: ColorParam,
+        specular_transmittance: ColorParam,
+    },
+    /// Mitsuba's `conductor`: complex IOR eta + i k relative to the outside.
+    Conductor {
+        eta: ColorParam,
+        k: ColorParam,
+        specular_reflectance: ColorParam,
+    },
+    /// Mitsuba's `roughconductor`.
+    RoughConductor {
+        distribution: MicrofacetType,
+        alpha_u: ColorParam,
+        alpha_v: ColorParam,
+        eta: ColorParam,
+        k: ColorParam,
+        specular_reflectance: ColorParam,
+    },
+    /// Mitsuba's `twosided` with two nested bsdfs: `front` seen from the normal's side,
+    /// `back` from the other (evaluated with directions mirrored to its front).
+    TwoSided {
+        front: Box<Bsdf>,
+        back: Box<Bsdf>,
+    },
+    /// Mitsuba's `blendbsdf`: (1 − weight) · first + weight · second.
+    Blend {
+        weight: ColorParam,
+        first: Box<Bsdf>,
+        second: Box<Bsdf>,
+    },
+    /// Mitsuba's `null`: an invisible surface; rays pass straight through (a bounce).
+    Null,
+    /// Mitsuba's `mask`: `nested` with probability `opacity`, else passed through as `null`.
+    Mask {
+        opacity: ColorParam,
+        nested: Box<Bsdf>,
+    },
+    /// Mitsuba's `roughplastic` (isotropic).
+    RoughPlastic {
+        distribution: MicrofacetType,
+        alpha: f32,
+        diffuse_reflectance: ColorParam,
+        specular_reflectance: ColorParam,
+        eta: f32,
+        nonlinear: bool,
+    },
+}
+
+/// Mitsuba's microfacet `distribution`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MicrofacetType {
+    Beckmann,
+    Ggx,
 }
 
 #[derive(Clone, Debug, PartialEq)]

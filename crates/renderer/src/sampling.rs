@@ -105,6 +105,23 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// Builds a frame whose `s` follows a tangent (e.g. dp/du) projected into the tangent plane
+    /// (Gram-Schmidt), so anisotropic or normal-mapped shading keeps a texture-aligned frame.
+    /// Falls back to [`Frame::from_normal`] when the tangent is (nearly) parallel to `n`.
+    pub fn from_normal_tangent(n: Vec3A, tangent: Vec3A) -> Self {
+        let s = tangent - n * n.dot(tangent);
+        let len2 = s.length_squared();
+        if !(len2 > 1e-10 * tangent.length_squared()) || !len2.is_finite() {
+            return Self::from_normal(n);
+        }
+        let s = s / len2.sqrt();
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
+    }
+
     /// World direction to local coordinates (z = component along the normal).
     pub fn to_local(self, v: Vec3A) -> Vec3A {
         Vec3A::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
@@ -247,7 +264,16 @@ mod tests {
             let v = square_to_uniform_sphere(rng.vec2());
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
             assert!((f.to_local(n) - Vec3A::Z).length() < 1e-5);
+            let tangent = square_to_uniform_sphere(rng.vec2());
+            let g = Frame::from_normal_tangent(n, tangent);
+            assert_orthonormal(&g);
+            assert_eq!(g.n, n);
+            let projected = (tangent - n * n.dot(tangent)).normalize();
+            assert!((g.s - projected).length() < 1e-4, "{g:?} {tangent}");
         }
+        // Degenerate tangent falls back instead of producing NaNs.
+        assert_orthonormal(&Frame::from_normal_tangent(Vec3A::Z, Vec3A::Z * 2.0));
+        assert_orthonormal(&Frame::from_normal_tangent(Vec3A::Z, Vec3A::ZERO));
     }
 
     #[test]

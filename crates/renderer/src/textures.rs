@@ -44,6 +44,32 @@ impl Texture {
     }
 }
 
+impl Texture {
+    /// The value of a float parameter at `uv`: a bitmap's first channel; for the checkerboard,
+    /// the colours swapped, as Mitsuba 3's `eval_1` selects them (its `eval` puts color0 where
+    /// both fractional parts lie on the same side of one half, its `eval_1` where they do not).
+    #[inline]
+    pub fn eval_1(&self, uv: Vec2, footprint: Footprint) -> f32 {
+        match self {
+            Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } => {
+                let p = to_uv.transform_point2(uv);
+                let fx = p.x - p.x.floor() > 0.5;
+                let fy = p.y - p.y.floor() > 0.5;
+                if fx != fy {
+                    color0.x
+                } else {
+                    color1.x
+                }
+            }
+            _ => self.eval(uv, footprint).x,
+        }
+    }
+}
+
 /// A colour parameter resolved for rendering: a constant or an index into the scene's textures.
 #[derive(Clone, Copy, Debug)]
 pub enum ColorSource {
@@ -62,11 +88,10 @@ impl ColorSource {
 }
 
 /// A float parameter resolved for rendering: a constant or an index into the scene's textures
-/// (whose first channel is read).
+/// (read by [`Texture::eval_1`]).
 #[derive(Clone, Copy, Debug)]
 pub enum FloatSource {
     Constant(f32),
-    #[allow(dead_code, reason = "the parser gives no float textures yet")]
     Texture(u32),
 }
 
@@ -75,7 +100,7 @@ impl FloatSource {
     pub fn eval(&self, textures: &[Texture], uv: Vec2, footprint: Footprint) -> f32 {
         match *self {
             FloatSource::Constant(c) => c,
-            FloatSource::Texture(i) => textures[i as usize].eval(uv, footprint).x,
+            FloatSource::Texture(i) => textures[i as usize].eval_1(uv, footprint),
         }
     }
 

@@ -1,11 +1,15 @@
 //! BSDF plugins: `diffuse`, `mirror`, `plastic`, `phong`, `blinn`/`blinnphong`,
-//! `blinn_microfacet`/`blinnphong_microfacet`, and the wrappers `twosided` and `normalmap`.
+//! `blinn_microfacet`/`blinnphong_microfacet`; Mitsuba 3's `dielectric`, `thindielectric`,
+//! `roughdielectric`, `conductor`, `roughconductor`, `roughplastic`; and the wrappers
+//! `twosided`, `blendbsdf`, `mask` and `normalmap`, and `null`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::plugins::texture::parse_texture;
 use crate::props::Props;
-use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, TextureId, TextureKind};
+use crate::scene::{
+    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, MicrofacetType, TextureId, TextureKind,
+};
 use crate::xml::Element;
 use glam::Vec3;
 
@@ -19,9 +23,68 @@ pub(crate) const KNOWN: &[&str] = &[
     "blinnphong",
     "blinn_microfacet",
     "blinnphong_microfacet",
+    "dielectric",
+    "thindielectric",
+    "roughdielectric",
+    "conductor",
+    "roughconductor",
+    "roughplastic",
+    "blendbsdf",
+    "mask",
+    "null",
     "twosided",
     "normalmap",
     "roughdiffuse",
+];
+
+/// Mitsuba 3's named conductors (`material`), as its RGB variants see them: the tabulated
+/// spectra of η and k (data/ior/<name>.{eta,k}.spd) integrated against the CIE 1931 colour
+/// matching functions and converted to linear sRGB (`spectrum_list_to_srgb`, unbounded;
+/// negative components clamped to 0 as Mitsuba's `srgb` texture does). Values read from
+/// Mitsuba 3.9.1's `scalar_rgb` variant (`mi.traverse` of a conductor with each `material`).
+/// Entries: name, η (r, g, b), k (r, g, b).
+#[rustfmt::skip]
+const CONDUCTOR_TABLE: &[(&str, [f32; 3], [f32; 3])] = &[
+    ("a-C", [2.94405, 2.22714, 1.96816], [0.887465, 0.799299, 0.81529]),
+    ("Ag", [0.155276, 0.116728, 0.138388], [4.82835, 3.12222, 2.1469]),
+    ("Al", [1.6575, 0.880405, 0.521244], [9.22381, 6.2695, 4.837]),
+    ("AlAs", [3.6053, 3.23294, 2.21632], [0.000679437, 0.0, 0.00751271]),
+    ("AlAs_palik", [3.6053, 3.23294, 2.21632], [0.000679437, 0.0, 0.00751271]),
+    ("AlSb", [0.0, 4.13937, 4.66925], [0.0, 0.0940091, 1.30057]),
+    ("AlSb_palik", [0.0, 4.13937, 4.66925], [0.0, 0.0940091, 1.30057]),
+    ("Au", [0.143036, 0.375307, 1.44205], [3.983, 2.38556, 1.60336]),
+    ("Be", [4.18501, 3.18503, 2.78406], [3.83547, 3.01012, 2.86899]),
+    ("Cr", [4.36967, 2.91651, 1.6549], [5.20655, 4.23131, 3.7547]),
+    ("CsI", [2.1449, 1.70232, 1.66243], [0.0, 0.0, 0.0]),
+    ("Cu", [0.201005, 0.92375, 1.10222], [3.91326, 2.45305, 2.14209]),
+    ("Cu_palik", [0.213229, 0.919715, 1.10241], [3.92187, 2.45733, 2.13658]),
+    ("Cu2O", [3.55177, 2.94987, 2.75188], [0.114207, 0.193897, 0.606134]),
+    ("CuO", [3.24754, 2.44781, 2.21022], [0.52109, 0.570031, 0.722179]),
+    ("d-C", [2.70872, 2.31883, 2.2289], [0.0, 0.0, 0.0]),
+    ("Hg", [2.39894, 1.44003, 0.90957], [6.32759, 4.37192, 3.42176]),
+    ("HgTe", [4.77904, 3.2312, 2.6599], [1.63161, 1.58081, 1.72929]),
+    ("Ir", [3.0863, 2.08219, 1.61791], [5.59215, 4.06709, 3.26731]),
+    ("K", [0.0640432, 0.0464098, 0.0381849], [2.1042, 1.34894, 0.913126]),
+    ("Li", [0.265791, 0.195618, 0.220949], [3.54015, 2.31112, 1.66861]),
+    ("MgO", [2.08958, 1.65072, 1.59488], [4.3327e-12, 0.0, 2.49865e-11]),
+    ("Mo", [4.48397, 3.52513, 2.77631], [4.11144, 3.42083, 3.15061]),
+    ("Na_palik", [0.0602694, 0.0561409, 0.0619884], [3.17927, 2.11249, 1.57904]),
+    ("Nb", [3.42007, 2.79009, 2.39563], [3.44139, 2.73767, 2.57975]),
+    ("Ni_palik", [2.3673, 1.66337, 1.46708], [4.49881, 3.05015, 2.34544]),
+    ("Rh", [2.58579, 1.86022, 1.55426], [6.78226, 4.70299, 3.97607]),
+    ("Se", [4.05831, 2.84294, 2.82085], [0.75405, 0.638444, 0.521808]),
+    ("SiC", [3.17234, 2.52597, 2.47937], [7.53766e-07, 0.0, 1.01925e-05]),
+    ("SnTe", [4.52425, 1.98164, 1.28159], [0.0, 0.0, 0.0]),
+    ("Ta", [2.06272, 2.39294, 2.62793], [2.40836, 1.74149, 1.94703]),
+    ("Te", [7.39023, 4.4821, 2.63711], [3.25602, 3.52706, 3.29205]),
+    ("ThF4", [1.83071, 1.44223, 1.38765], [0.0, 0.0, 0.0]),
+    ("TiC", [3.70053, 2.83742, 2.58229], [3.26564, 2.35159, 2.17279]),
+    ("TiN", [1.64845, 1.15052, 1.37982], [3.36833, 1.9435, 1.10207]),
+    ("TiO2", [3.45661, 2.80174, 2.90517], [0.000105265, 0.0, 0.000652887]),
+    ("VC", [3.65757, 2.75274, 2.53267], [3.0683, 2.19869, 1.96319]),
+    ("V_palik", [4.27758, 3.51295, 2.76107], [3.4913, 2.88945, 3.11152]),
+    ("VN", [2.8656, 2.11919, 1.94009], [3.03224, 2.05612, 1.61631]),
+    ("W", [4.37082, 3.30025, 2.99841], [3.50064, 2.60487, 2.27323]),
 ];
 
 /// Named indices of refraction Mitsuba accepts in place of a number.
@@ -137,7 +200,50 @@ fn normal_map_param(ctx: &mut Ctx, props: &mut Props, names: &[&str]) -> Result<
     Ok(Some(index))
 }
 
-/// The bsdf inside `twosided`/`normalmap`: a nested `<bsdf>` or a `<ref>` to one.
+/// The bsdfs inside `twosided`/`normalmap`: nested `<bsdf>`s or `<ref>`s to them, at most `max`
+/// (extra ones are warned about and ignored), at least one.
+fn nested_bsdfs(ctx: &mut Ctx, props: &mut Props, elem: &Element, max: usize) -> Result<Vec<Bsdf>> {
+    let mut nested: Vec<&Element> = props.take_tag("bsdf");
+    nested.extend(props.take_tag("ref"));
+    nested.sort_by_key(|e| (e.pos.line, e.pos.column));
+    if nested.is_empty() {
+        return Err(ctx.err(elem.pos, format!("{} needs a nested <bsdf>", props.owner)));
+    }
+    for extra in nested.iter().skip(max) {
+        ctx.warn(
+            extra.pos,
+            format!(
+                "{} uses only its first {max} nested bsdf(s); this one is ignored",
+                props.owner
+            ),
+        );
+    }
+    nested
+        .iter()
+        .take(max)
+        .map(|e| nested_bsdf_value(ctx, e))
+        .collect()
+}
+
+/// One nested `<bsdf>` or `<ref>` to a bsdf.
+fn nested_bsdf_value(ctx: &mut Ctx, first: &Element) -> Result<Bsdf> {
+    if first.tag == "ref" {
+        match ctx.lookup(first)? {
+            IdTarget::Bsdf(b) => Ok(ctx.bsdfs[b].clone()),
+            _ => Err(ctx.err(
+                first.pos,
+                format!(
+                    "<ref id=\"{}\"> must name a bsdf here",
+                    first.attr_value("id").unwrap_or("")
+                ),
+            )),
+        }
+    } else {
+        parse_bsdf_value(ctx, first)
+    }
+}
+
+/// The bsdf inside `normalmap`: a nested `<bsdf>` or a `<ref>` to one.
 fn nested_bsdf(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Bsdf> {
     let mut nested: Vec<&Element> = props.take_tag("bsdf");
     nested.extend(props.take_tag("ref"));
@@ -195,6 +301,111 @@ fn glossy(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, f32)> {
     Ok((reflectance, exponent))
 }
 
+/// A float parameter that may be textured (Mitsuba's float textures: the first channel is
+/// read), as a [`ColorParam`].
+fn float_param(
+    ctx: &mut Ctx,
+    props: &mut Props,
+    names: &[&str],
+    default: f32,
+) -> Result<ColorParam> {
+    color_param(ctx, props, names, Vec3::splat(default))
+}
+
+/// Mitsuba's `int_ior` / `ext_ior` pair as their ratio.
+fn eta_param(ctx: &Ctx, props: &mut Props, elem: &Element, int_default: f32) -> Result<f32> {
+    let int_ior = ior(ctx, props, "int_ior", int_default)?;
+    let ext_ior = ior(ctx, props, "ext_ior", 1.000277)?;
+    if !(int_ior > 0.0 && ext_ior > 0.0) {
+        return Err(ctx.err(
+            elem.pos,
+            format!("{}: int_ior and ext_ior must be positive", props.owner),
+        ));
+    }
+    Ok(int_ior / ext_ior)
+}
+
+/// Mitsuba's microfacet `distribution` (default beckmann) and roughness: `alpha` for both
+/// axes, or `alpha_u` and `alpha_v` together (default 0.1).
+fn roughness(
+    ctx: &mut Ctx,
+    props: &mut Props,
+    elem: &Element,
+    anisotropic: bool,
+) -> Result<(MicrofacetType, ColorParam, ColorParam)> {
+    let distribution = match props.string(ctx, &["distribution"])? {
+        None => MicrofacetType::Beckmann,
+        Some(a) => match a.value.to_ascii_lowercase().as_str() {
+            "beckmann" => MicrofacetType::Beckmann,
+            "ggx" => MicrofacetType::Ggx,
+            other => {
+                return Err(ctx.err(
+                    a.value_pos,
+                    format!(
+                    "unknown microfacet distribution '{other}' in {} (expected beckmann or ggx)",
+                    props.owner
+                ),
+                ))
+            }
+        },
+    };
+    // sample_visible: torrey always samples visible normals (the same image, less noise).
+    props.boolean(ctx, &["sample_visible"], true)?;
+    if anisotropic && props.has(&["alpha_u", "alpha_v"]) {
+        if props.has(&["alpha"]) || !(props.has(&["alpha_u"]) && props.has(&["alpha_v"])) {
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "{}: give either alpha or both alpha_u and alpha_v",
+                    props.owner
+                ),
+            ));
+        }
+        let u = float_param(ctx, props, &["alpha_u"], 0.1)?;
+        let v = float_param(ctx, props, &["alpha_v"], 0.1)?;
+        return Ok((distribution, u, v));
+    }
+    let a = float_param(ctx, props, &["alpha"], 0.1)?;
+    Ok((distribution, a.clone(), a))
+}
+
+/// Mitsuba's conductor parameters: `eta` and `k` (colours or textures), or a named
+/// `material` from [`CONDUCTOR_TABLE`]; neither means `none`, a perfect mirror (η 0, k 1).
+fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorParam)> {
+    let material = props.string(ctx, &["material"])?;
+    if let Some(a) = material {
+        if a.value != "none" {
+            if props.has(&["eta", "k"]) {
+                return Err(ctx.err(
+                    a.value_pos,
+                    format!(
+                        "{}: give either eta and k or material, not both",
+                        props.owner
+                    ),
+                ));
+            }
+            let Some((_, eta, k)) = CONDUCTOR_TABLE.iter().find(|(n, _, _)| *n == a.value) else {
+                let names: Vec<&str> = CONDUCTOR_TABLE.iter().map(|(n, _, _)| *n).collect();
+                return Err(ctx.err(
+                    a.value_pos,
+                    format!(
+                        "unknown conductor material '{}' (known: {}, none)",
+                        a.value,
+                        names.join(", ")
+                    ),
+                ));
+            };
+            return Ok((
+                ColorParam::Constant(Vec3::from(*eta)),
+                ColorParam::Constant(Vec3::from(*k)),
+            ));
+        }
+    }
+    let eta = color_param(ctx, props, &["eta"], Vec3::ZERO)?;
+    let k = color_param(ctx, props, &["k"], Vec3::ONE)?;
+    Ok((eta, k))
+}
+
 /// Parses a `<bsdf>` without adding it to the scene.
 ///
 /// | type | name | type | default |
@@ -204,10 +415,28 @@ fn glossy(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, f32)> {
 /// | `plastic` | `reflectance` (Mitsuba: `diffuse_reflectance`) | colour or texture | 0.5 |
 /// | `plastic` | `eta` (or `ior`) | float | 1.5 |
 /// | `plastic` | `int_ior`, `ext_ior` (Mitsuba) | float or material name | 1.49, 1.000277; eta = int/ext |
+/// | `plastic` (Mitsuba dialect) | `specular_reflectance` | colour or texture | 1 |
+/// | `plastic` (Mitsuba dialect) | `nonlinear` | boolean | false |
+/// | `dielectric`, `thindielectric`, `roughdielectric` | `int_ior`, `ext_ior` | float or name | bk7 (1.5046), air (1.000277) |
+/// | same | `specular_reflectance`, `specular_transmittance` | colour or texture | 1 |
+/// | `roughdielectric`, `roughconductor`, `roughplastic` | `distribution` | string | beckmann (or ggx) |
+/// | same | `alpha` | float or texture (roughplastic: float) | 0.1 |
+/// | `roughdielectric`, `roughconductor` | `alpha_u`, `alpha_v` | float or texture | both or neither |
+/// | same | `sample_visible` | boolean | true (visible normals are always sampled) |
+/// | `conductor`, `roughconductor` | `material` | string (table below) | none: η 0, k 1 |
+/// | same | `eta`, `k` | colour or texture | 0, 1 |
+/// | same | `specular_reflectance` | colour or texture | 1 |
+/// | `roughplastic` | `diffuse_reflectance` | colour or texture | 0.5 |
+/// | `roughplastic` | `specular_reflectance` | colour or texture | 1 |
+/// | `roughplastic` | `int_ior`, `ext_ior` | float or name | polypropylene (1.49), air |
+/// | `roughplastic` | `nonlinear` | boolean | false |
 /// | `phong`, `blinn`, `blinnphong`, `blinn_microfacet` | `reflectance` | colour or texture | 0.5 |
 /// | same | `exponent` (or `alpha`) | float | 5 |
 /// | any but wrappers | `normal_map` (or `normalmap`) | bitmap texture | none; read raw |
-/// | `twosided` | nested `<bsdf>` or `<ref>` | bsdf | required |
+/// | `twosided` | nested `<bsdf>` or `<ref>` | bsdf | required; a second one is the back's |
+/// | `blendbsdf` | `weight`; two nested bsdfs | float or texture; bsdfs | required: (1 − weight) first + weight second |
+/// | `mask` | `opacity`; one nested bsdf | float or texture; bsdf | 0.5; required |
+/// | `null` | none | | |
 /// | `normalmap` | `normalmap` texture + nested bsdf | bitmap, bsdf | required |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
@@ -223,9 +452,25 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     };
     let mut bsdf = match ty {
         "twosided" => {
-            let mut inner = nested_bsdf(ctx, &mut props, elem)?;
-            inner.two_sided = true;
-            inner
+            let mut nested = nested_bsdfs(ctx, &mut props, elem, 2)?;
+            if nested.len() == 2 {
+                // Mitsuba's twosided with a different bsdf on the back.
+                let back = nested.pop().unwrap();
+                let front = nested.pop().unwrap();
+                Bsdf {
+                    id: None,
+                    kind: BsdfKind::TwoSided {
+                        front: Box::new(front),
+                        back: Box::new(back),
+                    },
+                    two_sided: true,
+                    normal_map: None,
+                }
+            } else {
+                let mut inner = nested.pop().unwrap();
+                inner.two_sided = true;
+                inner
+            }
         }
         "normalmap" => {
             let Some(map) = normal_map_param(ctx, &mut props, &["normalmap", "normal_map"])? else {
@@ -256,7 +501,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             reflectance: color_param(ctx, &mut props, &["reflectance"], Vec3::ONE)?,
         }),
         "plastic" => {
-            let mitsuba = props.has(&["diffuse_reflectance", "int_ior", "ext_ior"]);
+            let torrey = ctx.dialect == Dialect::Torrey;
+            let mitsuba_params = props.has(&["diffuse_reflectance", "int_ior", "ext_ior"]);
             let reflectance = color_param(
                 ctx,
                 &mut props,
@@ -264,26 +510,154 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                 Vec3::splat(0.5),
             )?;
             let eta = match props.opt_float_pos(ctx, &["eta", "ior"])? {
-                Some((eta, pos)) if eta <= 0.0 => {
+                Some((eta, pos)) if eta.is_nan() || eta <= 0.0 => {
                     return Err(ctx.err(
                         pos,
                         format!("parameter 'eta' of bsdf 'plastic' must be positive, found {eta}"),
                     ))
                 }
                 Some((eta, _)) => eta,
-                None if mitsuba => {
-                    ior(ctx, &mut props, "int_ior", 1.49)?
-                        / ior(ctx, &mut props, "ext_ior", 1.000277)?
-                }
+                None if mitsuba_params || !torrey => eta_param(ctx, &mut props, elem, 1.49)?,
                 None => 1.5,
             };
-            if mitsuba {
+            let specular_reflectance =
+                color_param(ctx, &mut props, &["specular_reflectance"], Vec3::ONE)?;
+            let nonlinear = props.boolean(ctx, &["nonlinear"], false)?;
+            if mitsuba_params && torrey {
                 ctx.warn(
                     elem.pos,
-                    "torrey's plastic (a Schlick-Fresnel-weighted mirror over a diffuse base) differs from Mitsuba 3's plastic; diffuse_reflectance is used as reflectance and eta = int_ior / ext_ior",
+                    "in a torrey-dialect scene plastic is the course's model (a Schlick-Fresnel-weighted mirror over a diffuse base), not Mitsuba 3's; diffuse_reflectance is used as reflectance and eta = int_ior / ext_ior",
                 );
             }
-            plain(BsdfKind::Plastic { reflectance, eta })
+            plain(BsdfKind::Plastic {
+                reflectance,
+                eta,
+                specular_reflectance,
+                nonlinear,
+            })
+        }
+        "blendbsdf" => {
+            if !props.has(&["weight"]) {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'blendbsdf' needs a weight (float or texture)",
+                ));
+            }
+            let weight = float_param(ctx, &mut props, &["weight"], 0.5)?;
+            let mut nested = nested_bsdfs(ctx, &mut props, elem, 2)?;
+            if nested.len() != 2 {
+                return Err(ctx.err(elem.pos, "bsdf 'blendbsdf' needs two nested bsdfs"));
+            }
+            let second = nested.pop().unwrap();
+            let first = nested.pop().unwrap();
+            plain(BsdfKind::Blend {
+                weight,
+                first: Box::new(first),
+                second: Box::new(second),
+            })
+        }
+        "null" => plain(BsdfKind::Null),
+        "mask" => {
+            let opacity = float_param(ctx, &mut props, &["opacity"], 0.5)?;
+            let mut nested = nested_bsdfs(ctx, &mut props, elem, 1)?;
+            plain(BsdfKind::Mask {
+                opacity,
+                nested: Box::new(nested.pop().unwrap()),
+            })
+        }
+        "dielectric" | "thindielectric" => plain(BsdfKind::Dielectric {
+            eta: eta_param(ctx, &mut props, elem, 1.5046)?,
+            thin: ty == "thindielectric",
+            specular_reflectance: color_param(
+                ctx,
+                &mut props,
+                &["specular_reflectance"],
+                Vec3::ONE,
+            )?,
+            specular_transmittance: color_param(
+                ctx,
+                &mut props,
+                &["specular_transmittance"],
+                Vec3::ONE,
+            )?,
+        }),
+        "roughdielectric" => {
+            let (distribution, alpha_u, alpha_v) = roughness(ctx, &mut props, elem, true)?;
+            plain(BsdfKind::RoughDielectric {
+                distribution,
+                alpha_u,
+                alpha_v,
+                eta: eta_param(ctx, &mut props, elem, 1.5046)?,
+                specular_reflectance: color_param(
+                    ctx,
+                    &mut props,
+                    &["specular_reflectance"],
+                    Vec3::ONE,
+                )?,
+                specular_transmittance: color_param(
+                    ctx,
+                    &mut props,
+                    &["specular_transmittance"],
+                    Vec3::ONE,
+                )?,
+            })
+        }
+        "conductor" => {
+            let (eta, k) = conductor_ior(ctx, &mut props)?;
+            plain(BsdfKind::Conductor {
+                eta,
+                k,
+                specular_reflectance: color_param(
+                    ctx,
+                    &mut props,
+                    &["specular_reflectance"],
+                    Vec3::ONE,
+                )?,
+            })
+        }
+        "roughconductor" => {
+            let (distribution, alpha_u, alpha_v) = roughness(ctx, &mut props, elem, true)?;
+            let (eta, k) = conductor_ior(ctx, &mut props)?;
+            plain(BsdfKind::RoughConductor {
+                distribution,
+                alpha_u,
+                alpha_v,
+                eta,
+                k,
+                specular_reflectance: color_param(
+                    ctx,
+                    &mut props,
+                    &["specular_reflectance"],
+                    Vec3::ONE,
+                )?,
+            })
+        }
+        "roughplastic" => {
+            let (distribution, alpha, _) = roughness(ctx, &mut props, elem, false)?;
+            let ColorParam::Constant(alpha) = alpha else {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'roughplastic': alpha must be a number (Mitsuba does not texture it)",
+                ));
+            };
+            plain(BsdfKind::RoughPlastic {
+                distribution,
+                alpha: alpha.x,
+                diffuse_reflectance: color_param(
+                    ctx,
+                    &mut props,
+                    &["diffuse_reflectance", "reflectance"],
+                    Vec3::splat(0.5),
+                )?,
+                specular_reflectance: color_param(
+                    ctx,
+                    &mut props,
+                    &["specular_reflectance"],
+                    Vec3::ONE,
+                )?,
+                eta: eta_param(ctx, &mut props, elem, 1.49)?,
+                nonlinear: props.boolean(ctx, &["nonlinear"], false)?,
+            })
         }
         "phong" => {
             let (reflectance, exponent) = glossy(ctx, &mut props)?;

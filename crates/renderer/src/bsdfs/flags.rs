@@ -24,6 +24,8 @@ impl BsdfFlags {
     pub const DIFFUSE_REFLECTION: Self = Self::DIFFUSE.union(Self::REFLECTION);
     pub const GLOSSY_REFLECTION: Self = Self::GLOSSY.union(Self::REFLECTION);
     pub const DELTA_REFLECTION: Self = Self::DELTA.union(Self::REFLECTION);
+    pub const GLOSSY_TRANSMISSION: Self = Self::GLOSSY.union(Self::TRANSMISSION);
+    pub const DELTA_TRANSMISSION: Self = Self::DELTA.union(Self::TRANSMISSION);
 
     pub const fn union(self, other: Self) -> Self {
         Self(self.0 | other.0)

@@ -13,10 +13,13 @@
 //!   `sample` producing `wi`, and `sample` a [`BsdfSample`] with its weight f·|cos θi|/pdf, the
 //!   relative index of refraction along the sampled direction and the sampled lobe's flags.
 //!
-//! These are torrey's own materials as the UCSD CSE 168 course defines them (handouts
-//! homework3.tex: Schlick Fresnel, `mirror`, `plastic`; homework4.tex: `phong`, `blinnphong`,
-//! `blinn_microfacet`). The course's ρ already includes the cosine of the light direction, so
-//! `eval` returns exactly that ρ.
+//! Two families of models: torrey's own materials as the UCSD CSE 168 course defines them
+//! (handouts homework3.tex: Schlick Fresnel, `mirror`, `plastic`; homework4.tex: `phong`,
+//! `blinnphong`, `blinn_microfacet`; the course's ρ already includes the cosine of the light
+//! direction, so `eval` returns exactly that ρ), and Mitsuba 3's (`dielectric`,
+//! `thindielectric`, `roughdielectric`, `conductor`, `roughconductor`, Mitsuba's `plastic` and
+//! `roughplastic`) with its parameters, defaults and conventions (exact Fresnel, microfacet
+//! models in [`microfacet`]).
 //!
 //! A new BSDF is a file (parameters, `resolve`, `eval`/`pdf`/`sample`, its tests), a variant in
 //! [`Bsdf`] and [`BsdfParams`] with one-line arms, the parser mapping and the docs.
@@ -24,28 +27,48 @@
 // Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod blend;
 mod blinn;
 mod blinn_microfacet;
+mod conductor;
+mod dielectric;
 mod diffuse;
 mod flags;
 pub mod fresnel;
+pub mod microfacet;
 mod mirror;
+mod null;
 mod phong;
 mod plastic;
+mod rough_conductor;
+mod rough_dielectric;
+mod rough_plastic;
+mod smooth_plastic;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_mitsuba;
 
+pub use blend::{Blend, BlendParams};
 pub use blinn::{Blinn, BlinnParams};
 pub use blinn_microfacet::{BlinnMicrofacet, BlinnMicrofacetParams};
+pub use conductor::{Conductor, ConductorParams};
+pub use dielectric::{Dielectric, DielectricParams, ThinDielectric, ThinDielectricParams};
 pub use diffuse::{Diffuse, DiffuseParams};
 pub use flags::BsdfFlags;
+pub use microfacet::MicrofacetKind;
 pub use mirror::{Mirror, MirrorParams};
+pub use null::Null;
 pub use phong::{Phong, PhongParams};
 pub use plastic::{Plastic, PlasticParams};
+pub use rough_conductor::{RoughConductor, RoughConductorParams};
+pub use rough_dielectric::{RoughDielectric, RoughDielectricParams};
+pub use rough_plastic::{RoughPlastic, RoughPlasticParams};
+pub use smooth_plastic::{specular_sampling_weight, SmoothPlastic, SmoothPlasticParams};
 
 use crate::textures::{ColorSource, FloatSource, TextureQuery};
 use glam::{Vec2, Vec3A};
-use torrey_parser::scene::{BsdfKind, ColorParam};
+use torrey_parser::scene::{BsdfKind, ColorParam, MicrofacetType};
 
 /// One sampled scattering direction.
 #[derive(Clone, Copy, Debug)]
@@ -60,8 +83,10 @@ pub struct BsdfSample {
     /// what `pdf` returns); `f32::INFINITY` for a delta lobe, so that
     /// [`crate::sampling::power_heuristic`] gives such samples MIS weight 1.
     pub pdf: f32,
-    /// Relative index of refraction along `wi`: η_i/η_t for a refraction (what Mitsuba's
-    /// Russian roulette divides the throughput's η² by), 1 for a reflection.
+    /// Relative index of refraction crossed along `wi`, Mitsuba's `BSDFSample::eta`: η_t/η_i
+    /// (the side `wi` enters over the side `wo` is on; 1.5 entering glass from air) for a
+    /// refraction, 1 for a reflection. The integrator multiplies them up and Russian roulette
+    /// uses throughput·η², as Mitsuba does (radiance is scaled by 1/η² crossing into glass).
     pub eta: f32,
     /// The lobe that was sampled: exactly one of reflection/transmission and one of
     /// diffuse/glossy/delta.
@@ -94,18 +119,27 @@ fn reflect_z(w: Vec3A) -> Vec3A {
     Vec3A::new(-w.x, -w.y, w.z)
 }
 
-/// A BSDF at a hit, with plain (resolved) parameters.
+/// A BSDF at a hit, with plain (resolved) parameters; it may borrow tables from its material.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bsdf {
+pub enum Bsdf<'a> {
     Diffuse(Diffuse),
     Mirror(Mirror),
     Plastic(Plastic),
     Phong(Phong),
     Blinn(Blinn),
     BlinnMicrofacet(BlinnMicrofacet),
+    Dielectric(Dielectric),
+    ThinDielectric(ThinDielectric),
+    RoughDielectric(RoughDielectric),
+    Conductor(Conductor),
+    RoughConductor(RoughConductor),
+    SmoothPlastic(SmoothPlastic),
+    RoughPlastic(RoughPlastic<'a>),
+    Blend(Blend<'a>),
+    Null(Null),
 }
 
-impl Bsdf {
+impl Bsdf<'_> {
     /// f(wo, wi)·|cos θi| of the non-delta lobes.
     #[inline(always)]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
@@ -116,6 +150,15 @@ impl Bsdf {
             Bsdf::Phong(b) => b.eval(wo, wi),
             Bsdf::Blinn(b) => b.eval(wo, wi),
             Bsdf::BlinnMicrofacet(b) => b.eval(wo, wi),
+            Bsdf::Dielectric(b) => b.eval(wo, wi),
+            Bsdf::ThinDielectric(b) => b.eval(wo, wi),
+            Bsdf::RoughDielectric(b) => b.eval(wo, wi),
+            Bsdf::Conductor(b) => b.eval(wo, wi),
+            Bsdf::RoughConductor(b) => b.eval(wo, wi),
+            Bsdf::SmoothPlastic(b) => b.eval(wo, wi),
+            Bsdf::RoughPlastic(b) => b.eval(wo, wi),
+            Bsdf::Blend(b) => b.eval(wo, wi),
+            Bsdf::Null(b) => b.eval(wo, wi),
         }
     }
 
@@ -130,6 +173,15 @@ impl Bsdf {
             Bsdf::Phong(b) => b.pdf(wo, wi),
             Bsdf::Blinn(b) => b.pdf(wo, wi),
             Bsdf::BlinnMicrofacet(b) => b.pdf(wo, wi),
+            Bsdf::Dielectric(b) => b.pdf(wo, wi),
+            Bsdf::ThinDielectric(b) => b.pdf(wo, wi),
+            Bsdf::RoughDielectric(b) => b.pdf(wo, wi),
+            Bsdf::Conductor(b) => b.pdf(wo, wi),
+            Bsdf::RoughConductor(b) => b.pdf(wo, wi),
+            Bsdf::SmoothPlastic(b) => b.pdf(wo, wi),
+            Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
+            Bsdf::Blend(b) => b.pdf(wo, wi),
+            Bsdf::Null(b) => b.pdf(wo, wi),
         }
     }
 
@@ -154,6 +206,15 @@ impl Bsdf {
             Bsdf::Phong(b) => b.sample(wo, u),
             Bsdf::Blinn(b) => b.sample(wo, u),
             Bsdf::BlinnMicrofacet(b) => b.sample(wo, u),
+            Bsdf::Dielectric(b) => b.sample(wo, u_lobe),
+            Bsdf::ThinDielectric(b) => b.sample(wo, u_lobe),
+            Bsdf::RoughDielectric(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Conductor(b) => b.sample(wo),
+            Bsdf::RoughConductor(b) => b.sample(wo, u),
+            Bsdf::SmoothPlastic(b) => b.sample(wo, u, u_lobe),
+            Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Blend(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Null(b) => b.sample(wo),
         }
     }
 
@@ -166,6 +227,15 @@ impl Bsdf {
             Bsdf::Phong(_) => Phong::FLAGS,
             Bsdf::Blinn(_) => Blinn::FLAGS,
             Bsdf::BlinnMicrofacet(_) => BlinnMicrofacet::FLAGS,
+            Bsdf::Dielectric(_) => Dielectric::FLAGS,
+            Bsdf::ThinDielectric(_) => ThinDielectric::FLAGS,
+            Bsdf::RoughDielectric(_) => RoughDielectric::FLAGS,
+            Bsdf::Conductor(_) => Conductor::FLAGS,
+            Bsdf::RoughConductor(_) => RoughConductor::FLAGS,
+            Bsdf::SmoothPlastic(_) => SmoothPlastic::FLAGS,
+            Bsdf::RoughPlastic(_) => RoughPlastic::FLAGS,
+            Bsdf::Blend(b) => b.flags(),
+            Bsdf::Null(_) => Null::FLAGS,
         }
     }
 
@@ -175,8 +245,16 @@ impl Bsdf {
     /// from a delta lobe.
     pub fn roughness(&self) -> f32 {
         match self {
-            Bsdf::Diffuse(_) | Bsdf::Plastic(_) => 1.0,
-            Bsdf::Mirror(_) => 0.0,
+            Bsdf::Diffuse(_) | Bsdf::Plastic(_) | Bsdf::SmoothPlastic(_) => 1.0,
+            Bsdf::Mirror(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::Null(_) => 0.0,
+            Bsdf::RoughDielectric(b) => b.roughness(),
+            Bsdf::RoughConductor(b) => b.roughness(),
+            Bsdf::RoughPlastic(b) => b.roughness(),
+            Bsdf::Blend(b) => b.roughness(),
             Bsdf::Phong(b) => b.roughness(),
             Bsdf::Blinn(b) => b.roughness(),
             Bsdf::BlinnMicrofacet(b) => b.roughness(),
@@ -185,8 +263,10 @@ impl Bsdf {
 }
 
 /// A material's BSDF parameters, possibly textured: what [`BsdfParams::resolve`] turns into a
-/// [`Bsdf`] at a hit.
-#[derive(Clone, Copy, Debug)]
+/// [`Bsdf`] at a hit. (`RoughPlastic` carries its 64-entry coating table inline: a scene has
+/// few materials, and the per-hit BSDF only borrows it.)
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
 pub enum BsdfParams {
     Diffuse(DiffuseParams),
     Mirror(MirrorParams),
@@ -194,24 +274,153 @@ pub enum BsdfParams {
     Phong(PhongParams),
     Blinn(BlinnParams),
     BlinnMicrofacet(BlinnMicrofacetParams),
+    Dielectric(DielectricParams),
+    ThinDielectric(ThinDielectricParams),
+    RoughDielectric(RoughDielectricParams),
+    Conductor(ConductorParams),
+    RoughConductor(RoughConductorParams),
+    SmoothPlastic(SmoothPlasticParams),
+    RoughPlastic(RoughPlasticParams),
+    Blend(BlendParams),
+    Null,
 }
 
 impl BsdfParams {
-    /// The parser's description with its textures resolved to the scene's texture indices.
-    pub fn from_desc(kind: &BsdfKind) -> Self {
+    /// The parser's description with its textures resolved to the scene's texture indices;
+    /// `torrey_dialect` picks the course's `plastic` over Mitsuba's.
+    pub fn from_desc(kind: &BsdfKind, torrey_dialect: bool) -> Self {
         let color = |c: &ColorParam| match c {
             ColorParam::Constant(v) => ColorSource::Constant((*v).into()),
             ColorParam::Texture(t) => ColorSource::Texture(*t as u32),
         };
         let float = FloatSource::Constant;
+        // A float parameter that may be a texture (its first channel).
+        let float_tex = |c: &ColorParam| match c {
+            ColorParam::Constant(v) => FloatSource::Constant(v.x),
+            ColorParam::Texture(t) => FloatSource::Texture(*t as u32),
+        };
+        let microfacet = |d: &MicrofacetType| match d {
+            MicrofacetType::Beckmann => MicrofacetKind::Beckmann,
+            MicrofacetType::Ggx => MicrofacetKind::Ggx,
+        };
         match kind {
+            // The material takes the back apart (`Material::from_desc`); this is the front.
+            BsdfKind::TwoSided { front, .. } => Self::from_desc(&front.kind, torrey_dialect),
+            BsdfKind::Null => BsdfParams::Null,
+            // A mask is a blend of `null` (weight 1 − opacity) and the nested bsdf.
+            BsdfKind::Mask { opacity, nested } => BsdfParams::Blend(BlendParams {
+                weight: float_tex(opacity),
+                children: Box::new([
+                    BsdfParams::Null,
+                    Self::from_desc(&nested.kind, torrey_dialect),
+                ]),
+            }),
+            BsdfKind::Blend {
+                weight,
+                first,
+                second,
+            } => BsdfParams::Blend(BlendParams {
+                weight: float_tex(weight),
+                children: Box::new([
+                    Self::from_desc(&first.kind, torrey_dialect),
+                    Self::from_desc(&second.kind, torrey_dialect),
+                ]),
+            }),
+            BsdfKind::Plastic {
+                reflectance,
+                eta,
+                specular_reflectance,
+                nonlinear,
+            } if !torrey_dialect => {
+                let (d, s) = (color(reflectance), color(specular_reflectance));
+                BsdfParams::SmoothPlastic(SmoothPlasticParams {
+                    diffuse_reflectance: d,
+                    specular_reflectance: s,
+                    eta: *eta,
+                    nonlinear: *nonlinear,
+                    specular_sampling_weight: specular_sampling_weight(d, s),
+                })
+            }
+            BsdfKind::Dielectric {
+                eta,
+                thin,
+                specular_reflectance,
+                specular_transmittance,
+            } => {
+                let p = DielectricParams {
+                    eta: *eta,
+                    specular_reflectance: color(specular_reflectance),
+                    specular_transmittance: color(specular_transmittance),
+                };
+                if *thin {
+                    BsdfParams::ThinDielectric(ThinDielectricParams(p))
+                } else {
+                    BsdfParams::Dielectric(p)
+                }
+            }
+            BsdfKind::RoughDielectric {
+                distribution,
+                alpha_u,
+                alpha_v,
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => BsdfParams::RoughDielectric(RoughDielectricParams {
+                kind: microfacet(distribution),
+                alpha_u: float_tex(alpha_u),
+                alpha_v: float_tex(alpha_v),
+                eta: *eta,
+                specular_reflectance: color(specular_reflectance),
+                specular_transmittance: color(specular_transmittance),
+            }),
+            BsdfKind::Conductor {
+                eta,
+                k,
+                specular_reflectance,
+            } => BsdfParams::Conductor(ConductorParams {
+                eta: color(eta),
+                k: color(k),
+                specular_reflectance: color(specular_reflectance),
+            }),
+            BsdfKind::RoughConductor {
+                distribution,
+                alpha_u,
+                alpha_v,
+                eta,
+                k,
+                specular_reflectance,
+            } => BsdfParams::RoughConductor(RoughConductorParams {
+                kind: microfacet(distribution),
+                alpha_u: float_tex(alpha_u),
+                alpha_v: float_tex(alpha_v),
+                eta: color(eta),
+                k: color(k),
+                specular_reflectance: color(specular_reflectance),
+            }),
+            BsdfKind::RoughPlastic {
+                distribution,
+                alpha,
+                diffuse_reflectance,
+                specular_reflectance,
+                eta,
+                nonlinear,
+            } => BsdfParams::RoughPlastic(RoughPlasticParams::new(
+                color(diffuse_reflectance),
+                color(specular_reflectance),
+                microfacet(distribution),
+                *alpha,
+                *eta,
+                *nonlinear,
+            )),
             BsdfKind::Diffuse { reflectance } => BsdfParams::Diffuse(DiffuseParams {
                 reflectance: color(reflectance),
             }),
             BsdfKind::Mirror { reflectance } => BsdfParams::Mirror(MirrorParams {
                 reflectance: color(reflectance),
             }),
-            BsdfKind::Plastic { reflectance, eta } => BsdfParams::Plastic(PlasticParams {
+            BsdfKind::Plastic {
+                reflectance, eta, ..
+            } => BsdfParams::Plastic(PlasticParams {
                 reflectance: color(reflectance),
                 eta: *eta,
             }),
@@ -241,7 +450,7 @@ impl BsdfParams {
 
     /// The BSDF at a hit whose textures `q` looks up.
     #[inline(always)]
-    pub fn resolve(&self, q: &TextureQuery) -> Bsdf {
+    pub fn resolve<'a>(&'a self, q: &TextureQuery<'a>) -> Bsdf<'a> {
         match self {
             BsdfParams::Diffuse(p) => Bsdf::Diffuse(p.resolve(q)),
             BsdfParams::Mirror(p) => Bsdf::Mirror(p.resolve(q)),
@@ -249,6 +458,15 @@ impl BsdfParams {
             BsdfParams::Phong(p) => Bsdf::Phong(p.resolve(q)),
             BsdfParams::Blinn(p) => Bsdf::Blinn(p.resolve(q)),
             BsdfParams::BlinnMicrofacet(p) => Bsdf::BlinnMicrofacet(p.resolve(q)),
+            BsdfParams::Dielectric(p) => Bsdf::Dielectric(p.resolve(q)),
+            BsdfParams::ThinDielectric(p) => Bsdf::ThinDielectric(p.resolve(q)),
+            BsdfParams::RoughDielectric(p) => Bsdf::RoughDielectric(p.resolve(q)),
+            BsdfParams::Conductor(p) => Bsdf::Conductor(p.resolve(q)),
+            BsdfParams::RoughConductor(p) => Bsdf::RoughConductor(p.resolve(q)),
+            BsdfParams::SmoothPlastic(p) => Bsdf::SmoothPlastic(p.resolve(q)),
+            BsdfParams::RoughPlastic(p) => Bsdf::RoughPlastic(p.resolve(q)),
+            BsdfParams::Blend(p) => Bsdf::Blend(p.resolve(q)),
+            BsdfParams::Null => Bsdf::Null(Null),
         }
     }
 
@@ -263,26 +481,64 @@ impl BsdfParams {
             BsdfParams::BlinnMicrofacet(p) => {
                 p.reflectance.is_textured() || p.exponent.is_textured()
             }
+            BsdfParams::Dielectric(p) | BsdfParams::ThinDielectric(ThinDielectricParams(p)) => {
+                p.specular_reflectance.is_textured() || p.specular_transmittance.is_textured()
+            }
+            BsdfParams::RoughDielectric(p) => p.is_textured(),
+            BsdfParams::Conductor(p) => p.is_textured(),
+            BsdfParams::RoughConductor(p) => p.is_textured(),
+            BsdfParams::SmoothPlastic(p) => p.is_textured(),
+            BsdfParams::RoughPlastic(p) => p.is_textured(),
+            BsdfParams::Blend(p) => p.is_textured(),
+            BsdfParams::Null => false,
+        }
+    }
+
+    /// Whether the model's lobes depend on the tangent's direction (α_u ≠ α_v, or textured).
+    pub fn anisotropic(&self) -> bool {
+        let differ = |u: &FloatSource, v: &FloatSource| match (u, v) {
+            (FloatSource::Constant(a), FloatSource::Constant(b)) => a != b,
+            _ => true,
+        };
+        match self {
+            BsdfParams::RoughConductor(p) => differ(&p.alpha_u, &p.alpha_v),
+            BsdfParams::RoughDielectric(p) => differ(&p.alpha_u, &p.alpha_v),
+            BsdfParams::Blend(p) => p.children.iter().any(|c| c.anisotropic()),
+            _ => false,
+        }
+    }
+
+    /// Whether the model transmits light: it then handles both sides itself and a two-sided
+    /// material does not mirror its back (a torrey-dialect glass must refract on the way out).
+    pub fn transmits(&self) -> bool {
+        match self {
+            BsdfParams::Dielectric(_)
+            | BsdfParams::ThinDielectric(_)
+            | BsdfParams::RoughDielectric(_) => true,
+            BsdfParams::Blend(p) => p.children.iter().any(|c| c.transmits()),
+            _ => false,
         }
     }
 }
 
 /// What a viewer behind a surface (wo.z < 0) sees.
 #[derive(Clone, Copy, Debug)]
-pub enum BackSide {
+pub enum BackSide<'a> {
     /// The front BSDF itself decides (black for the reflection-only models; a dielectric
     /// refracts).
     Front,
     /// The front BSDF with both directions mirrored to the front (Mitsuba's `twosided` with one
     /// BSDF, every material of a torrey-dialect scene).
     Mirrored,
+    /// Another BSDF, mirrored to the front (Mitsuba's `twosided` with two).
+    Other(Bsdf<'a>),
 }
 
 /// A BSDF at a hit with its sidedness.
 #[derive(Clone, Copy, Debug)]
-pub struct SurfaceBsdf {
-    pub front: Bsdf,
-    pub back: BackSide,
+pub struct SurfaceBsdf<'a> {
+    pub front: Bsdf<'a>,
+    pub back: BackSide<'a>,
 }
 
 /// `w` mirrored through the tangent plane.
@@ -291,14 +547,15 @@ fn flip_z(w: Vec3A) -> Vec3A {
     Vec3A::new(w.x, w.y, -w.z)
 }
 
-impl SurfaceBsdf {
+impl<'a> SurfaceBsdf<'a> {
     /// The BSDF facing `wo`, and whether directions must be mirrored for it.
     #[inline(always)]
-    fn side(&self, wo: Vec3A) -> (&Bsdf, bool) {
+    fn side(&self, wo: Vec3A) -> (&Bsdf<'a>, bool) {
         if wo.z < 0.0 {
             match &self.back {
                 BackSide::Front => {}
                 BackSide::Mirrored => return (&self.front, true),
+                BackSide::Other(back) => return (back, true),
             }
         }
         (&self.front, false)

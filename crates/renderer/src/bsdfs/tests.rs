@@ -23,7 +23,7 @@ enum BsdfModel {
 }
 
 impl BsdfModel {
-    fn at(self, reflectance: Vec3A) -> Bsdf {
+    fn at(self, reflectance: Vec3A) -> Bsdf<'static> {
         match self {
             BsdfModel::Diffuse => Bsdf::Diffuse(Diffuse { reflectance }),
             BsdfModel::Mirror => Bsdf::Mirror(Mirror { reflectance }),

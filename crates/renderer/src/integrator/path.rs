@@ -4,6 +4,12 @@
 //! Depth counts path segments like Mitsuba's `max_depth`: 1 shows only emitters seen directly,
 //! 2 adds direct lighting, -1 is unbounded. Russian roulette starts at `rr_depth`.
 //!
+//! Transmission needs nothing special: BSDFs take `wo` and `wi` on either side of the surface,
+//! rays leave from the side their direction points to ([`offset_origin`]), next-event
+//! estimation is skipped at purely delta surfaces (glass, mirrors) and emission found after a
+//! delta bounce is counted with MIS weight 1, so light reaches the camera through glass along
+//! BSDF-sampled specular chains, from area lights and environment maps alike.
+//!
 //! Ray cones: every camera ray starts with the pixel's spread angle times 1/sqrt(spp) (the share
 //! of the pixel one sample stands for); the cone's width grows with distance, and its elliptical
 //! footprint on a surface filters textures anisotropically. Delta (mirror) bounces keep the spread;
@@ -65,9 +71,9 @@ pub fn radiance(
     let mut prev_delta = true;
     let mut prev_p = origin;
     let mut specular_chain = true;
-    // Product of the relative IORs of the refractions so far: radiance crossing an interface
-    // scales by 1/η², which Russian roulette discounts (as Mitsuba's path integrator does).
-    let mut eta_scale = 1.0f32;
+    // Product of the relative IORs crossed (Mitsuba's `eta`): radiance inside glass is scaled
+    // by 1/η², which Russian roulette must not mistake for an absorbing path.
+    let mut eta = 1.0f32;
     let mut depth: u32 = 0;
 
     loop {
@@ -217,9 +223,9 @@ pub fn radiance(
             cone.spread += bsdf.roughness(wo_local) * settings.footprint_scale;
             specular_chain = false;
         }
+        eta *= bs.eta;
         prev_bsdf_pdf = bs.pdf;
         prev_delta = bs.is_delta();
-        eta_scale *= bs.eta;
         prev_p = hit.p;
         ray = Ray {
             origin: offset_origin(hit.p, hit.ng, wi),
@@ -228,9 +234,9 @@ pub fn radiance(
         };
         depth += 1;
 
-        // Russian roulette, as Mitsuba: survive with probability min(max throughput η², 0.95).
+        // Russian roulette, as Mitsuba: survive with probability min(max throughput · η², 0.95).
         if depth as i32 >= settings.rr_depth {
-            let q = (throughput.max_element() * (eta_scale * eta_scale)).min(0.95);
+            let q = (throughput.max_element() * eta * eta).min(0.95);
             if u_rr >= q {
                 break;
             }

@@ -10,39 +10,63 @@ use torrey_parser as desc;
 use torrey_texture::Footprint;
 
 /// A material ready to shade.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Material {
     pub bsdf: BsdfParams,
+    /// A different BSDF for the back (Mitsuba's `twosided` with two nested bsdfs).
+    pub back: Option<BsdfParams>,
     /// Shades both sides (torrey-dialect scenes, or Mitsuba's `twosided`).
     pub two_sided: bool,
     pub normal_map: Option<u32>,
+    /// The BSDF depends on the tangent's direction (anisotropic roughness).
+    pub anisotropic: bool,
 }
 
 impl Material {
     /// The material of a parsed bsdf; every material of a torrey-dialect scene is two-sided.
     pub fn from_desc(b: &desc::Bsdf, torrey_dialect: bool) -> Self {
+        let bsdf = BsdfParams::from_desc(&b.kind, torrey_dialect);
+        let (back, normal_map) = match &b.kind {
+            desc::BsdfKind::TwoSided { front, back } => (
+                Some(BsdfParams::from_desc(&back.kind, torrey_dialect)),
+                front.normal_map,
+            ),
+            desc::BsdfKind::Mask { nested, .. } => (None, nested.normal_map),
+            _ => (None, b.normal_map),
+        };
+        // A mask is as two-sided as what it masks (mirroring its null part changes nothing).
+        let two_sided = match &b.kind {
+            desc::BsdfKind::Mask { nested, .. } => b.two_sided || nested.two_sided,
+            _ => b.two_sided,
+        };
+        let anisotropic = bsdf.anisotropic() || back.as_ref().is_some_and(|b| b.anisotropic());
         Material {
-            bsdf: BsdfParams::from_desc(&b.kind),
-            two_sided: b.two_sided || torrey_dialect,
-            normal_map: b.normal_map.map(|t| t as u32),
+            back,
+            // A transmitting BSDF handles its back side itself (it refracts out of it).
+            two_sided: (two_sided || torrey_dialect) && !bsdf.transmits(),
+            anisotropic,
+            bsdf,
+            normal_map: normal_map.map(|t| t as u32),
         }
     }
 
     /// Whether shading reads any texture, i.e. needs uv and a ray-cone footprint.
     #[inline]
     pub fn is_textured(&self) -> bool {
-        self.normal_map.is_some() || self.bsdf.is_textured()
+        self.normal_map.is_some()
+            || self.bsdf.is_textured()
+            || self.back.as_ref().is_some_and(|b| b.is_textured())
     }
 
     /// The BSDF at a hit, its textured parameters looked up through `q`.
     #[inline(always)]
-    pub fn bsdf(&self, q: &TextureQuery) -> SurfaceBsdf {
+    pub fn bsdf<'a>(&'a self, q: &TextureQuery<'a>) -> SurfaceBsdf<'a> {
         SurfaceBsdf {
             front: self.bsdf.resolve(q),
-            back: if self.two_sided {
-                BackSide::Mirrored
-            } else {
-                BackSide::Front
+            back: match &self.back {
+                Some(b) => BackSide::Other(b.resolve(q)),
+                None if self.two_sided => BackSide::Mirrored,
+                None => BackSide::Front,
             },
         }
     }
@@ -65,6 +89,11 @@ impl Material {
     ) -> Frame {
         let Some(tex) = self.normal_map else {
             // The common case, inline in the path loop; normal maps take the call below.
+            // Anisotropic BSDFs are oriented by the surface's tangent dp/du, as Mitsuba's
+            // shading frame is; for the others the tangent's direction does not matter.
+            if self.anisotropic {
+                return Frame::from_normal_tangent(hit.ns, hit.dpdu);
+            }
             return Frame::from_normal(hit.ns);
         };
         self.normal_mapped_frame(textures, hit, wo, tex, footprint)

@@ -67,7 +67,9 @@ impl RenderScene {
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = &self.prims[hit.prim as usize];
         let shape = &self.shapes[prim.shape as usize];
-        let needs_uv = self.materials[shape.material as usize].is_textured();
+        let material = &self.materials[shape.material as usize];
+        // Anisotropic BSDFs need dp/du for their tangent frame.
+        let needs_uv = material.is_textured() || material.anisotropic;
         shape.surface(&self.mesh, prim, ray, hit, needs_uv)
     }
 

@@ -1,0 +1,698 @@
+//! Statistical tests of Mitsuba's models over the whole sphere (reflection and transmission):
+//! chi-square of sampled directions against `pdf`, sample weights against eval/pdf, the pdf's
+//! mass against the acceptance rate, the sampled albedo against quadrature, white-furnace
+//! energy checks and reciprocity.
+
+use super::microfacet::Microfacet;
+use super::*;
+use crate::sampling::testutil::{chi2_test, gauss_2d, Rng};
+use std::f64::consts::PI;
+
+const GOLD_ETA: Vec3A = Vec3A::new(0.143036, 0.375307, 1.44205);
+const GOLD_K: Vec3A = Vec3A::new(3.983, 2.38556, 1.60336);
+
+fn rough_conductor(kind: MicrofacetKind, au: f32, av: f32, eta: Vec3A, k: Vec3A) -> Bsdf<'static> {
+    Bsdf::RoughConductor(RoughConductor {
+        distr: Microfacet::new(kind, au, av),
+        eta,
+        k,
+        specular_reflectance: Vec3A::ONE,
+    })
+}
+
+fn rough_dielectric(kind: MicrofacetKind, au: f32, av: f32, eta: f32) -> Bsdf<'static> {
+    Bsdf::RoughDielectric(RoughDielectric {
+        distr: Microfacet::new(kind, au, av),
+        eta,
+        specular_reflectance: Vec3A::ONE,
+        specular_transmittance: Vec3A::ONE,
+    })
+}
+
+fn smooth_plastic(d: Vec3A, eta: f32, nonlinear: bool) -> Bsdf<'static> {
+    let p = SmoothPlasticParams {
+        diffuse_reflectance: crate::textures::ColorSource::Constant(d),
+        specular_reflectance: crate::textures::ColorSource::Constant(Vec3A::ONE),
+        eta,
+        nonlinear,
+        specular_sampling_weight: 1.0 / (1.0 + d.element_sum() / 3.0),
+    };
+    Bsdf::SmoothPlastic(p.resolve(&no_textures()))
+}
+
+fn no_textures() -> crate::textures::TextureQuery<'static> {
+    crate::textures::TextureQuery {
+        textures: &[],
+        uv: Vec2::ZERO,
+        footprint: torrey_texture::Footprint::POINT,
+    }
+}
+
+/// Rough plastic parameters live as long as the test (leaked: a few hundred bytes).
+fn rough_plastic(kind: MicrofacetKind, alpha: f32, d: Vec3A, eta: f32) -> Bsdf<'static> {
+    use crate::textures::ColorSource::Constant;
+    let p: &'static RoughPlasticParams = Box::leak(Box::new(RoughPlasticParams::new(
+        Constant(d),
+        Constant(Vec3A::ONE),
+        kind,
+        alpha,
+        eta,
+        false,
+    )));
+    Bsdf::RoughPlastic(p.resolve(&no_textures()))
+}
+
+/// A blend (leaked, as [`rough_plastic`]) of two parameter sets with a constant weight.
+fn blend(weight: f32, a: BsdfParams, b: BsdfParams) -> Bsdf<'static> {
+    let p: &'static BlendParams = Box::leak(Box::new(BlendParams {
+        weight: crate::textures::FloatSource::Constant(weight),
+        children: Box::new([a, b]),
+    }));
+    Bsdf::Blend(p.resolve(&no_textures()))
+}
+
+fn blend_models() -> [Bsdf<'static>; 2] {
+    use crate::textures::{ColorSource::Constant, FloatSource};
+    let conductor = BsdfParams::RoughConductor(RoughConductorParams {
+        kind: MicrofacetKind::Ggx,
+        alpha_u: FloatSource::Constant(0.3),
+        alpha_v: FloatSource::Constant(0.3),
+        eta: Constant(GOLD_ETA),
+        k: Constant(GOLD_K),
+        specular_reflectance: Constant(Vec3A::ONE),
+    });
+    let plastic = BsdfParams::SmoothPlastic(SmoothPlasticParams {
+        diffuse_reflectance: Constant(Vec3A::new(0.8, 0.5, 0.2)),
+        specular_reflectance: Constant(Vec3A::ONE),
+        eta: 1.49,
+        nonlinear: false,
+        specular_sampling_weight: 0.6,
+    });
+    let glass = BsdfParams::RoughDielectric(RoughDielectricParams {
+        kind: MicrofacetKind::Beckmann,
+        alpha_u: FloatSource::Constant(0.3),
+        alpha_v: FloatSource::Constant(0.3),
+        eta: 1.5,
+        specular_reflectance: Constant(Vec3A::ONE),
+        specular_transmittance: Constant(Vec3A::ONE),
+    });
+    let diffuse = BsdfParams::Diffuse(DiffuseParams {
+        reflectance: Constant(Vec3A::splat(0.7)),
+    });
+    [blend(0.4, conductor, plastic), blend(0.7, glass, diffuse)]
+}
+
+/// A direction at `deg` from +z (beyond 90°: below the surface) at an arbitrary azimuth.
+fn dir_at(deg: f32) -> Vec3A {
+    let t = deg.to_radians();
+    let phi = 0.7f32;
+    Vec3A::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
+}
+
+/// The non-delta models under test, each with the viewing angles to test it from.
+fn glossy_models() -> Vec<(&'static str, Bsdf<'static>, Vec<f32>)> {
+    use MicrofacetKind::{Beckmann, Ggx};
+    let front = vec![0.0, 40.0, 80.0];
+    let both = vec![0.0, 40.0, 80.0, 100.0, 150.0, 180.0];
+    vec![
+        (
+            "roughconductor beckmann 0.2",
+            rough_conductor(Beckmann, 0.2, 0.2, GOLD_ETA, GOLD_K),
+            front.clone(),
+        ),
+        (
+            "roughconductor ggx 0.3",
+            rough_conductor(Ggx, 0.3, 0.3, GOLD_ETA, GOLD_K),
+            front.clone(),
+        ),
+        (
+            "roughconductor ggx 0.15/0.45",
+            rough_conductor(Ggx, 0.15, 0.45, GOLD_ETA, GOLD_K),
+            front.clone(),
+        ),
+        (
+            "roughconductor beckmann 0.5/0.2",
+            rough_conductor(Beckmann, 0.5, 0.2, GOLD_ETA, GOLD_K),
+            front.clone(),
+        ),
+        (
+            "roughdielectric beckmann 0.3",
+            rough_dielectric(Beckmann, 0.3, 0.3, 1.5),
+            both.clone(),
+        ),
+        (
+            "roughdielectric ggx 0.2",
+            rough_dielectric(Ggx, 0.2, 0.2, 1.5),
+            both.clone(),
+        ),
+        (
+            "roughdielectric ggx 0.2/0.5 water",
+            rough_dielectric(Ggx, 0.2, 0.5, 1.333),
+            both.clone(),
+        ),
+        (
+            "roughdielectric beckmann 0.6 eta<1",
+            rough_dielectric(Beckmann, 0.6, 0.6, 1.0 / 1.4),
+            both,
+        ),
+        (
+            "plastic",
+            smooth_plastic(Vec3A::new(0.8, 0.5, 0.2), 1.49, false),
+            front.clone(),
+        ),
+        (
+            "plastic nonlinear",
+            smooth_plastic(Vec3A::new(0.8, 0.5, 0.2), 1.49, true),
+            front.clone(),
+        ),
+        (
+            "roughplastic beckmann 0.3",
+            rough_plastic(Beckmann, 0.3, Vec3A::new(0.8, 0.5, 0.2), 1.49),
+            front.clone(),
+        ),
+        (
+            "roughplastic ggx 0.2",
+            rough_plastic(Ggx, 0.2, Vec3A::new(0.2, 0.5, 0.8), 1.5),
+            front.clone(),
+        ),
+        ("blend roughconductor/plastic", blend_models()[0], front),
+        (
+            "blend roughdielectric/diffuse",
+            blend_models()[1],
+            vec![0.0, 40.0, 80.0, 100.0, 150.0],
+        ),
+    ]
+}
+
+/// A blend with a delta child: its delta samples keep the child's weight, its smooth ones the
+/// mixture's; in a white furnace the expected weight is (1 − w)·1 + w·ρ exactly.
+#[test]
+fn blend_with_a_delta_child_conserves_its_parts() {
+    use crate::textures::ColorSource::Constant;
+    let glass = BsdfParams::Dielectric(DielectricParams {
+        eta: 1.5,
+        specular_reflectance: Constant(Vec3A::ONE),
+        specular_transmittance: Constant(Vec3A::ONE),
+    });
+    let diffuse = BsdfParams::Diffuse(DiffuseParams {
+        reflectance: Constant(Vec3A::splat(0.5)),
+    });
+    let b = blend(0.5, glass, diffuse);
+    let s = draw("blend dielectric/diffuse", &b, dir_at(40.0), 200_000, 31);
+    // Delta samples (the glass half) return weight·η² = 1, the diffuse half 0.5.
+    assert!(
+        (s.mean_eta_weight - 0.75).abs() < 4.0 * s.stderr + 1e-3,
+        "{} ± {}",
+        s.mean_eta_weight,
+        s.stderr
+    );
+}
+
+struct Drawn {
+    /// Accepted non-delta sample directions; None for rejected or delta samples.
+    dirs: Vec<Option<Vec3A>>,
+    /// Mean sample weight (all samples, rejected ones counting 0).
+    mean_weight: glam::DVec3,
+    /// Mean of weight·η² (what a white furnace conserves through refraction).
+    mean_eta_weight: f64,
+    stderr: f64,
+    accepted: f64,
+}
+
+/// Draws `n` samples, checking each one's bookkeeping: unit direction, finite non-negative
+/// weight, lobe flags matching the side of `wi`, η = 1 for reflections, and for non-delta
+/// samples the returned pdf equal to `pdf()` and the weight equal to eval/pdf.
+fn draw(name: &str, b: &Bsdf, wo: Vec3A, n: usize, seed: u64) -> Drawn {
+    let mut rng = Rng::new(seed);
+    let mut dirs = Vec::with_capacity(n);
+    let (mut sum, mut sum_eta, mut sum2, mut accepted) = (glam::DVec3::ZERO, 0.0, 0.0, 0usize);
+    for _ in 0..n {
+        let (u, u_lobe) = (rng.vec2(), rng.f32());
+        let Some(s) = b.sample(wo, u, u_lobe) else {
+            dirs.push(None);
+            continue;
+        };
+        assert!((s.wi.length() - 1.0).abs() < 1e-3, "{name} {s:?}");
+        assert!(
+            s.weight.is_finite() && s.weight.min_element() >= 0.0,
+            "{name} {s:?}"
+        );
+        let transmitted = s.wi.z * wo.z < 0.0;
+        assert_eq!(
+            transmitted,
+            s.lobe.contains(BsdfFlags::TRANSMISSION),
+            "{name}: lobe flags {:?} for wo {wo} wi {}",
+            s.lobe,
+            s.wi
+        );
+        if !transmitted {
+            assert_eq!(s.eta, 1.0, "{name}");
+        }
+        sum += s.weight.as_dvec3();
+        let ew = (s.weight.x * s.eta * s.eta) as f64;
+        sum_eta += ew;
+        sum2 += ew * ew;
+        if s.is_delta() {
+            assert!(s.pdf.is_infinite(), "{name}");
+            dirs.push(None);
+            continue;
+        }
+        accepted += 1;
+        let pdf = b.pdf(wo, s.wi);
+        assert!(
+            (s.pdf - pdf).abs() <= 2e-3 * pdf,
+            "{name} wo {wo} wi {}: sample pdf {} vs pdf() {pdf}",
+            s.wi,
+            s.pdf
+        );
+        let expected = b.eval(wo, s.wi) / pdf;
+        assert!(
+            (s.weight - expected).abs().max_element() <= 2e-3 * expected.max_element() + 1e-6,
+            "{name} wo {wo} wi {}: weight {} vs eval/pdf {expected}",
+            s.wi,
+            s.weight
+        );
+        dirs.push(Some(s.wi));
+    }
+    let mean_eta = sum_eta / n as f64;
+    Drawn {
+        dirs,
+        mean_weight: sum / n as f64,
+        mean_eta_weight: mean_eta,
+        stderr: ((sum2 / n as f64 - mean_eta * mean_eta).max(0.0) / n as f64).sqrt(),
+        accepted: accepted as f64 / n as f64,
+    }
+}
+
+/// Chi-square test of directions against `pdf` on a (θ, φ) grid over the whole sphere, about
+/// +z: `KT` θ bins and `KP` φ bins, each cell's expectation the pdf integrated over it; rejected
+/// and delta samples form one extra cell expecting the pdf's missing mass. Returns the p-value.
+fn chi2_sphere(dirs: &[Option<Vec3A>], pdf: impl Fn(Vec3A) -> f64, what: &str) -> f64 {
+    const KT: usize = 60;
+    const KP: usize = 30;
+    let n = dirs.len() as f64;
+    let mut observed = vec![0.0; KT * KP + 1];
+    for d in dirs {
+        let Some(w) = d else {
+            observed[KT * KP] += 1.0;
+            continue;
+        };
+        let l = w.as_dvec3();
+        let theta = l.x.hypot(l.y).atan2(l.z);
+        let phi = (l.y.atan2(l.x) - 0.7).rem_euclid(2.0 * PI);
+        let it = ((theta / PI * KT as f64) as usize).min(KT - 1);
+        let ip = ((phi / (2.0 * PI) * KP as f64) as usize).min(KP - 1);
+        observed[it * KP + ip] += 1.0;
+    }
+    // φ measured from the viewing azimuth (0.7 rad) so lobes sit across bin edges the same way
+    // whatever the angle.
+    let mut integrand = |theta: f64, phi: f64| {
+        let (st, ct) = theta.sin_cos();
+        let (sp, cp) = (phi + 0.7).sin_cos();
+        let w = Vec3A::new((st * cp) as f32, (st * sp) as f32, ct as f32);
+        pdf(w) * st
+    };
+    let mut expected = vec![0.0; KT * KP + 1];
+    let mut total = 0.0;
+    for it in 0..KT {
+        for ip in 0..KP {
+            let t = (PI * it as f64 / KT as f64, PI * (it + 1) as f64 / KT as f64);
+            let p = (
+                2.0 * PI * ip as f64 / KP as f64,
+                2.0 * PI * (ip + 1) as f64 / KP as f64,
+            );
+            // The horizon (θ = 90°, a bin edge) is where transmission lobes jump: finer there.
+            let m = if it + 1 == KT / 2 || it == KT / 2 {
+                8
+            } else {
+                4
+            };
+            let mass = gauss_2d(&mut integrand, t, p, m);
+            total += mass;
+            expected[it * KP + ip] = n * mass;
+        }
+    }
+    expected[KT * KP] = n * (1.0 - total).max(0.0);
+    match chi2_test(&observed, &expected) {
+        Ok((p, _, _)) => p,
+        Err(e) => panic!("{what}: {e}"),
+    }
+}
+
+#[test]
+fn sampling_matches_pdf_over_the_sphere() {
+    let mut seed = 1000;
+    for (name, b, angles) in glossy_models() {
+        for deg in angles {
+            seed += 1;
+            let wo = dir_at(deg);
+            let s = draw(name, &b, wo, 200_000, seed);
+            let what = format!("{name} at {deg}°");
+            let p = chi2_sphere(&s.dirs, |w| b.pdf(wo, w) as f64, &what);
+            eprintln!("chi2 {what}: p = {p:.4}, accepted {:.4}", s.accepted);
+            assert!(p > 1e-3, "{what}: chi-square p = {p}");
+        }
+    }
+}
+
+#[test]
+fn chi2_catches_a_wrong_visible_normal_pdf() {
+    // Sampling GGX α = 0.3 visible normals but testing against α = 0.33 must fail.
+    let b = rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, GOLD_ETA, GOLD_K);
+    let wrong = rough_conductor(MicrofacetKind::Ggx, 0.33, 0.33, GOLD_ETA, GOLD_K);
+    let wo = dir_at(40.0);
+    let s = draw("ggx", &b, wo, 200_000, 9);
+    let p = chi2_sphere(&s.dirs, |w| wrong.pdf(wo, w) as f64, "wrong");
+    assert!(p < 1e-3, "p = {p}");
+    // A refraction pdf without its Jacobian's dependence on the half vector must fail too.
+    let b = rough_dielectric(MicrofacetKind::Beckmann, 0.3, 0.3, 1.5);
+    let s = draw("beckmann", &b, wo, 200_000, 10);
+    let no_jacobian = |w: Vec3A| {
+        let p = b.pdf(wo, w) as f64;
+        if w.z < 0.0 {
+            p * (1.0 + 0.2 * w.x as f64)
+        } else {
+            p
+        }
+    };
+    let p = chi2_sphere(&s.dirs, no_jacobian, "wrong");
+    assert!(p < 1e-3, "p = {p}");
+}
+
+/// ∫ f(ω) dω over the sphere by Gauss-Legendre in (θ, φ), fine enough for lobes compressed
+/// near the poles by refraction.
+fn sphere_quadrature(f: impl Fn(Vec3A) -> f64) -> f64 {
+    let mut g = |theta: f64, phi: f64| {
+        let (st, ct) = theta.sin_cos();
+        let (sp, cp) = phi.sin_cos();
+        f(Vec3A::new((st * cp) as f32, (st * sp) as f32, ct as f32)) * st
+    };
+    gauss_2d(&mut g, (0.0, PI), (0.0, 2.0 * PI), 200)
+}
+
+#[test]
+fn pdf_mass_and_albedo_match_the_samples() {
+    let mut seed = 2000;
+    for (name, b, angles) in glossy_models() {
+        for deg in angles {
+            seed += 1;
+            let wo = dir_at(deg);
+            let mass = sphere_quadrature(|w| b.pdf(wo, w) as f64);
+            let albedo = sphere_quadrature(|w| b.eval(wo, w).x as f64);
+            let n = 100_000;
+            let s = draw(name, &b, wo, n, seed);
+            let sigma = (s.accepted * (1.0 - s.accepted) / n as f64).sqrt();
+            eprintln!(
+                "{name} at {deg}°: ∫pdf {mass:.4} accepted {:.4}; albedo {albedo:.4} sampled {:.4}",
+                s.accepted, s.mean_weight.x
+            );
+            assert!(
+                (mass - s.accepted).abs() < 5.0 * sigma + 5e-3,
+                "{name} at {deg}°: ∫pdf = {mass}, accepted {}",
+                s.accepted
+            );
+            // Delta lobes (plastic's coating) are not in the quadrature.
+            if !b.flags().contains(BsdfFlags::DELTA) {
+                let sampled = s.mean_weight.x;
+                assert!(
+                    (sampled - albedo).abs() < 0.02 * albedo.max(0.05) + 3e-3,
+                    "{name} at {deg}°: sampled albedo {sampled} vs quadrature {albedo}"
+                );
+            }
+        }
+    }
+}
+
+/// White furnaces: a non-absorbing smooth dielectric, thin dielectric and a conductor of
+/// material `none` return all energy (weight·η² = 1 per sample: radiance is scaled by 1/η²
+/// entering a denser medium); rough ones lose only what single scattering misses.
+#[test]
+fn white_furnace() {
+    let mut seed = 3000;
+    let smooth: [(&str, Bsdf, Vec<f32>); 3] = [
+        (
+            "dielectric",
+            Bsdf::Dielectric(Dielectric {
+                eta: 1.5,
+                specular_reflectance: Vec3A::ONE,
+                specular_transmittance: Vec3A::ONE,
+            }),
+            vec![0.0, 30.0, 60.0, 89.0, 120.0, 135.0, 150.0, 180.0],
+        ),
+        (
+            "thindielectric",
+            Bsdf::ThinDielectric(ThinDielectric {
+                eta: 1.5,
+                specular_reflectance: Vec3A::ONE,
+                specular_transmittance: Vec3A::ONE,
+            }),
+            vec![0.0, 60.0, 120.0],
+        ),
+        (
+            "conductor none",
+            Bsdf::Conductor(Conductor {
+                eta: Vec3A::ZERO,
+                k: Vec3A::ONE,
+                specular_reflectance: Vec3A::ONE,
+            }),
+            vec![0.0, 45.0, 89.0],
+        ),
+    ];
+    for (name, b, angles) in smooth {
+        for deg in angles {
+            seed += 1;
+            let s = draw(name, &b, dir_at(deg), 20_000, seed);
+            assert!(
+                (s.mean_eta_weight - 1.0).abs() < 1e-5 && s.stderr < 1e-5,
+                "{name} at {deg}°: {}",
+                s.mean_eta_weight
+            );
+        }
+    }
+    // Total internal reflection: beyond the critical angle inside glass everything reflects.
+    let glass = Bsdf::Dielectric(Dielectric {
+        eta: 1.5,
+        specular_reflectance: Vec3A::ONE,
+        specular_transmittance: Vec3A::ONE,
+    });
+    let wo = dir_at(135.0);
+    for u in [0.0, 0.5, 0.999] {
+        let s = glass.sample(wo, Vec2::ZERO, u).unwrap();
+        assert!(
+            s.wi.z < 0.0 && s.lobe == BsdfFlags::DELTA_REFLECTION,
+            "{s:?}"
+        );
+    }
+    use MicrofacetKind::{Beckmann, Ggx};
+    let rough = [
+        (
+            "roughdielectric ggx 0.1",
+            rough_dielectric(Ggx, 0.1, 0.1, 1.5),
+            0.95,
+        ),
+        (
+            "roughdielectric beckmann 0.3",
+            rough_dielectric(Beckmann, 0.3, 0.3, 1.5),
+            0.9,
+        ),
+        (
+            "roughconductor none ggx 0.1",
+            rough_conductor(Ggx, 0.1, 0.1, Vec3A::ZERO, Vec3A::ONE),
+            0.95,
+        ),
+        (
+            "roughconductor none beckmann 0.3",
+            rough_conductor(Beckmann, 0.3, 0.3, Vec3A::ZERO, Vec3A::ONE),
+            0.9,
+        ),
+    ];
+    for (name, b, min) in rough {
+        for deg in [0.0, 30.0, 60.0, 150.0] {
+            if deg > 90.0
+                && b.flags().contains(BsdfFlags::REFLECTION)
+                && !b.flags().contains(BsdfFlags::TRANSMISSION)
+            {
+                continue;
+            }
+            seed += 1;
+            let s = draw(name, &b, dir_at(deg), 100_000, seed);
+            eprintln!(
+                "furnace {name} at {deg}°: {:.4} ± {:.4}",
+                s.mean_eta_weight, s.stderr
+            );
+            assert!(
+                s.mean_eta_weight < 1.0 + 4.0 * s.stderr + 1e-3 && s.mean_eta_weight > min,
+                "{name} at {deg}°: {} ± {}",
+                s.mean_eta_weight,
+                s.stderr
+            );
+        }
+    }
+}
+
+/// f(wo, wi)/|cos θi| is symmetric for reflection; across a dielectric interface, in radiance
+/// units, f(wo → wi)/η_o² is (Veach 5.2), η_o the IOR on wo's side.
+#[test]
+fn reciprocity() {
+    let mut rng = Rng::new(77);
+    let mut checked = 0;
+    for (name, b, _) in glossy_models() {
+        let eta = match b {
+            Bsdf::RoughDielectric(d) => d.eta,
+            Bsdf::Blend(bl) => match &bl.children[0] {
+                BsdfParams::RoughDielectric(d) => d.eta,
+                _ => 1.0,
+            },
+            _ => 1.0,
+        };
+        let side_eta = |w: Vec3A| if w.z < 0.0 { eta } else { 1.0 };
+        for _ in 0..4000 {
+            // Pairs from the BSDF's own sampling, so that they lie in its lobes.
+            let a = crate::sampling::square_to_uniform_sphere(rng.vec2());
+            let Some(s) = b.sample(a, rng.vec2(), rng.f32()) else {
+                continue;
+            };
+            if s.is_delta() {
+                continue;
+            }
+            let c = s.wi;
+            let f_ac = b.eval(a, c) / c.z.abs() / (side_eta(a) * side_eta(a));
+            let f_ca = b.eval(c, a) / a.z.abs() / (side_eta(c) * side_eta(c));
+            let scale = f_ac.max_element().max(f_ca.max_element());
+            // Far tails (f < 1e-4, where wo·m + η wi·m cancels) only carry rounding error.
+            if !scale.is_finite() || scale < 1e-4 || a.z.abs() < 0.02 || c.z.abs() < 0.02 {
+                continue;
+            }
+            assert!(
+                (f_ac - f_ca).abs().max_element() <= 1e-2 * scale,
+                "{name}: {a} {c}: {f_ac} vs {f_ca}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 20_000, "{checked}");
+}
+
+/// The pdf of roughdielectric integrates to 1 on both sides (no lobe is lost but by rejected
+/// proposals), and smooth dielectric refraction obeys Snell's law with η reported as Mitsuba's.
+#[test]
+fn dielectric_refraction_and_eta() {
+    let glass = Bsdf::Dielectric(Dielectric {
+        eta: 1.5,
+        specular_reflectance: Vec3A::ONE,
+        specular_transmittance: Vec3A::ONE,
+    });
+    let wo = dir_at(40.0);
+    let t = glass.sample(wo, Vec2::ZERO, 0.999).unwrap();
+    assert_eq!(t.lobe, BsdfFlags::DELTA_TRANSMISSION);
+    assert_eq!(t.eta, 1.5);
+    let sin_i = (1.0 - wo.z * wo.z).sqrt();
+    let sin_t = (1.0 - t.wi.z * t.wi.z).sqrt();
+    assert!((sin_i - 1.5 * sin_t).abs() < 1e-5 && t.wi.z < 0.0);
+    assert!((t.weight.x - 1.0 / 2.25).abs() < 1e-6);
+    // Leaving: η = 1/1.5, radiance scaled up by 2.25.
+    // Seen from inside along the refracted direction: η = 1/1.5, radiance scaled up by 2.25,
+    // and the light came from wo.
+    let back = glass.sample(t.wi, Vec2::ZERO, 0.999).unwrap();
+    assert!((back.eta - 1.0 / 1.5).abs() < 1e-6 && (back.weight.x - 2.25).abs() < 1e-4);
+    assert!((back.wi - wo).length() < 1e-4, "{back:?}");
+}
+
+/// eval and pdf against Mitsuba 3.9.1 (`scalar_rgb`, `BSDF.eval`/`BSDF.pdf` with `si.wi` = our
+/// wo), at directions given as (θ degrees, φ radians): (name, wo, wi, eval, pdf).
+type MitsubaValue = (&'static str, (f32, f32), (f32, f32), [f32; 3], f32);
+
+#[rustfmt::skip]
+const MITSUBA_VALUES: &[MitsubaValue] = &[
+    ("roughconductor_beckmann", (30.0, 0.3), (40.0, 3.5), [1.84360e+00, 1.52913e+00, 6.25964e-01], 1.90811e+00),
+    ("roughconductor_beckmann", (60.0, 0.1), (20.0, 3.0), [1.48125e-01, 1.22861e-01, 5.07539e-02], 1.53362e-01),
+    ("roughconductor_beckmann", (10.0, 1.0), (75.0, 2.0), [5.44968e-08, 4.52012e-08, 1.85010e-08], 5.65605e-08),
+    ("roughconductor_beckmann", (30.0, 0.3), (160.0, 3.3), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughconductor_beckmann", (150.0, 0.5), (20.0, 3.9), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughconductor_beckmann", (170.0, 0.5), (120.0, 2.0), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughconductor_ggx_aniso", (30.0, 0.3), (40.0, 3.5), [8.08476e-01, 5.26429e-01, 4.34899e-01], 8.56461e-01),
+    ("roughconductor_ggx_aniso", (60.0, 0.1), (20.0, 3.0), [5.99670e-02, 3.90618e-02, 3.23365e-02], 6.31200e-02),
+    ("roughconductor_ggx_aniso", (10.0, 1.0), (75.0, 2.0), [4.83853e-02, 3.15054e-02, 2.60267e-02], 7.22260e-02),
+    ("roughconductor_ggx_aniso", (30.0, 0.3), (160.0, 3.3), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughconductor_ggx_aniso", (150.0, 0.5), (20.0, 3.9), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughconductor_ggx_aniso", (170.0, 0.5), (120.0, 2.0), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughdielectric_beckmann", (30.0, 0.3), (40.0, 3.5), [4.08375e-02, 4.08375e-02, 4.08375e-02], 4.08375e-02),
+    ("roughdielectric_beckmann", (60.0, 0.1), (20.0, 3.0), [2.19424e-02, 2.19424e-02, 2.19424e-02], 2.19424e-02),
+    ("roughdielectric_beckmann", (10.0, 1.0), (75.0, 2.0), [3.02414e-05, 3.02414e-05, 3.02414e-05], 3.14234e-05),
+    ("roughdielectric_beckmann", (30.0, 0.3), (160.0, 3.3), [9.01467e+00, 9.01467e+00, 9.01467e+00], 2.02830e+01),
+    ("roughdielectric_beckmann", (150.0, 0.5), (20.0, 3.9), [1.79241e-05, 1.79241e-05, 1.79241e-05], 7.96627e-06),
+    ("roughdielectric_beckmann", (170.0, 0.5), (120.0, 2.0), [1.61326e-03, 1.61326e-03, 1.61326e-03], 1.61326e-03),
+    ("roughdielectric_ggx", (30.0, 0.3), (40.0, 3.5), [6.88881e-02, 6.88881e-02, 6.88881e-02], 6.93698e-02),
+    ("roughdielectric_ggx", (60.0, 0.1), (20.0, 3.0), [1.12090e-02, 1.12090e-02, 1.12090e-02], 1.12238e-02),
+    ("roughdielectric_ggx", (10.0, 1.0), (75.0, 2.0), [6.15442e-04, 6.15442e-04, 6.15442e-04], 6.91710e-04),
+    ("roughdielectric_ggx", (30.0, 0.3), (160.0, 3.3), [1.17409e+01, 1.17409e+01, 1.17409e+01], 2.64519e+01),
+    ("roughdielectric_ggx", (150.0, 0.5), (20.0, 3.9), [2.16310e-01, 2.16310e-01, 2.16310e-01], 9.62652e-02),
+    ("roughdielectric_ggx", (170.0, 0.5), (120.0, 2.0), [1.96706e-03, 1.96706e-03, 1.96706e-03], 2.02440e-03),
+    ("plastic", (30.0, 0.3), (40.0, 3.5), [1.96918e-01, 1.23074e-01, 4.92296e-02], 2.25005e-01),
+    ("plastic", (60.0, 0.1), (20.0, 3.0), [2.30954e-01, 1.44346e-01, 5.77386e-02], 2.51004e-01),
+    ("plastic", (10.0, 1.0), (75.0, 2.0), [5.22192e-02, 3.26370e-02, 1.30548e-02], 7.62475e-02),
+    ("plastic", (30.0, 0.3), (160.0, 3.3), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("plastic", (150.0, 0.5), (20.0, 3.9), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("plastic", (170.0, 0.5), (120.0, 2.0), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("plastic_nonlinear", (30.0, 0.3), (40.0, 3.5), [1.52842e-01, 7.15157e-02, 2.28603e-02], 2.25005e-01),
+    ("plastic_nonlinear", (60.0, 0.1), (20.0, 3.0), [1.79260e-01, 8.38766e-02, 2.68115e-02], 2.51004e-01),
+    ("plastic_nonlinear", (10.0, 1.0), (75.0, 2.0), [4.05310e-02, 1.89646e-02, 6.06212e-03], 7.62475e-02),
+    ("plastic_nonlinear", (30.0, 0.3), (160.0, 3.3), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("plastic_nonlinear", (150.0, 0.5), (20.0, 3.9), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("plastic_nonlinear", (170.0, 0.5), (120.0, 2.0), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughplastic_beckmann", (30.0, 0.3), (40.0, 3.5), [2.07430e-01, 1.44471e-01, 8.15110e-02], 3.01490e-01),
+    ("roughplastic_beckmann", (60.0, 0.1), (20.0, 3.0), [2.17434e-01, 1.43871e-01, 7.03091e-02], 3.31376e-01),
+    ("roughplastic_beckmann", (10.0, 1.0), (75.0, 2.0), [4.86675e-02, 3.04282e-02, 1.21888e-02], 7.62385e-02),
+    ("roughplastic_beckmann", (30.0, 0.3), (160.0, 3.3), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughplastic_beckmann", (150.0, 0.5), (20.0, 3.9), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughplastic_beckmann", (170.0, 0.5), (120.0, 2.0), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughplastic_ggx", (30.0, 0.3), (40.0, 3.5), [1.06768e-01, 1.63720e-01, 2.20672e-01], 3.68524e-01),
+    ("roughplastic_ggx", (60.0, 0.1), (20.0, 3.0), [5.56566e-02, 1.22349e-01, 1.89041e-01], 2.89423e-01),
+    ("roughplastic_ggx", (10.0, 1.0), (75.0, 2.0), [1.15101e-02, 2.78533e-02, 4.41964e-02], 7.69097e-02),
+    ("roughplastic_ggx", (30.0, 0.3), (160.0, 3.3), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughplastic_ggx", (150.0, 0.5), (20.0, 3.9), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+    ("roughplastic_ggx", (170.0, 0.5), (120.0, 2.0), [0.00000e+00, 0.00000e+00, 0.00000e+00], 0.00000e+00),
+];
+
+#[test]
+fn eval_and_pdf_match_mitsuba() {
+    use MicrofacetKind::{Beckmann, Ggx};
+    let cu_eta = Vec3A::new(0.201005, 0.92375, 1.10222);
+    let cu_k = Vec3A::new(3.91326, 2.45305, 2.14209);
+    let model = |name: &str| match name {
+        "roughconductor_beckmann" => rough_conductor(Beckmann, 0.2, 0.2, GOLD_ETA, GOLD_K),
+        "roughconductor_ggx_aniso" => rough_conductor(Ggx, 0.15, 0.45, cu_eta, cu_k),
+        "roughdielectric_beckmann" => rough_dielectric(Beckmann, 0.3, 0.3, 1.5),
+        "roughdielectric_ggx" => rough_dielectric(Ggx, 0.2, 0.2, 1.5),
+        "plastic" => smooth_plastic(Vec3A::new(0.8, 0.5, 0.2), 1.49 / 1.000277, false),
+        "plastic_nonlinear" => smooth_plastic(Vec3A::new(0.8, 0.5, 0.2), 1.49 / 1.000277, true),
+        "roughplastic_beckmann" => {
+            rough_plastic(Beckmann, 0.3, Vec3A::new(0.8, 0.5, 0.2), 1.49 / 1.000277)
+        }
+        "roughplastic_ggx" => rough_plastic(Ggx, 0.2, Vec3A::new(0.2, 0.5, 0.8), 1.5 / 1.000277),
+        _ => unreachable!(),
+    };
+    let dir = |(deg, phi): (f32, f32)| {
+        let t = deg.to_radians();
+        Vec3A::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
+    };
+    let mut failures = Vec::new();
+    for &(name, wo, wi, value, pdf) in MITSUBA_VALUES {
+        let b = model(name);
+        let (wo, wi) = (dir(wo), dir(wi));
+        let ours = b.eval(wo, wi);
+        let theirs = Vec3A::from(value);
+        if (ours - theirs).abs().max_element() > 1e-2 * theirs.max_element() + 1e-7 {
+            failures.push(format!(
+                "{name} eval wo {wo} wi {wi}: ours {ours}, Mitsuba {theirs}"
+            ));
+        }
+        let p = b.pdf(wo, wi);
+        if (p - pdf).abs() > 1e-2 * pdf + 1e-7 {
+            failures.push(format!(
+                "{name} pdf wo {wo} wi {wi}: ours {p}, Mitsuba {pdf}"
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
