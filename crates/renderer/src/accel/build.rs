@@ -10,12 +10,18 @@ use obvhs::{aabb::Aabb, bvh2::Bvh2, BvhBuildParams};
 use std::time::Duration;
 
 impl PrimGeom {
-    /// Whether every coordinate (and radius) is finite: only such primitives can be ordered by
-    /// the builder, and the scene drops the others before building.
+    /// Whether the builder can place it: every coordinate (and radius) finite, and so is its
+    /// box's extent and surface area (a triangle with corners at ±3e38 has finite corners but an
+    /// infinite extent). The scene drops the others before building.
     pub fn is_finite(&self) -> bool {
-        match *self {
+        let coordinates = match *self {
             PrimGeom::Triangle { p0, p1, p2 } => p0.is_finite() && p1.is_finite() && p2.is_finite(),
             PrimGeom::Sphere { center, radius } => center.is_finite() && radius.is_finite(),
+        };
+        coordinates && {
+            let b = self.aabb();
+            let extent = b.max - b.min;
+            extent.is_finite() && b.half_area().is_finite()
         }
     }
 

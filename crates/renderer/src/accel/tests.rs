@@ -299,3 +299,30 @@ fn non_finite_rays_are_safe_in_every_layout() {
         }
     }
 }
+
+/// Primitives the builder cannot order are recognised: non-finite coordinates, and finite ones
+/// whose box extent or area overflows (found by the fuzzer: a rectangle scaled by 3.4e38).
+#[test]
+fn primitives_with_overflowing_bounds_are_not_finite() {
+    let tri = |p0: Vec3A, p1: Vec3A, p2: Vec3A| PrimGeom::Triangle { p0, p1, p2 };
+    assert!(tri(Vec3A::ZERO, Vec3A::X, Vec3A::Y).is_finite());
+    assert!(!tri(Vec3A::ZERO, Vec3A::X, Vec3A::splat(f32::NAN)).is_finite());
+    let big = 3.4e38;
+    assert!(!tri(Vec3A::splat(-big), Vec3A::splat(big), Vec3A::X).is_finite());
+    assert!(!tri(
+        Vec3A::new(-big, 0.0, 0.0),
+        Vec3A::new(0.0, 1e30, 0.0),
+        Vec3A::new(0.0, 0.0, 1e30)
+    )
+    .is_finite());
+    assert!(!PrimGeom::Sphere {
+        center: Vec3A::ZERO,
+        radius: f32::INFINITY
+    }
+    .is_finite());
+    assert!(!PrimGeom::Sphere {
+        center: Vec3A::splat(3e38),
+        radius: 1e38
+    }
+    .is_finite());
+}
