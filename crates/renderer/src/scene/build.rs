@@ -54,15 +54,15 @@ impl RenderScene {
             .collect();
         // Shapes without a bsdf get Mitsuba's default: diffuse, reflectance 0.5.
         let default_material = materials.len() as u32;
-        materials.push(Material {
-            back: None,
-            bsdf: BsdfParams::Diffuse(DiffuseParams {
+        materials.push(Material::new(
+            BsdfParams::Diffuse(DiffuseParams {
                 reflectance: ColorSource::Constant(Vec3A::splat(0.5)),
             }),
-            two_sided: torrey_dialect,
-            normal_map: None,
-            anisotropic: false,
-        });
+            None,
+            torrey_dialect,
+            None,
+            false,
+        ));
 
         let mut mesh = MeshData::default();
         let mut geoms = Vec::new();
