@@ -5,7 +5,9 @@ use super::{Material, RenderScene};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
 use crate::cameras::{Camera, PerspectiveCamera, ThinLensCamera};
-use crate::lights::{AreaEmitter, AreaLight, ConstantLight, EnvLight, Light, PointLight};
+use crate::lights::{
+    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
+};
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
@@ -144,6 +146,24 @@ impl RenderScene {
                 } => Light::Point(PointLight {
                     position: (*position).into(),
                     intensity: (*intensity).into(),
+                }),
+                desc::Light::Spot {
+                    to_world,
+                    intensity,
+                    cutoff_angle,
+                    beam_width,
+                } => Light::Spot(SpotLight::new(
+                    *to_world,
+                    (*intensity).into(),
+                    *cutoff_angle,
+                    *beam_width,
+                )),
+                desc::Light::Directional {
+                    direction,
+                    irradiance,
+                } => Light::Directional(DirectionalLight {
+                    to_light: -Vec3A::from(*direction),
+                    irradiance: (*irradiance).into(),
                 }),
                 // A black background emits nothing: keeping it would only waste light samples.
                 desc::Light::Constant { radiance } if radiance.max_element() <= 0.0 => continue,
