@@ -146,9 +146,6 @@ fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
     if scene.film.crop.is_some() {
         out.push("the film's crop window is not rendered yet (the whole film is rendered)".into());
     }
-    if scene.integrator.hide_emitters {
-        out.push("hide_emitters is not rendered yet (emitters stay visible)".into());
-    }
     out
 }
 

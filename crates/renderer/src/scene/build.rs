@@ -202,6 +202,7 @@ impl RenderScene {
             lights,
             infinite_lights,
             has_area_lights,
+            hide_emitters: scene.integrator.hide_emitters,
             warnings,
         })
     }
