@@ -99,6 +99,7 @@ verdict_tests!(
     instances_cube_direct,
     mitsuba06_indoor,
     no_fov,
+    orthographic,
     spot,
     thinlens,
 );
@@ -145,6 +146,7 @@ fn every_scene_has_a_reference() {
         "instances_cube_direct",
         "mitsuba06_indoor",
         "no_fov",
+        "orthographic",
         "spot",
         "textured_plane_gaussian",
         "thinlens",

@@ -91,8 +91,7 @@ pub struct Scene {
 /// `to_world` maps camera space to world space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
-    /// Projection: perspective pinhole, thin lens or orthographic. (The renderer draws every
-    /// camera as a pinhole for now.)
+    /// Projection: perspective pinhole, thin lens or orthographic.
     pub kind: CameraKind,
     pub to_world: Mat4,
     /// Full field of view in degrees along `fov_axis` (perspective and thin lens).

@@ -4,7 +4,7 @@
 use super::{Material, RenderScene};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
-use crate::cameras::{Camera, PerspectiveCamera, ThinLensCamera};
+use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
 use crate::lights::{
     AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
 };
@@ -234,10 +234,13 @@ fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, Bui
             aperture_radius,
             focus_distance,
         )),
-        // Orthographic cameras are not rendered yet: the command line warns.
-        desc::CameraKind::Perspective | desc::CameraKind::Orthographic => {
-            Camera::Perspective(pinhole)
-        }
+        desc::CameraKind::Orthographic => Camera::Orthographic(OrthographicCamera::new(
+            c.to_world,
+            c.near_clip,
+            width,
+            height,
+        )),
+        desc::CameraKind::Perspective => Camera::Perspective(pinhole),
     })
 }
 
