@@ -548,6 +548,21 @@ fn spot_and_directional_errors_name_the_parameter() {
             "a directional emitter takes 'direction' or 'to_world', not both",
             "<transform",
         ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><texture type=\"bitmap\" name=\"texture\"/></emitter></scene>",
+            "a spot light's projected texture is not supported yet",
+            "<texture",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><transform name=\"to_world\"><scale value=\"0\"/></transform></emitter></scene>",
+            "the spot light's to_world cannot place a light: it scales an axis by",
+            "<transform",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"directional\"><vector name=\"direction\"/></emitter></scene>",
+            "the directional emitter's direction is",
+            "<emitter",
+        ),
     ] {
         let e = common::parse(xml).unwrap_err();
         assert_err(&e, message, pos_of(xml, at));
