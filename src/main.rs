@@ -123,7 +123,7 @@ enum SamplerArg {
 
 /// What the scene asks for that the parser reads but the renderer does not draw yet.
 fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
-    use torrey_parser::{CameraKind, PixelFilter};
+    use torrey_parser::PixelFilter;
     let mut out = Vec::new();
     if matches!(
         scene.film.filter,
@@ -134,20 +134,11 @@ fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
             scene.film.filter
         ));
     }
-    match scene.camera.kind {
-        CameraKind::Perspective | CameraKind::ThinLens { .. } => {}
-        CameraKind::Orthographic => {
-            out.push("sensor 'orthographic' is rendered as a perspective pinhole for now".into())
-        }
-    }
     if scene.camera.principal_point_offset != glam::Vec2::ZERO {
         out.push("principal_point_offset is not rendered yet (the image is centred)".into());
     }
     if scene.film.crop.is_some() {
         out.push("the film's crop window is not rendered yet (the whole film is rendered)".into());
-    }
-    if scene.integrator.hide_emitters {
-        out.push("hide_emitters is not rendered yet (emitters stay visible)".into());
     }
     out
 }

@@ -92,11 +92,15 @@ macro_rules! verdict_tests {
 
 verdict_tests!(
     area_diffuse,
+    directional,
     envmap_textured,
+    hide_emitters,
     include_path_default_alias,
     instances_cube_direct,
     mitsuba06_indoor,
     no_fov,
+    orthographic,
+    spot,
     thinlens,
 );
 
@@ -135,11 +139,15 @@ fn every_scene_has_a_reference() {
     assert_eq!(scenes, listed);
     let tested = [
         "area_diffuse",
+        "directional",
         "envmap_textured",
+        "hide_emitters",
         "include_path_default_alias",
         "instances_cube_direct",
         "mitsuba06_indoor",
         "no_fov",
+        "orthographic",
+        "spot",
         "textured_plane_gaussian",
         "thinlens",
     ];

@@ -98,6 +98,8 @@ pub(crate) fn scene_summary(s: &torrey_parser::Scene) -> String {
         kinds.insert(match l {
             torrey_parser::Light::Point { .. } => "point",
             torrey_parser::Light::Constant { .. } => "constant",
+            torrey_parser::Light::Directional { .. } => "directional",
+            torrey_parser::Light::Spot { .. } => "spot",
             torrey_parser::Light::Envmap { .. } => "envmap",
         });
     }

@@ -91,8 +91,7 @@ pub struct Scene {
 /// `to_world` maps camera space to world space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
-    /// Projection: perspective pinhole, thin lens or orthographic. (The renderer draws every
-    /// camera as a pinhole for now.)
+    /// Projection: perspective pinhole, thin lens or orthographic.
     pub kind: CameraKind,
     pub to_world: Mat4,
     /// Full field of view in degrees along `fov_axis` (perspective and thin lens).
@@ -409,6 +408,18 @@ pub enum Light {
     Point { position: Vec3, intensity: Vec3 },
     /// Constant radiance from every direction (torrey's `<background>`, Mitsuba's `constant`).
     Constant { radiance: Vec3 },
+    /// A light at infinity (Mitsuba's `directional`): `irradiance` (W/m²) on a surface facing
+    /// it, arriving along the unit `direction` the light travels.
+    Directional { direction: Vec3, irradiance: Vec3 },
+    /// Mitsuba's `spot`: a point light at the origin of `to_world` shining along its +z with
+    /// radiant `intensity` (W/sr) on the axis, full out to `beam_width` and falling linearly in
+    /// angle to zero at `cutoff_angle` (both radians).
+    Spot {
+        to_world: Mat4,
+        intensity: Vec3,
+        cutoff_angle: f32,
+        beam_width: f32,
+    },
     /// Lat-long environment map in Mitsuba 3's orientation, rotated by `to_world`.
     Envmap {
         bitmap: Bitmap,

@@ -427,9 +427,9 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
             "disk",
         ),
         (
-            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"/></scene>",
-            "emitter 'spot' is not supported yet",
-            "spot",
+            "<scene version=\"3.0.0\">\n  <emitter type=\"projector\"/></scene>",
+            "emitter 'projector' is not supported yet",
+            "projector",
         ),
     ] {
         let e = common::parse(xml).unwrap_err();
@@ -488,4 +488,83 @@ fn spectrum_errors_point_at_the_value_or_file() {
     };
     assert_eq!(ra, rb);
     assert!(ra.x > ra.z, "a 4000 K blackbody is warm: {ra}");
+}
+
+#[test]
+fn spot_and_directional_emitters_read_mitsubas_parameters() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0">
+  <emitter type="spot"><rgb name="intensity" value="2, 3, 4"/><float name="cutoff_angle" value="40"/></emitter>
+  <emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/></emitter>
+  <emitter type="directional"><transform name="to_world"><rotate x="1" angle="90"/></transform></emitter>
+</scene>"#,
+    );
+    let Light::Spot {
+        intensity,
+        cutoff_angle,
+        beam_width,
+        to_world,
+    } = s.lights[0]
+    else {
+        panic!("{:?}", s.lights[0]);
+    };
+    assert_eq!(intensity, Vec3::new(2.0, 3.0, 4.0));
+    assert!((cutoff_angle - 40f32.to_radians()).abs() < 1e-6);
+    // beam_width defaults to three quarters of the cutoff.
+    assert!((beam_width - 30f32.to_radians()).abs() < 1e-6);
+    assert_eq!(to_world, glam::Mat4::IDENTITY);
+    assert_eq!(
+        s.lights[1],
+        Light::Directional {
+            direction: Vec3::new(0.0, -1.0, 0.0),
+            irradiance: Vec3::ONE
+        }
+    );
+    let Light::Directional { direction, .. } = s.lights[2] else {
+        panic!("{:?}", s.lights[2]);
+    };
+    // +z turned 90 degrees about x points along -y.
+    assert!(
+        (direction - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6,
+        "{direction}"
+    );
+}
+
+#[test]
+fn spot_and_directional_errors_name_the_parameter() {
+    for (xml, message, at) in [
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><float name=\"beam_width\" value=\"30\"/></emitter></scene>",
+            "the spot light's beam_width must be in [0, cutoff_angle = 20] degrees, found 30",
+            "30\"/>",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><float name=\"cutoff_angle\" value=\"0\"/></emitter></scene>",
+            "the spot light's cutoff_angle must be in (0, 180] degrees, found 0",
+            "0\"/>",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"directional\"><vector name=\"direction\" x=\"1\"/><transform name=\"to_world\"/></emitter></scene>",
+            "a directional emitter takes 'direction' or 'to_world', not both",
+            "<transform",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><texture type=\"bitmap\" name=\"texture\"/></emitter></scene>",
+            "a spot light's projected texture is not supported yet",
+            "<texture",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><transform name=\"to_world\"><scale value=\"0\"/></transform></emitter></scene>",
+            "the spot light's to_world cannot place a light: it scales an axis by",
+            "<transform",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"directional\"><vector name=\"direction\"/></emitter></scene>",
+            "the directional emitter's direction is",
+            "<emitter",
+        ),
+    ] {
+        let e = common::parse(xml).unwrap_err();
+        assert_err(&e, message, pos_of(xml, at));
+    }
 }

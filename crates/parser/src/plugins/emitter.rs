@@ -1,4 +1,5 @@
-//! Emitter plugins outside shapes: `point`, `envmap`, `constant` (and torrey's `<background>`).
+//! Emitter plugins outside shapes: `point`, `spot`, `directional`, `envmap`, `constant` (and
+//! torrey's `<background>`).
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -10,16 +11,13 @@ use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
 /// The types this parser reads (see `torrey_parser::accepted_plugins`).
-pub(crate) const KNOWN: &[&str] = &["point", "envmap", "constant", "area"];
+pub(crate) const KNOWN: &[&str] = &["point", "spot", "directional", "envmap", "constant", "area"];
+
+/// The emitters that may stand at the top level (all of [`KNOWN`] but `area`).
+const TOP_LEVEL: usize = 5;
 
 /// Mitsuba 3 emitters the renderer cannot draw yet: a clear error at their place.
-const NOT_YET: &[&str] = &[
-    "spot",
-    "directional",
-    "projector",
-    "directionalarea",
-    "sunsky",
-];
+const NOT_YET: &[&str] = &["projector", "directionalarea", "sunsky"];
 
 /// Parses a top-level `<emitter>`.
 ///
@@ -28,6 +26,14 @@ const NOT_YET: &[&str] = &[
 /// | `point` | `intensity` | colour | 1 (W/sr) |
 /// | `point` | `position` | point | 0, then moved by `to_world` |
 /// | `point` | `to_world` | transform | identity |
+/// | `spot` | `intensity` | colour | 1 (W/sr, on the axis) |
+/// | `spot` | `cutoff_angle` | float | 20 (degrees, 0 < angle <= 180: dark beyond) |
+/// | `spot` | `beam_width` | float | cutoff_angle * 3/4 (degrees, at most cutoff_angle: full inside) |
+/// | `spot` | `to_world` | transform | identity (the light sits at its origin and shines along its +z) |
+/// | `spot` | `texture` | texture | not supported yet (an error) |
+/// | `directional` | `irradiance` | colour | 1 (W/m²) |
+/// | `directional` | `direction` | vector | (0, 0, 1): where the light travels |
+/// | `directional` | `to_world` | transform | identity; the light travels along its +z (exclusive with `direction`) |
 /// | `envmap` | `filename` + bitmap parameters | string | required unless a nested bitmap `<texture>` is given |
 /// | `envmap` | nested `<texture type="bitmap">` (seed dialect, e.g. `name="reflectance"`) | texture | |
 /// | `envmap` | `scale`, `intensity_scale` | float | 1 (both multiply) |
@@ -41,12 +47,12 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
             pos,
             format!(
                 "emitter '{ty}' is not supported yet (supported: {}; area inside a shape)",
-                KNOWN[..3].join(", ")
+                KNOWN[..TOP_LEVEL].join(", ")
             ),
         ));
     }
     if !KNOWN.contains(&ty) {
-        return Err(unknown_type(ctx, elem, "emitter", &KNOWN[..3]));
+        return Err(unknown_type(ctx, elem, "emitter", &KNOWN[..TOP_LEVEL]));
     }
     if ty == "area" {
         return Err(ctx.err(elem.pos, "an area emitter must be nested inside a <shape>"));
@@ -76,6 +82,8 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
                 intensity,
             }
         }
+        "spot" => parse_spot(ctx, &mut props, elem)?,
+        "directional" => parse_directional(ctx, &mut props, elem)?,
         "constant" => Light::Constant {
             radiance: props.color(ctx, &["radiance"], Vec3::ONE)?,
         },
@@ -136,6 +144,86 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
     };
     props.finish(ctx);
     Ok(light)
+}
+
+/// Mitsuba's `spot` (see [`parse_emitter`]'s table).
+fn parse_spot(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light> {
+    if let Some(t) = props.take_any(&["texture"]) {
+        return Err(ctx.err(
+            t.pos,
+            "a spot light's projected texture is not supported yet",
+        ));
+    }
+    let intensity = props.color(ctx, &["intensity"], Vec3::ONE)?;
+    let (cutoff, cutoff_pos) = props
+        .opt_float_pos(ctx, &["cutoff_angle"])?
+        .unwrap_or((20.0, elem.pos));
+    if !(cutoff > 0.0 && cutoff <= 180.0) {
+        return Err(ctx.err(
+            cutoff_pos,
+            format!("the spot light's cutoff_angle must be in (0, 180] degrees, found {cutoff}"),
+        ));
+    }
+    let (beam, beam_pos) = props
+        .opt_float_pos(ctx, &["beam_width"])?
+        .unwrap_or((cutoff * 0.75, elem.pos));
+    if !(0.0..=cutoff).contains(&beam) {
+        return Err(ctx.err(
+            beam_pos,
+            format!(
+                "the spot light's beam_width must be in [0, cutoff_angle = {cutoff}] degrees, found {beam}"
+            ),
+        ));
+    }
+    let to_world = match props.transform_pos(ctx, &["to_world"], false)? {
+        None => Mat4::IDENTITY,
+        Some((m, pos)) => {
+            if let Some(problem) = frame_problem(m) {
+                return Err(ctx.err(
+                    pos,
+                    format!("the spot light's to_world cannot place a light: {problem}"),
+                ));
+            }
+            m
+        }
+    };
+    Ok(Light::Spot {
+        to_world,
+        intensity,
+        cutoff_angle: cutoff.to_radians(),
+        beam_width: beam.to_radians(),
+    })
+}
+
+/// Mitsuba's `directional` (see [`parse_emitter`]'s table).
+fn parse_directional(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light> {
+    let irradiance = props.color(ctx, &["irradiance"], Vec3::ONE)?;
+    let given = props.has(&["direction"]);
+    let direction = props.point(ctx, &["direction"])?;
+    let to_world = props.transform_pos(ctx, &["to_world"], false)?;
+    let direction = match (direction, to_world) {
+        (Some(_), Some((_, pos))) => {
+            return Err(ctx.err(
+                pos,
+                "a directional emitter takes 'direction' or 'to_world', not both",
+            ))
+        }
+        (Some(d), None) => d,
+        (None, Some((m, _))) => m.transform_vector3(Vec3::Z),
+        (None, None) => Vec3::Z,
+    };
+    let length = direction.length();
+    if !(length.is_finite() && length > 1e-30) {
+        let what = if given { "direction" } else { "to_world's +z" };
+        return Err(ctx.err(
+            elem.pos,
+            format!("the directional emitter's {what} is {direction}, which gives no direction"),
+        ));
+    }
+    Ok(Light::Directional {
+        direction: direction / length,
+        irradiance,
+    })
 }
 
 /// torrey's `<background>`: `radiance` colour, default 0.5 → a constant environment.

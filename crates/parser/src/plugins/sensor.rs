@@ -331,8 +331,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
     })
 }
 
-/// Sensors `perspective`, `thinlens` and `orthographic` (the renderer draws all as a pinhole
-/// for now).
+/// Sensors `perspective`, `thinlens` and `orthographic`.
 ///
 /// | types | name | type | default |
 /// | --- | --- | --- | --- |
@@ -342,6 +341,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
 /// | perspective, thinlens | `principal_point_offset_x`, `_y` | float | 0 |
 /// | thinlens | `aperture_radius` (`apertureRadius`) | float | required |
 /// | thinlens | `focus_distance` (`focusDistance`) | float | required (perspective: accepted, ignored) |
+/// | orthographic | `to_world` scales the view: x in [-1, 1], y in [-1/aspect, 1/aspect] before it | | |
 /// | all | `to_world` (`toWorld`) | transform | identity |
 /// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000 |
 /// | all | nested `<film>`, `<sampler>` | | see film and sampler |

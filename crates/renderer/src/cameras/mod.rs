@@ -6,9 +6,11 @@
 //! (packets of camera rays rely on it and are switched off for cameras whose rays do not).
 //! A new camera is a file, a [`Camera`] variant with one-line arms, the parser mapping and docs.
 
+mod orthographic;
 mod perspective;
 mod thinlens;
 
+pub use orthographic::OrthographicCamera;
 pub use perspective::PerspectiveCamera;
 pub use thinlens::ThinLensCamera;
 
@@ -30,28 +32,35 @@ pub struct CameraSample {
 pub enum Camera {
     Perspective(PerspectiveCamera),
     ThinLens(ThinLensCamera),
+    Orthographic(OrthographicCamera),
 }
 
 impl Camera {
-    /// The perspective camera (pinhole) every camera of the scene builds on.
-    fn pinhole(&self) -> &PerspectiveCamera {
+    pub fn width(&self) -> u32 {
         match self {
-            Camera::Perspective(c) => c,
-            Camera::ThinLens(c) => &c.pinhole,
+            Camera::Perspective(c) => c.width(),
+            Camera::ThinLens(c) => c.pinhole.width(),
+            Camera::Orthographic(c) => c.width(),
         }
     }
 
-    pub fn width(&self) -> u32 {
-        self.pinhole().width()
-    }
-
     pub fn height(&self) -> u32 {
-        self.pinhole().height()
+        match self {
+            Camera::Perspective(c) => c.height(),
+            Camera::ThinLens(c) => c.pinhole.height(),
+            Camera::Orthographic(c) => c.height(),
+        }
     }
 
-    /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
+    /// Angle one pixel subtends at the image centre: the ray cone's initial spread (0 for
+    /// parallel rays: their cones start as points, and textures seen directly are read at the
+    /// finest level).
     pub fn pixel_spread(&self) -> f32 {
-        self.pinhole().pixel_spread()
+        match self {
+            Camera::Perspective(c) => c.pixel_spread(),
+            Camera::ThinLens(c) => c.pinhole.pixel_spread(),
+            Camera::Orthographic(_) => 0.0,
+        }
     }
 
     /// 2D sampler draws a ray takes for the lens, after the one for the film position.
@@ -59,6 +68,7 @@ impl Camera {
         match self {
             Camera::Perspective(_) => 0,
             Camera::ThinLens(_) => 1,
+            Camera::Orthographic(_) => 0,
         }
     }
 
@@ -68,6 +78,7 @@ impl Camera {
         match self {
             Camera::Perspective(_) => true,
             Camera::ThinLens(c) => c.is_pinhole(),
+            Camera::Orthographic(_) => false,
         }
     }
 
@@ -77,6 +88,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.generate_ray(sample.film),
             Camera::ThinLens(c) => c.generate_ray(sample.film, sample.lens),
+            Camera::Orthographic(c) => c.generate_ray(sample.film),
         }
     }
 }

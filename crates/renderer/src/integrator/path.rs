@@ -111,7 +111,12 @@ pub fn radiance(
             rays.closest += 1;
             scene.intersect(&ray)
         };
+        // `hide_emitters`: the camera's own rays see no emitter.
+        let emitters_visible = depth > 0 || !scene.hide_emitters;
         let Some(hit) = hit else {
+            if !emitters_visible {
+                break;
+            }
             result += infinite_radiance(
                 scene,
                 throughput,
@@ -131,7 +136,7 @@ pub fn radiance(
         let shape = &scene.shapes[hit.shape as usize];
 
         // Emission from an area light hit (one-sided: only along its normal).
-        if let Some(li) = shape.area_light {
+        if let (Some(li), true) = (shape.area_light, emitters_visible) {
             if hit.ng.dot(wo) > 0.0 {
                 let light = &scene.lights[li as usize];
                 if let crate::lights::Light::Area(area) = light {

@@ -6,19 +6,27 @@
 
 mod area;
 mod constant;
+mod directional;
 mod envmap;
 mod point;
+mod spot;
 
 pub use area::{AreaEmitter, AreaLight};
 pub use constant::ConstantLight;
+pub use directional::DirectionalLight;
 pub use envmap::EnvLight;
 pub use point::PointLight;
+pub use spot::SpotLight;
 
 use glam::{Vec2, Vec3A};
 
 /// A light of the scene.
 pub enum Light {
     Point(PointLight),
+    Spot(SpotLight),
+    /// At infinity, but reached only by light sampling: not one of the scene's infinite lights,
+    /// which escaped rays look up.
+    Directional(DirectionalLight),
     /// One-sided diffuse emitter on a shape: radiance along the (possibly flipped) normal only.
     Area(AreaLight),
     Constant(ConstantLight),
@@ -95,6 +103,8 @@ impl Light {
     fn sample_deferred(&self, p: Vec3A, u: Vec2, uniform_env: bool) -> Option<LightSample> {
         match self {
             Light::Point(point) => point.sample(p),
+            Light::Spot(spot) => spot.sample(p),
+            Light::Directional(directional) => directional.sample(),
             Light::Area(area) => area.sample_deferred(p, u),
             Light::Constant(constant) => constant.sample(u),
             Light::Env(env) => env.sample(u, uniform_env),

@@ -4,8 +4,10 @@
 use super::{Material, RenderScene};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
-use crate::cameras::{Camera, PerspectiveCamera, ThinLensCamera};
-use crate::lights::{AreaEmitter, AreaLight, ConstantLight, EnvLight, Light, PointLight};
+use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
+use crate::lights::{
+    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
+};
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
@@ -147,6 +149,24 @@ impl RenderScene {
                     position: (*position).into(),
                     intensity: (*intensity).into(),
                 }),
+                desc::Light::Spot {
+                    to_world,
+                    intensity,
+                    cutoff_angle,
+                    beam_width,
+                } => Light::Spot(SpotLight::new(
+                    *to_world,
+                    (*intensity).into(),
+                    *cutoff_angle,
+                    *beam_width,
+                )),
+                desc::Light::Directional {
+                    direction,
+                    irradiance,
+                } => Light::Directional(DirectionalLight {
+                    to_light: -Vec3A::from(*direction),
+                    irradiance: (*irradiance).into(),
+                }),
                 // A black background emits nothing: keeping it would only waste light samples.
                 desc::Light::Constant { radiance } if radiance.max_element() <= 0.0 => continue,
                 desc::Light::Constant { radiance } => Light::Constant(ConstantLight {
@@ -184,6 +204,7 @@ impl RenderScene {
             lights,
             infinite_lights,
             has_area_lights,
+            hide_emitters: scene.integrator.hide_emitters,
             warnings,
         })
     }
@@ -215,10 +236,13 @@ fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, Bui
             aperture_radius,
             focus_distance,
         )),
-        // Orthographic cameras are not rendered yet: the command line warns.
-        desc::CameraKind::Perspective | desc::CameraKind::Orthographic => {
-            Camera::Perspective(pinhole)
-        }
+        desc::CameraKind::Orthographic => Camera::Orthographic(OrthographicCamera::new(
+            c.to_world,
+            c.near_clip,
+            width,
+            height,
+        )),
+        desc::CameraKind::Perspective => Camera::Perspective(pinhole),
     })
 }
 

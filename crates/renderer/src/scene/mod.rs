@@ -33,6 +33,10 @@ pub struct RenderScene {
     /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
     /// path's last segment only needs to know whether it escapes (an any-hit query).
     pub(crate) has_area_lights: bool,
+    /// The integrator's `hide_emitters`: camera rays see no emission (neither emitting shapes
+    /// nor the lights at infinity), as Mitsuba's path integrator; emitters seen after a bounce,
+    /// even a mirror's, and the light they cast stay.
+    pub(crate) hide_emitters: bool,
     /// What the build found worth telling the user (each once).
     pub warnings: Vec<String>,
 }

@@ -1,0 +1,109 @@
+//! A spot light (Mitsuba's `spot`): a point light whose intensity is full within `beam_width` of
+//! its axis and falls linearly in angle to zero at `cutoff_angle`, as Mitsuba's `spot.cpp`.
+
+use super::LightSample;
+use glam::{Mat3A, Vec3A};
+
+/// A spot light: position, world-to-light frame, axis intensity and falloff angles.
+pub struct SpotLight {
+    pub position: Vec3A,
+    /// World to light-local directions (the inverse of `to_world`'s linear part): the axis is +z.
+    pub world_to_local: Mat3A,
+    pub intensity: Vec3A,
+    /// Cosines of the angles where the falloff starts and where it reaches zero.
+    pub cos_beam: f32,
+    pub cos_cutoff: f32,
+    pub cutoff: f32,
+    /// 1 / (cutoff − beam width) in radians (infinite when they are equal: no ramp).
+    pub inv_transition: f32,
+}
+
+impl SpotLight {
+    /// A spot at `to_world`'s origin shining along its +z; angles in radians.
+    pub fn new(to_world: glam::Mat4, intensity: Vec3A, cutoff: f32, beam_width: f32) -> Self {
+        let linear = Mat3A::from_mat4(to_world);
+        Self {
+            position: to_world.w_axis.truncate().into(),
+            world_to_local: linear.inverse(),
+            intensity,
+            cos_beam: beam_width.cos(),
+            cos_cutoff: cutoff.cos(),
+            cutoff,
+            inv_transition: 1.0 / (cutoff - beam_width),
+        }
+    }
+
+    /// The falloff in [0, 1] along a world direction `d` leaving the light.
+    #[inline]
+    pub fn falloff(&self, d: Vec3A) -> f32 {
+        let cos_theta = (self.world_to_local * d).normalize_or_zero().z;
+        if cos_theta <= self.cos_cutoff {
+            0.0
+        } else if cos_theta >= self.cos_beam {
+            1.0
+        } else {
+            ((self.cutoff - cos_theta.clamp(-1.0, 1.0).acos()) * self.inv_transition)
+                .clamp(0.0, 1.0)
+        }
+    }
+
+    /// The connection from `p`: a delta sample, so no MIS; None outside the cone.
+    #[inline(always)]
+    pub fn sample(&self, p: Vec3A) -> Option<LightSample> {
+        let d = self.position - p;
+        let dist2 = d.length_squared();
+        if dist2 == 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let falloff = self.falloff(-wi);
+        if falloff <= 0.0 {
+            return None;
+        }
+        Some(LightSample {
+            wi,
+            dist,
+            radiance: self.intensity * (falloff / dist2),
+            pdf: 1.0,
+            is_delta: true,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Mat4, Vec3, Vec4};
+
+    /// Full on the axis and inside the beam, half way down the ramp at the middle angle, dark
+    /// beyond the cutoff; the axis follows `to_world`.
+    #[test]
+    fn falloff_follows_mitsubas_linear_ramp() {
+        // Turned half a turn about y (its +z along world -z), at (1, 2, 3).
+        let to_world = Mat4::from_cols(
+            Vec4::new(-1.0, 0.0, 0.0, 0.0),
+            Vec4::Y,
+            Vec4::new(0.0, 0.0, -1.0, 0.0),
+            Vec4::new(1.0, 2.0, 3.0, 1.0),
+        );
+        let (cutoff, beam) = (20f32.to_radians(), 10f32.to_radians());
+        let spot = SpotLight::new(to_world, Vec3A::ONE, cutoff, beam);
+        let axis = Vec3A::from(to_world.transform_vector3(Vec3::Z));
+        assert!((axis - Vec3A::new(0.0, 0.0, -1.0)).length() < 1e-6);
+        let at = |deg: f32| {
+            let a = deg.to_radians();
+            spot.falloff(Vec3A::new(a.sin(), 0.0, -a.cos()))
+        };
+        assert_eq!(at(0.0), 1.0);
+        assert_eq!(at(9.0), 1.0);
+        assert!((at(15.0) - 0.5).abs() < 1e-4, "{}", at(15.0));
+        assert!((at(17.5) - 0.25).abs() < 1e-4, "{}", at(17.5));
+        assert_eq!(at(21.0), 0.0);
+        assert_eq!(at(90.0), 0.0);
+        // From a point on the axis 2 units away: intensity / 4.
+        let ls = spot.sample(Vec3A::new(1.0, 2.0, 1.0)).expect("in the beam");
+        assert!((ls.radiance - Vec3A::splat(0.25)).length() < 1e-6);
+        assert!(spot.sample(Vec3A::new(1.0, 2.0, 5.0)).is_none());
+    }
+}
