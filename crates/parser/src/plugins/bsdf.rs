@@ -260,20 +260,7 @@ fn nested_bsdf(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Bsdf>
             ),
         );
     }
-    if first.tag == "ref" {
-        match ctx.lookup(first)? {
-            IdTarget::Bsdf(b) => Ok(ctx.bsdfs[b].clone()),
-            _ => Err(ctx.err(
-                first.pos,
-                format!(
-                    "<ref id=\"{}\"> must name a bsdf here",
-                    first.attr_value("id").unwrap_or("")
-                ),
-            )),
-        }
-    } else {
-        parse_bsdf_value(ctx, first)
-    }
+    nested_bsdf_value(ctx, first)
 }
 
 /// A Mitsuba index of refraction: a number or a material name from [`IOR_TABLE`].

@@ -190,17 +190,6 @@ impl Accel {
         self.layout.width()
     }
 
-    /// The instruction set of this BVH's kernels.
-    pub fn simd(&self) -> Simd {
-        match self.layout {
-            Layout::Four(_) => Simd::Portable,
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(_) => Simd::Avx2,
-            #[cfg(target_arch = "x86_64")]
-            Layout::Sixteen(_) => Simd::Avx512,
-        }
-    }
-
     pub fn primitive_count(&self) -> usize {
         self.primitive_count
     }
@@ -254,15 +243,25 @@ impl Accel {
         dirs: &[Vec3A],
         hits: &mut [Option<ClosestHit>],
     ) -> bool {
-        match &self.layout {
-            #[cfg(target_arch = "x86_64")]
-            Layout::Eight(nodes) if self.stack_needed <= STACK_SIZE => {
-                let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
-                    return false;
-                };
-                // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA; eight-wide nodes are only
-                // built under an inner root (never for an empty scene).
-                unsafe {
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (origin, dirs, hits); // no packet layout on this target
+            false
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            if self.packet_width() == 0 {
+                return false;
+            }
+            let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
+                return false;
+            };
+            // SAFETY: the node layouts exist only on CPUs with their instruction sets (AVX2 and
+            // FMA; AVX-512 too for sixteen-wide nodes), wide nodes only under an inner root
+            // (never for an empty scene), and `packet_width` checked that the tree fits the
+            // packet stack.
+            match &self.layout {
+                Layout::Eight(nodes) => unsafe {
                     x86_64::avx2::packet::closest_hits(
                         nodes,
                         &self.leaves,
@@ -271,16 +270,8 @@ impl Accel {
                         dirs,
                         hits,
                     )
-                }
-            }
-            #[cfg(target_arch = "x86_64")]
-            Layout::Sixteen(nodes) if self.stack_needed <= STACK_SIZE => {
-                let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
-                    return false;
-                };
-                // SAFETY: `Nodes16` exists only on CPUs with AVX-512, AVX2 and FMA, under an
-                // inner root.
-                unsafe {
+                },
+                Layout::Sixteen(nodes) => unsafe {
                     x86_64::avx2::packet::closest_hits16(
                         nodes,
                         &self.leaves,
@@ -289,11 +280,8 @@ impl Accel {
                         dirs,
                         hits,
                     )
-                }
-            }
-            _ => {
-                let _ = (origin, dirs, hits); // no packet layout on this CPU or target
-                false
+                },
+                Layout::Four(_) => false,
             }
         }
     }

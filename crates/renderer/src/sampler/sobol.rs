@@ -13,6 +13,7 @@
 //! points are exactly those of the one-at-a-time formulas.
 
 use super::{to_unit, Sampler};
+#[cfg(target_arch = "x86_64")]
 use crate::accel::Simd;
 
 /// Samples per block of the table: a column covers this many consecutive sample indices.
@@ -167,7 +168,7 @@ impl Table {
 }
 
 /// One request's points for samples `base`, `base + 1`, ... (as many as `x` holds), in the
-/// widest SIMD lanes the CPU has ([`Simd::detect`]).
+/// widest SIMD lanes the CPU has (`Simd::detect`).
 fn column(base: u32, seed: u32, sx: u32, sy: u32, x: &mut [f32], y: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
     match Simd::detect() {
