@@ -137,9 +137,6 @@ fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
     if scene.camera.principal_point_offset != glam::Vec2::ZERO {
         out.push("principal_point_offset is not rendered yet (the image is centred)".into());
     }
-    if scene.film.crop.is_some() {
-        out.push("the film's crop window is not rendered yet (the whole film is rendered)".into());
-    }
     out
 }
 

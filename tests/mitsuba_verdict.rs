@@ -92,6 +92,7 @@ macro_rules! verdict_tests {
 
 verdict_tests!(
     area_diffuse,
+    crop_window,
     directional,
     envmap_textured,
     hide_emitters,
@@ -139,6 +140,7 @@ fn every_scene_has_a_reference() {
     assert_eq!(scenes, listed);
     let tested = [
         "area_diffuse",
+        "crop_window",
         "directional",
         "envmap_textured",
         "hide_emitters",

@@ -267,8 +267,39 @@ fn film_crop_parameters_render_a_window() {
     ]);
     let (a, b) = (read_part(&a).unwrap(), read_part(&b).unwrap());
     assert_eq!(a.meta.crop, (3, 5, 9, 7));
-    assert_eq!(a.mean, b.mean);
     assert!(a.mean.iter().any(|p| p.max_element() > 0.0));
+    // The same samples, except that the crop window's samples stay inside it (as Mitsuba's):
+    // pixels beyond the gaussian's reach (2 px) of its edges are identical, edge pixels are not.
+    let (mut same, mut edge_differs) = (0, false);
+    for y in 0..7 {
+        for x in 0..9 {
+            let i = y * 9 + x;
+            if (2..7).contains(&x) && (2..5).contains(&y) {
+                assert_eq!(a.mean[i], b.mean[i], "pixel ({x}, {y})");
+                same += 1;
+            } else if x == 0 || y == 0 || x == 8 || y == 6 {
+                edge_differs |= a.mean[i] != b.mean[i];
+            }
+        }
+    }
+    assert_eq!(same, 15);
+    assert!(
+        edge_differs,
+        "the crop window's edge pixels kept samples from outside it"
+    );
+    // A --crop outside the film's crop window is refused.
+    let err = fails(&[
+        &s(&cropped),
+        "--quiet",
+        "--crop",
+        "0,0,4,4",
+        "-o",
+        &s(&dir.join("d.exr")),
+    ]);
+    assert!(
+        err.contains("not inside the film's crop window 9x7 at (3, 5)"),
+        "{err}"
+    );
     let out = Command::new(env!("CARGO_BIN_EXE_torrey"))
         .args([
             &s(&cropped),

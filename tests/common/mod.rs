@@ -70,8 +70,18 @@ pub fn render_scene_with(
     mipmapping: bool,
 ) -> Rendered {
     let desc = torrey_parser::load_scene_with(scene, options).unwrap_or_else(|e| panic!("{e}"));
-    let rs =
-        torrey_renderer::RenderScene::build(&desc, width, height).unwrap_or_else(|e| panic!("{e}"));
+    // A film with a crop window asked for at its window's size renders that window of the whole
+    // film, as the command line does without `--size`.
+    let crop = desc
+        .film
+        .crop
+        .filter(|c| (c.width, c.height) == (width, height));
+    let (film_width, film_height) = match crop {
+        Some(_) => (desc.film.width, desc.film.height),
+        None => (width, height),
+    };
+    let rs = torrey_renderer::RenderScene::build(&desc, film_width, film_height)
+        .unwrap_or_else(|e| panic!("{e}"));
     let settings = torrey_renderer::RenderSettings {
         spp,
         max_depth: max_depth.unwrap_or(desc.integrator.max_depth),
@@ -85,7 +95,17 @@ pub fn render_scene_with(
         mipmapping,
         packets: true,
     };
-    let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
+    let out = match crop {
+        Some(c) => {
+            let slice = torrey_renderer::RenderSlice {
+                crop: c.rect(),
+                samples: 0..spp.max(1),
+            };
+            torrey_renderer::render_slice(&rs, &settings, &slice, &|_, _| {})
+                .unwrap_or_else(|e| panic!("{e}"))
+        }
+        None => torrey_renderer::render(&rs, &settings, &|_, _| {}),
+    };
     Rendered {
         image: out.image,
         variance: out.variance,

@@ -108,7 +108,8 @@ def main():
         if only and name not in only:
             continue
         probe = mi.load_file(path)
-        w, h = probe.sensors()[0].film().size()
+        # The rendered pixels: the crop window's (the whole film without one).
+        w, h = probe.sensors()[0].film().crop_size()
         pixels = int(w) * int(h)
         spp = a.samples // pixels
         img, var, seconds = render(path, spp)

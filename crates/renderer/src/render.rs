@@ -131,6 +131,13 @@ pub fn render_slice(
     let width = scene.camera().width();
     slice.validate(width, scene.camera().height(), settings.spp)?;
     let (cx, cy, cw, ch) = slice.crop;
+    let (wx, wy, ww, wh) = scene.sample_window();
+    if cx < wx || cy < wy || cx + cw > wx + ww || cy + ch > wy + wh {
+        return Err(format!(
+            "the window {cw}x{ch} at ({cx}, {cy}) is not inside the film's crop window {ww}x{wh} at ({wx}, {wy})"
+        ));
+    }
+    let (cx, cy, cw, ch) = slice.crop;
     let samples = slice.samples.clone();
     let ts = settings.tile_size.max(1);
     let tiles: Vec<(u32, u32)> = (0..ch.div_ceil(ts))
@@ -265,10 +272,12 @@ fn render_pixel<S: Sampler>(
         .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
     // The camera's sampler draws: the film position, then its lens (if it has one).
     let camera_requests = 1 + camera.lens_requests();
-    // Mitsuba places samples inside the film only (hdrfilm's sample_border is false) and divides
-    // each pixel's splats by their filter weights: a filter offset that leaves the film therefore
-    // does not count (the pixel's mean is over the samples that stay inside).
-    let size = Vec2::new(camera.width() as f32, camera.height() as f32);
+    // Mitsuba places samples inside the film (its crop window) only (hdrfilm's sample_border is
+    // false) and divides each pixel's splats by their filter weights: a filter offset that leaves
+    // the window therefore does not count (the pixel's mean is over the samples that stay inside).
+    let (wx, wy, ww, wh) = scene.sample_window();
+    let window_min = Vec2::new(wx as f32, wy as f32);
+    let window_max = window_min + Vec2::new(ww as f32, wh as f32);
     let camera_ray = |sampler: &mut S| {
         let offset = sample_filter(filter, sampler.next_2d());
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
@@ -277,7 +286,7 @@ fn render_pixel<S: Sampler>(
         } else {
             Vec2::ZERO
         };
-        let inside = film.cmpge(Vec2::ZERO).all() && film.cmplt(size).all();
+        let inside = film.cmpge(window_min).all() && film.cmplt(window_max).all();
         let (o, d) = camera.generate_ray(&CameraSample { film, lens });
         (o, d, inside)
     };

@@ -205,6 +205,11 @@ impl RenderScene {
             infinite_lights,
             has_area_lights,
             hide_emitters: scene.integrator.hide_emitters,
+            // The crop window counts only for the film it was written for (not under `--size`).
+            sample_window: match scene.film.crop {
+                Some(c) if (width, height) == (scene.film.width, scene.film.height) => c.rect(),
+                _ => (0, 0, width, height),
+            },
             warnings,
         })
     }

@@ -37,6 +37,10 @@ pub struct RenderScene {
     /// nor the lights at infinity), as Mitsuba's path integrator; emitters seen after a bounce,
     /// even a mirror's, and the light they cast stay.
     pub(crate) hide_emitters: bool,
+    /// The film window whose pixels receive samples, `(x, y, width, height)`: the film's crop
+    /// window, else the whole film. Mitsuba places samples inside the crop window only, so a
+    /// filter offset that leaves it does not count, as at the film's edges.
+    pub(crate) sample_window: (u32, u32, u32, u32),
     /// What the build found worth telling the user (each once).
     pub warnings: Vec<String>,
 }
@@ -44,6 +48,11 @@ pub struct RenderScene {
 impl RenderScene {
     pub fn camera(&self) -> &Camera {
         &self.camera
+    }
+
+    /// The film window whose pixels receive samples (see the field).
+    pub fn sample_window(&self) -> (u32, u32, u32, u32) {
+        self.sample_window
     }
 
     pub fn accel(&self) -> &Accel {
