@@ -102,6 +102,7 @@ verdict_tests!(
     no_fov,
     orthographic,
     spot,
+    spot_textured,
     thinlens,
 );
 
@@ -150,6 +151,7 @@ fn every_scene_has_a_reference() {
         "no_fov",
         "orthographic",
         "spot",
+        "spot_textured",
         "textured_plane_gaussian",
         "thinlens",
     ];

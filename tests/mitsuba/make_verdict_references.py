@@ -13,7 +13,8 @@ src/render/tests/test_renders.py does:
                                            converts it back with sRGB -> XYZ, recovering the XYZ
                                            variance exactly)
 and tests/references/verdict/manifest.json (sizes, spp, the test's spp, render times).
-Also (re)writes the scenes' own sky texture tests/scenes/mitsuba/textures/gradient_sky.exr.
+Also (re)writes the scenes' own textures tests/scenes/mitsuba/textures/gradient_sky.exr and
+spot_pattern.png.
 Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
 """
 import argparse
@@ -67,6 +68,21 @@ def gradient_sky(path, width=64, height=32):
     write_exr_zip(path, img.astype(np.float32))
 
 
+def spot_pattern(path, width=24, height=16):
+    """An asymmetric 8-bit sRGB pattern for the projected spot texture: four quadrants of
+    different colours and a white bar along the top rows, so that a flipped or transposed
+    projection shows."""
+    img = np.zeros((height, width, 3), np.uint8)
+    top, left = np.arange(height)[:, None] < height // 2, np.arange(width)[None, :] < width // 2
+    img[top & left] = (230, 60, 40)
+    img[top & ~left] = (60, 200, 70)
+    img[~top & left] = (50, 90, 230)
+    img[~top & ~left] = (200, 200, 60)
+    img[:2, :] = 255
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(path)
+
+
 def render(path, spp):
     scene = mi.load_file(path, spp=spp)
     t0 = time.time()
@@ -96,6 +112,7 @@ def main():
     variant = pick_variant()
     from exr_zip import write_exr_zip
     gradient_sky(os.path.join(SCENES, "textures", "gradient_sky.exr"))
+    spot_pattern(os.path.join(SCENES, "textures", "spot_pattern.png"))
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = {}

@@ -419,6 +419,9 @@ pub enum Light {
         intensity: Vec3,
         cutoff_angle: f32,
         beam_width: f32,
+        /// Mitsuba's `texture`: projected through the cone, multiplying the intensity; uv
+        /// (0.5 + x / (2 z tan(cutoff)), 0.5 + y / (2 z tan(cutoff))) of the light-local direction.
+        texture: Option<TextureId>,
     },
     /// Lat-long environment map in Mitsuba 3's orientation, rotated by `to_world`.
     Envmap {

@@ -504,6 +504,7 @@ fn spot_and_directional_emitters_read_mitsubas_parameters() {
         cutoff_angle,
         beam_width,
         to_world,
+        texture: None,
     } = s.lights[0]
     else {
         panic!("{:?}", s.lights[0]);
@@ -549,9 +550,9 @@ fn spot_and_directional_errors_name_the_parameter() {
             "<transform",
         ),
         (
-            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><texture type=\"bitmap\" name=\"texture\"/></emitter></scene>",
-            "a spot light's projected texture is not supported yet",
-            "<texture",
+            "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><rgb name=\"texture\" value=\"1\"/></emitter></scene>",
+            "a spot light's texture must be a spatially varying <texture> (bitmap, checkerboard), found <rgb>",
+            "<rgb",
         ),
         (
             "<scene version=\"3.0.0\">\n  <emitter type=\"spot\"><transform name=\"to_world\"><scale value=\"0\"/></transform></emitter></scene>",

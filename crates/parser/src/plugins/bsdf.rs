@@ -147,7 +147,7 @@ pub(crate) fn color_param(
     }
 }
 
-fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
+pub(crate) fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
     match ctx.lookup(e)? {
         IdTarget::Texture(t) => Ok(t),
         _ => Err(ctx.err(

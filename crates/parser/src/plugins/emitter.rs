@@ -3,7 +3,8 @@
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
-use crate::plugins::texture::{bitmap_element, parse_bitmap};
+use crate::plugins::bsdf::texture_ref;
+use crate::plugins::texture::{bitmap_element, parse_bitmap, parse_texture};
 use crate::props::Props;
 use crate::scene::Light;
 use crate::transform::frame_problem;
@@ -30,7 +31,7 @@ const NOT_YET: &[&str] = &["projector", "directionalarea", "sunsky"];
 /// | `spot` | `cutoff_angle` | float | 20 (degrees, 0 < angle <= 180: dark beyond) |
 /// | `spot` | `beam_width` | float | cutoff_angle * 3/4 (degrees, at most cutoff_angle: full inside) |
 /// | `spot` | `to_world` | transform | identity (the light sits at its origin and shines along its +z) |
-/// | `spot` | `texture` | texture | not supported yet (an error) |
+/// | `spot` | `texture` | texture (bitmap, checkerboard; inline or ref) | none; multiplies `intensity`, projected through the cone: uv = 0.5 + (x, y) / (2 z tan(cutoff_angle)) of the light-local direction |
 /// | `directional` | `irradiance` | colour | 1 (W/m²) |
 /// | `directional` | `direction` | vector | (0, 0, 1): where the light travels |
 /// | `directional` | `to_world` | transform | identity; the light travels along its +z (exclusive with `direction`) |
@@ -148,12 +149,23 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
 
 /// Mitsuba's `spot` (see [`parse_emitter`]'s table).
 fn parse_spot(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light> {
-    if let Some(t) = props.take_any(&["texture"]) {
-        return Err(ctx.err(
-            t.pos,
-            "a spot light's projected texture is not supported yet",
-        ));
-    }
+    // Mitsuba requires a spatially varying texture here (a constant belongs in `intensity`).
+    let texture = match props.take_any(&["texture"]) {
+        None => None,
+        Some(e) => match e.tag.as_str() {
+            "texture" => Some(parse_texture(ctx, e)?),
+            "ref" => Some(texture_ref(ctx, e)?),
+            _ => {
+                return Err(ctx.err(
+                    e.pos,
+                    format!(
+                        "a spot light's texture must be a spatially varying <texture> (bitmap, checkerboard), found <{}>; a constant belongs in its intensity",
+                        e.tag
+                    ),
+                ))
+            }
+        },
+    };
     let intensity = props.color(ctx, &["intensity"], Vec3::ONE)?;
     let (cutoff, cutoff_pos) = props
         .opt_float_pos(ctx, &["cutoff_angle"])?
@@ -192,6 +204,7 @@ fn parse_spot(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light>
         intensity,
         cutoff_angle: cutoff.to_radians(),
         beam_width: beam.to_radians(),
+        texture,
     })
 }
 

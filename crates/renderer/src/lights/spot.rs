@@ -1,8 +1,11 @@
 //! A spot light (Mitsuba's `spot`): a point light whose intensity is full within `beam_width` of
-//! its axis and falls linearly in angle to zero at `cutoff_angle`, as Mitsuba's `spot.cpp`.
+//! its axis and falls linearly in angle to zero at `cutoff_angle`, as Mitsuba's `spot.cpp`,
+//! optionally times a texture projected through the cone.
 
 use super::LightSample;
-use glam::{Mat3A, Vec3A};
+use crate::textures::Texture;
+use glam::{Mat3A, Vec2, Vec3A};
+use torrey_texture::Footprint;
 
 /// A spot light: position, world-to-light frame, axis intensity and falloff angles.
 pub struct SpotLight {
@@ -16,11 +19,21 @@ pub struct SpotLight {
     pub cutoff: f32,
     /// 1 / (cutoff − beam width) in radians (infinite when they are equal: no ramp).
     pub inv_transition: f32,
+    /// Mitsuba's `texture`, multiplying the intensity, looked up at [`SpotLight::texture_uv`].
+    pub texture: Option<Box<Texture>>,
+    /// tan(cutoff): the cone's edge reaches uv 0 and 1 along the light's x and y axes.
+    pub uv_factor: f32,
 }
 
 impl SpotLight {
     /// A spot at `to_world`'s origin shining along its +z; angles in radians.
-    pub fn new(to_world: glam::Mat4, intensity: Vec3A, cutoff: f32, beam_width: f32) -> Self {
+    pub fn new(
+        to_world: glam::Mat4,
+        intensity: Vec3A,
+        cutoff: f32,
+        beam_width: f32,
+        texture: Option<Box<Texture>>,
+    ) -> Self {
         let linear = Mat3A::from_mat4(to_world);
         Self {
             position: to_world.w_axis.truncate().into(),
@@ -30,7 +43,17 @@ impl SpotLight {
             cos_cutoff: cutoff.cos(),
             cutoff,
             inv_transition: 1.0 / (cutoff - beam_width),
+            texture,
+            uv_factor: cutoff.tan(),
         }
+    }
+
+    /// The texture coordinates of a light-local direction (Mitsuba's `direction_to_uv`): the
+    /// plane z = 1 mapped so that the cone's edge on the x and y axes lands at 0 and 1.
+    #[inline]
+    pub fn texture_uv(&self, local: Vec3A) -> Vec2 {
+        let scale = 0.5 / (local.z * self.uv_factor);
+        Vec2::new(0.5 + local.x * scale, 0.5 + local.y * scale)
     }
 
     /// The falloff in [0, 1] along a world direction `d` leaving the light.
@@ -61,10 +84,15 @@ impl SpotLight {
         if falloff <= 0.0 {
             return None;
         }
+        let mut intensity = self.intensity;
+        if let Some(texture) = &self.texture {
+            let uv = self.texture_uv(self.world_to_local * -wi);
+            intensity *= texture.eval(uv, Footprint::POINT);
+        }
         Some(LightSample {
             wi,
             dist,
-            radiance: self.intensity * (falloff / dist2),
+            radiance: intensity * (falloff / dist2),
             pdf: 1.0,
             is_delta: true,
         })
@@ -88,7 +116,7 @@ mod tests {
             Vec4::new(1.0, 2.0, 3.0, 1.0),
         );
         let (cutoff, beam) = (20f32.to_radians(), 10f32.to_radians());
-        let spot = SpotLight::new(to_world, Vec3A::ONE, cutoff, beam);
+        let spot = SpotLight::new(to_world, Vec3A::ONE, cutoff, beam, None);
         let axis = Vec3A::from(to_world.transform_vector3(Vec3::Z));
         assert!((axis - Vec3A::new(0.0, 0.0, -1.0)).length() < 1e-6);
         let at = |deg: f32| {

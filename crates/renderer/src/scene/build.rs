@@ -154,12 +154,21 @@ impl RenderScene {
                     intensity,
                     cutoff_angle,
                     beam_width,
-                } => Light::Spot(SpotLight::new(
-                    *to_world,
-                    (*intensity).into(),
-                    *cutoff_angle,
-                    *beam_width,
-                )),
+                    texture,
+                } => {
+                    // The light keeps its own copy: lights are sampled without the scene's
+                    // texture list at hand.
+                    let texture = texture
+                        .map(|t| build_texture(&scene.textures[t], &mut warnings).map(Box::new))
+                        .transpose()?;
+                    Light::Spot(SpotLight::new(
+                        *to_world,
+                        (*intensity).into(),
+                        *cutoff_angle,
+                        *beam_width,
+                        texture,
+                    ))
+                }
                 desc::Light::Directional {
                     direction,
                     irradiance,
