@@ -392,7 +392,11 @@ fn cube_shapegroup_and_instances() {
   <shape type="instance"><ref id="g"/></shape>
 </scene>"#,
     );
-    assert_eq!(s.shapes.len(), 1, "the cube; the group's shapes are not copied");
+    assert_eq!(
+        s.shapes.len(),
+        1,
+        "the cube; the group's shapes are not copied"
+    );
     assert_eq!(s.shape_groups.len(), 1);
     assert_eq!(s.shape_groups[0].id, "g");
     assert_eq!(s.shape_groups[0].shapes.len(), 2);
@@ -416,7 +420,10 @@ fn cube_shapegroup_and_instances() {
     }
     // The group's cube keeps its own transform; the instance's comes on top.
     let cube = &s.shape_groups[0].shapes[1];
-    assert_eq!(cube.to_world.transform_point3(Vec3::ZERO), Vec3::new(2.0, 0.0, 0.0));
+    assert_eq!(
+        cube.to_world.transform_point3(Vec3::ZERO),
+        Vec3::new(2.0, 0.0, 0.0)
+    );
     let moved = (s.instances[0].to_world * cube.to_world).transform_point3(Vec3::ZERO);
     assert_eq!(moved, Vec3::new(2.0, 3.0, 0.0));
     assert_eq!(s.instances[1].to_world, glam::Mat4::IDENTITY);
@@ -494,7 +501,9 @@ fn shapegroup_and_instance_rules() {
     let s = parse_ok(&xml);
     assert!(s.instances.is_empty() && s.shapes.is_empty());
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(s.warnings[0].message.contains("shapegroup 'g' is not instanced"));
+    assert!(s.warnings[0]
+        .message
+        .contains("shapegroup 'g' is not instanced"));
     assert_eq!(
         (s.warnings[0].location.line, s.warnings[0].location.column),
         pos_of(&xml, "<shape type=\"shapegroup\"")

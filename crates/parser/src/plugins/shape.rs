@@ -7,8 +7,8 @@ use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
 use crate::scene::{
-    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Instance, Shape, ShapeGroup, TriangleMesh,
-    Warning,
+    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Instance, Shape, ShapeGroup,
+    TriangleMesh, Warning,
 };
 use crate::xml::Element;
 use glam::{Mat3, Mat4, Vec3};
@@ -213,7 +213,10 @@ pub(crate) fn warn_unused_groups(ctx: &mut Ctx) {
         if !used {
             ctx.warnings.push(Warning {
                 location: g.location.clone(),
-                message: format!("shapegroup '{}' is not instanced; nothing of it is drawn", g.id),
+                message: format!(
+                    "shapegroup '{}' is not instanced; nothing of it is drawn",
+                    g.id
+                ),
             });
         }
     }
