@@ -522,7 +522,12 @@ mod tests {
         }
         std::fs::write(dir.join("grid.obj"), obj).unwrap();
         let mut xml = String::from(
-            r#"<scene version="3.0.0"><shape type="shapegroup" id="grid"><shape type="obj"><string name="filename" value="grid.obj"/></shape></shape>"#,
+            r#"<scene version="3.0.0">
+            <sensor type="perspective"><float name="fov" value="60"/>
+                <transform name="to_world"><lookat origin="4.5, 4.5, 12" target="4.5, 4.5, 0" up="0, 1, 0"/></transform>
+                <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film></sensor>
+            <emitter type="constant"/>
+            <shape type="shapegroup" id="grid"><shape type="obj"><string name="filename" value="grid.obj"/></shape></shape>"#,
         );
         let position =
             |k: usize| Vec3A::new((k % 10) as f32, (k / 10 % 10) as f32, -((k / 100) as f32));
@@ -571,5 +576,35 @@ mod tests {
             tmax: f32::INFINITY,
         };
         assert!(scene.intersect(&ray).is_none());
+
+        // It renders: grey grids (diffuse 0.5 under a white sky) in front of the white sky.
+        let scene = RenderScene::build(&desc, 24, 24).unwrap();
+        let settings = crate::render::RenderSettings {
+            spp: 4,
+            max_depth: 3,
+            rr_depth: 5,
+            seed: 1,
+            filter: desc::PixelFilter::Box,
+            tile_size: 8,
+            mipmapping: true,
+            env_strategy: crate::integrator::EnvStrategy::default(),
+            sampler: crate::sampler::SamplerKind::Sobol,
+            packets: true,
+        };
+        let out = crate::render::render(&scene, &settings, &|_, _| {});
+        assert_eq!(out.nonfinite_samples, 0);
+        let lum: Vec<f32> = out
+            .image
+            .pixels
+            .iter()
+            .map(|p| p.element_sum() / 3.0)
+            .collect();
+        let grids = lum.iter().filter(|&&l| l < 0.7).count();
+        let sky = lum.iter().filter(|&&l| (l - 1.0).abs() < 1e-4).count();
+        println!("{grids} grid pixels, {sky} sky pixels of {}", lum.len());
+        assert!(
+            grids > 100 && sky > 50,
+            "{grids} grid pixels, {sky} sky pixels"
+        );
     }
 }
