@@ -292,7 +292,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let samples = out.image.width as u64 * out.image.height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}",
+        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles{}; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}",
         scene_path.display(),
         scene.dialect,
         scene.dialect_reason,
@@ -301,6 +301,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.spp,
         settings.max_depth,
         render_scene.triangle_count(),
+        match render_scene.instance_count() {
+            0 => String::new(),
+            n => format!(" stored, {n} instances"),
+        },
         parse_time.as_secs_f64(),
         build_time.as_secs_f64(),
         secs,

@@ -27,8 +27,9 @@ pub(crate) struct Ctx {
     pub warnings: Vec<Warning>,
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
-    /// The shapes of each `shapegroup`, placed by `instance`s.
-    pub shape_groups: Vec<Vec<crate::scene::Shape>>,
+    /// Every `shapegroup`, and every `instance` placing one.
+    pub shape_groups: Vec<crate::scene::ShapeGroup>,
+    pub instances: Vec<crate::scene::Instance>,
     /// Every file name resolved so far, in order: [`crate::Scene::files`].
     pub files: std::cell::RefCell<Vec<PathBuf>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
@@ -50,6 +51,7 @@ impl Ctx {
             textures: Vec::new(),
             bsdfs: Vec::new(),
             shape_groups: Vec::new(),
+            instances: Vec::new(),
             files: Default::default(),
             ids: HashMap::new(),
             media_warned: false,

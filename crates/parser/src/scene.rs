@@ -79,6 +79,11 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub bsdfs: Vec<Bsdf>,
     pub shapes: Vec<Shape>,
+    /// Every `shapegroup`, its shapes in the group's own space; drawn only through
+    /// [`Scene::instances`], which share its geometry.
+    pub shape_groups: Vec<ShapeGroup>,
+    /// Every `instance`: a shape group placed by a transform.
+    pub instances: Vec<Instance>,
     /// Point lights, environment maps and constant backgrounds. Area lights live on their shapes.
     pub lights: Vec<Light>,
     /// Every file the scene refers to (meshes, images), resolved, in the order named: what a
@@ -376,6 +381,25 @@ pub struct Shape {
     pub emitter: Option<Vec3>,
     pub flip_normals: bool,
     /// Where the shape was declared, for renderer-side diagnostics.
+    pub location: SourceLocation,
+}
+
+/// Mitsuba's `shapegroup`: shapes (no emitters, groups or instances) stored once and drawn only
+/// where an [`Instance`] places them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapeGroup {
+    pub id: String,
+    /// Each shape's `to_world` maps it into the group's space.
+    pub shapes: Vec<Shape>,
+    pub location: SourceLocation,
+}
+
+/// Mitsuba's `instance`: shape group [`Instance::group`] (an index into [`Scene::shape_groups`])
+/// placed by `to_world` (invertible).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    pub group: usize,
+    pub to_world: Mat4,
     pub location: SourceLocation,
 }
 

@@ -378,7 +378,7 @@ fn media_give_one_warning() {
 }
 
 /// Mitsuba's cube (its vertex layout and uvs, from Mitsuba 3.9.1), and shapegroups placed by
-/// instances (read as copies).
+/// instances (the group's shapes stored once, not copied).
 #[test]
 fn cube_shapegroup_and_instances() {
     let s = parse_ok(
@@ -392,7 +392,16 @@ fn cube_shapegroup_and_instances() {
   <shape type="instance"><ref id="g"/></shape>
 </scene>"#,
     );
-    assert_eq!(s.shapes.len(), 5, "a cube and two instances of two shapes");
+    assert_eq!(
+        s.shapes.len(),
+        1,
+        "the cube; the group's shapes are not copied"
+    );
+    assert_eq!(s.shape_groups.len(), 1);
+    assert_eq!(s.shape_groups[0].id, "g");
+    assert_eq!(s.shape_groups[0].shapes.len(), 2);
+    assert_eq!(s.instances.len(), 2);
+    assert!(s.instances.iter().all(|i| i.group == 0));
     let torrey_parser::Geometry::Mesh(m) = &s.shapes[0].geometry else {
         panic!()
     };
@@ -409,12 +418,95 @@ fn cube_shapegroup_and_instances() {
         let n = (b - a).cross(c - a).normalize();
         assert!((n - m.normals[t[0] as usize]).length() < 1e-6, "{t:?}");
     }
-    // The instance's transform follows the shape's own.
-    let moved = s.shapes[2].to_world.transform_point3(Vec3::ZERO);
-    assert_eq!(moved, Vec3::new(2.0, 3.0, 0.0));
+    // The group's cube keeps its own transform; the instance's comes on top.
+    let cube = &s.shape_groups[0].shapes[1];
     assert_eq!(
-        s.shapes[4].to_world.transform_point3(Vec3::ZERO),
+        cube.to_world.transform_point3(Vec3::ZERO),
         Vec3::new(2.0, 0.0, 0.0)
+    );
+    let moved = (s.instances[0].to_world * cube.to_world).transform_point3(Vec3::ZERO);
+    assert_eq!(moved, Vec3::new(2.0, 3.0, 0.0));
+    assert_eq!(s.instances[1].to_world, glam::Mat4::IDENTITY);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+/// Mitsuba's rules for groups and instances: no emitters, groups or instances inside a group, one
+/// group per instance, an invertible transform, a known id; a group nobody instances is a warning.
+#[test]
+fn shapegroup_and_instance_rules() {
+    let group = |inner: &str| {
+        format!("<scene version=\"3.0.0\">\n  <shape type=\"shapegroup\" id=\"g\">\n    {inner}\n  </shape>\n</scene>")
+    };
+    for (inner, message, at) in [
+        (
+            r#"<shape type="sphere"><emitter type="area"/></shape>"#,
+            "shapes in a shapegroup cannot be emitters",
+            "<shape type=\"sphere\">",
+        ),
+        (
+            r#"<shape type="shapegroup" id="h"/>"#,
+            "a shapegroup cannot contain a 'shapegroup'",
+            "<shape type=\"shapegroup\" id=\"h\"",
+        ),
+        (
+            r#"<shape type="instance"><ref id="g"/></shape>"#,
+            "a shapegroup cannot contain a 'instance'",
+            "<shape type=\"instance\">",
+        ),
+    ] {
+        let xml = group(inner);
+        assert_err(&common::parse(&xml).unwrap_err(), message, pos_of(&xml, at));
+    }
+    let base = r#"<scene version="3.0.0">
+  <shape type="shapegroup" id="g"><shape type="sphere"/></shape>
+  <bsdf type="diffuse" id="b"/>
+"#;
+    for (instance, message, at) in [
+        (
+            r#"<shape type="instance"><ref id="b"/></shape>"#,
+            "<ref id=\"b\"> in an instance must name a shapegroup",
+            "<ref id=\"b\"",
+        ),
+        (
+            r#"<shape type="instance"><ref id="missing"/></shape>"#,
+            "reference to undefined id 'missing'",
+            "missing",
+        ),
+        (
+            r#"<shape type="instance"/>"#,
+            "shape 'instance' needs a <ref id=\"...\"/> to a shapegroup",
+            "<shape type=\"instance\"",
+        ),
+        (
+            r#"<shape type="instance"><ref id="g"/><ref id="g"/></shape>"#,
+            "shape 'instance' takes a single shapegroup",
+            "<ref id=\"g\"/></shape>",
+        ),
+        (
+            r#"<shape type="instance"><ref id="g"/><transform name="to_world"><scale x="0"/></transform></shape>"#,
+            "the to_world of shape 'instance' is degenerate",
+            "<shape type=\"instance\"",
+        ),
+        (
+            r#"<shape type="instance"><ref id="g"/><transform name="to_world"><translate x="1e15"/></transform></shape>"#,
+            "shape 'instance': moved to world space by its to_world",
+            "<shape type=\"instance\"",
+        ),
+    ] {
+        let xml = format!("{base}  {instance}\n</scene>");
+        assert_err(&common::parse(&xml).unwrap_err(), message, pos_of(&xml, at));
+    }
+    // A group without instances draws nothing, as in Mitsuba, and says so.
+    let xml = format!("{base}</scene>");
+    let s = parse_ok(&xml);
+    assert!(s.instances.is_empty() && s.shapes.is_empty());
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(s.warnings[0]
+        .message
+        .contains("shapegroup 'g' is not instanced"));
+    assert_eq!(
+        (s.warnings[0].location.line, s.warnings[0].location.column),
+        pos_of(&xml, "<shape type=\"shapegroup\"")
     );
 }
 

@@ -312,7 +312,7 @@ fn render_pixel<S: Sampler>(
     // same numbers. Packets need a layout that traces them and a camera whose rays share their
     // origin.
     let lanes = if settings.packets && camera.rays_share_origin() {
-        scene.accel().packet_width().min(MAX_PACKET)
+        scene.packet_width().min(MAX_PACKET)
     } else {
         0
     };

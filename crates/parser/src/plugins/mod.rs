@@ -184,6 +184,7 @@ pub(crate) fn parse_scene(
             sensor::default_sampler(),
         )
     });
+    shape::warn_unused_groups(&mut ctx);
     let warnings = ctx.finish_warnings();
     Ok(Scene {
         path: path.to_path_buf(),
@@ -196,6 +197,8 @@ pub(crate) fn parse_scene(
         textures: ctx.textures,
         bsdfs: ctx.bsdfs,
         shapes,
+        shape_groups: ctx.shape_groups,
+        instances: ctx.instances,
         lights,
         files: ctx.files.into_inner(),
         warnings,

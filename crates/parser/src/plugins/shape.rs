@@ -6,9 +6,12 @@ use crate::files::input_file;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
-use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TriangleMesh};
+use crate::scene::{
+    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Instance, Shape, ShapeGroup,
+    TriangleMesh, Warning,
+};
 use crate::xml::Element;
-use glam::{Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec3};
 
 /// The types this parser reads (see `torrey_parser::accepted_plugins`).
 pub(crate) const KNOWN: &[&str] = &[
@@ -101,12 +104,17 @@ fn cube_mesh() -> TriangleMesh {
     m
 }
 
-/// `shapegroup` (top level, with an `id`): its nested shapes are kept for `instance`s and not
-/// drawn themselves. Returns nothing.
+/// `shapegroup` (with an `id`): its nested shapes are stored once, in the group's own space, and
+/// drawn only where `instance`s place them. As in Mitsuba, a group holds no emitters, no groups
+/// and no instances. Returns no shapes of its own.
+///
+/// | name | type | default |
+/// | --- | --- | --- |
+/// | nested `<shape>`s | shape | none |
 fn parse_shapegroup(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
-    if elem.attr("id").is_none() {
+    let Some(id) = elem.attr("id").map(|a| a.value.clone()) else {
         return Err(ctx.err(elem.pos, "a shapegroup needs an 'id' to be instanced"));
-    }
+    };
     let mut props = Props::new(ctx, elem, "shape 'shapegroup'".into())?;
     let mut shapes = Vec::new();
     for child in props.take_tag("shape") {
@@ -128,14 +136,24 @@ fn parse_shapegroup(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         }
     }
     props.finish(ctx);
-    ctx.shape_groups.push(shapes);
+    ctx.shape_groups.push(ShapeGroup {
+        id,
+        shapes,
+        location: ctx.location(elem.pos),
+    });
     let index = ctx.shape_groups.len() - 1;
     ctx.register_id(elem, IdTarget::ShapeGroup(index))?;
     Ok(Vec::new())
 }
 
-/// `instance`: a `<ref>` to a shapegroup placed by `to_world`. torrey copies the group's shapes
-/// (the renderer's two-level BVH, which would share them, comes later).
+/// `instance`: a `<ref>` to a shapegroup placed by `to_world`, which must be invertible. The
+/// group's geometry is shared, not copied (the renderer's two-level BVH). Returns no shapes: the
+/// instance goes to [`crate::Scene::instances`].
+///
+/// | name | type | default |
+/// | --- | --- | --- |
+/// | `to_world` (`toWorld`) | transform | identity |
+/// | nested `<ref id>` | shapegroup | required |
 fn parse_instance(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     let mut props = Props::new(ctx, elem, "shape 'instance'".into())?;
     ctx.register_id(elem, IdTarget::Other)?;
@@ -149,6 +167,12 @@ fn parse_instance(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             "shape 'instance' needs a <ref id=\"...\"/> to a shapegroup",
         ));
     };
+    if let Some(second) = refs.get(1) {
+        return Err(ctx.err(
+            second.pos,
+            "shape 'instance' takes a single shapegroup (as in Mitsuba)",
+        ));
+    }
     let IdTarget::ShapeGroup(g) = ctx.lookup(r)? else {
         return Err(ctx.err(
             r.pos,
@@ -158,15 +182,44 @@ fn parse_instance(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             ),
         ));
     };
+    let det = Mat3::from_mat4(to_world).determinant();
+    if !(to_world.is_finite() && det.is_finite() && det != 0.0) {
+        return Err(ctx.err(
+            elem.pos,
+            "the to_world of shape 'instance' is degenerate (zero scale, or non-finite)",
+        ));
+    }
+    for s in &ctx.shape_groups[g].shapes {
+        if let Some(problem) = world_problem(&s.geometry, to_world * s.to_world) {
+            return Err(ctx.err(elem.pos, format!("shape 'instance': {problem}")));
+        }
+    }
     props.finish(ctx);
-    Ok(ctx.shape_groups[g]
-        .iter()
-        .map(|s| Shape {
-            to_world: to_world * s.to_world,
-            location: ctx.location(elem.pos),
-            ..s.clone()
-        })
-        .collect())
+    ctx.instances.push(Instance {
+        group: g,
+        to_world,
+        location: ctx.location(elem.pos),
+    });
+    Ok(Vec::new())
+}
+
+/// A warning for every shapegroup that no instance places (Mitsuba draws nothing of it either).
+pub(crate) fn warn_unused_groups(ctx: &mut Ctx) {
+    let mut used = vec![false; ctx.shape_groups.len()];
+    for i in &ctx.instances {
+        used[i.group] = true;
+    }
+    for (g, used) in ctx.shape_groups.iter().zip(used) {
+        if !used {
+            ctx.warnings.push(Warning {
+                location: g.location.clone(),
+                message: format!(
+                    "shapegroup '{}' is not instanced; nothing of it is drawn",
+                    g.id
+                ),
+            });
+        }
+    }
 }
 
 /// How far from the origin world-space geometry may reach: 1e14. The BVH builder sums surface

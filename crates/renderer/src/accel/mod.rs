@@ -24,6 +24,7 @@
 //! the traversal must never depend on geometry to avoid an invalid reference.
 
 mod build;
+pub mod instances;
 mod leaves;
 mod nodes4;
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! constructor (camera, textures, materials, shapes, lights), then the BVH over every primitive.
 
 use super::{Material, RenderScene};
+use crate::accel::instances::{GroupAccel, Instances};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
 use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
@@ -67,18 +68,38 @@ impl RenderScene {
         ));
 
         let mut mesh = MeshData::default();
-        let mut geoms = Vec::new();
+        let mut world_geoms = Vec::new();
         let mut prims = Vec::new();
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
         let mut dropped = 0usize;
-        for (shape_index, shape) in scene.shapes.iter().enumerate() {
+        // The world's shapes, then each shape group's (in the group's space): a group's
+        // primitives get their own list (its BVH's) and contiguous records in `prims` from
+        // `group_first_prim`, so that group primitive i is record group_first_prim + i.
+        let mut group_geoms = vec![Vec::new(); scene.shape_groups.len()];
+        let mut group_first_prim = vec![0u32; scene.shape_groups.len()];
+        let group_shapes = scene
+            .shape_groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, group)| group.shapes.iter().map(move |s| (Some(g), s)));
+        let all_shapes = scene.shapes.iter().map(|s| (None, s)).chain(group_shapes);
+        for (shape_index, (group, shape)) in all_shapes.enumerate() {
             let shape_id = shape_index as u32;
             let first_prim = prims.len();
+            let geoms: &mut Vec<PrimGeom> = match group {
+                Some(g) => {
+                    if group_geoms[g].is_empty() {
+                        group_first_prim[g] = first_prim as u32;
+                    }
+                    &mut group_geoms[g]
+                }
+                None => &mut world_geoms,
+            };
             let kind = match &shape.geometry {
                 desc::Geometry::Mesh(m) => ShapeKind::Mesh(MeshShape::add(
                     &mut mesh,
-                    &mut geoms,
+                    geoms,
                     &mut prims,
                     shape_id,
                     m,
@@ -86,7 +107,7 @@ impl RenderScene {
                 )),
                 desc::Geometry::Rectangle => ShapeKind::Mesh(MeshShape::add(
                     &mut mesh,
-                    &mut geoms,
+                    geoms,
                     &mut prims,
                     shape_id,
                     &MeshShape::rectangle(),
@@ -109,7 +130,12 @@ impl RenderScene {
             };
             let shape_prims = &prims[first_prim..];
             let area_light = match shape.emitter {
-                Some(radiance) if radiance.max_element() > 0.0 && !shape_prims.is_empty() => {
+                // Shapes in groups do not emit (the parser refuses them, as Mitsuba does).
+                Some(radiance)
+                    if radiance.max_element() > 0.0
+                        && !shape_prims.is_empty()
+                        && group.is_none() =>
+                {
                     let emitter = match kind {
                         ShapeKind::Sphere(sphere) => AreaEmitter::Sphere(sphere),
                         ShapeKind::Mesh(_) => {
@@ -199,12 +225,14 @@ impl RenderScene {
             lights.push(light);
         }
 
-        debug_assert!(geoms.iter().all(PrimGeom::is_finite));
-        let accel = Accel::build(&geoms, bvh_width);
+        debug_assert!(world_geoms.iter().all(PrimGeom::is_finite));
+        let accel = Accel::build(&world_geoms, bvh_width);
+        let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
         Ok(Self {
             camera,
             accel,
+            instances,
             mesh,
             prims,
             shapes,
@@ -222,6 +250,40 @@ impl RenderScene {
             warnings,
         })
     }
+}
+
+/// The top level over the scene's instances and the bottom-level BVHs of the groups they place;
+/// None without instances (or when every instanced group is empty).
+fn build_instances(
+    scene: &desc::Scene,
+    group_geoms: &[Vec<PrimGeom>],
+    group_first_prim: &[u32],
+    bvh_width: BvhWidth,
+) -> Option<Box<Instances>> {
+    if scene.instances.is_empty() {
+        return None;
+    }
+    let mut placed = vec![false; group_geoms.len()];
+    for i in &scene.instances {
+        placed[i.group] = true;
+    }
+    let groups = group_geoms
+        .iter()
+        .zip(group_first_prim)
+        .zip(placed)
+        .map(|((geoms, &first), placed)| {
+            debug_assert!(geoms.iter().all(PrimGeom::is_finite));
+            placed
+                .then(|| GroupAccel::build(geoms, first, bvh_width))
+                .flatten()
+        })
+        .collect();
+    let placements: Vec<_> = scene
+        .instances
+        .iter()
+        .map(|i| (i.to_world, i.group))
+        .collect();
+    Instances::build(groups, &placements).map(Box::new)
 }
 
 /// The camera of the scene for a `width` x `height` film. Its transform must be finite and

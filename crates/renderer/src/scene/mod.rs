@@ -8,6 +8,7 @@ mod material;
 pub use build::BuildError;
 pub use material::Material;
 
+use crate::accel::instances::Instances;
 use crate::accel::{Accel, ClosestHit};
 use crate::cameras::Camera;
 use crate::lights::Light;
@@ -22,6 +23,10 @@ use glam::Vec3A;
 pub struct RenderScene {
     pub(crate) camera: Camera,
     pub(crate) accel: Accel,
+    /// The top level over the scene's instances (their shape groups' primitives, stored once in
+    /// `prims`, `shapes` and `mesh` after the world's, have BVHs of their own); None without
+    /// instances, so that such scenes take the one-level path alone.
+    pub(crate) instances: Option<Box<Instances>>,
     pub(crate) mesh: MeshData,
     pub(crate) prims: Vec<PrimInfo>,
     pub(crate) shapes: Vec<Shape>,
@@ -59,18 +64,63 @@ impl RenderScene {
         &self.accel
     }
 
+    /// Triangles stored (a shape group's once, however many instances place it).
     pub fn triangle_count(&self) -> usize {
         self.mesh.triangle_count
+    }
+
+    /// The instances of shape groups the scene places.
+    pub fn instance_count(&self) -> usize {
+        self.instances.as_ref().map_or(0, |i| i.len())
+    }
+
+    /// The top level over the instances, if the scene has any.
+    pub fn instances(&self) -> Option<&Instances> {
+        self.instances.as_deref()
+    }
+
+    /// Rays per camera-ray packet ([`Accel::packet_width`]); 0 for scenes with instances, whose
+    /// camera rays are traced one by one (through both levels).
+    pub fn packet_width(&self) -> usize {
+        if self.instances.is_some() {
+            0
+        } else {
+            self.accel.packet_width()
+        }
     }
 
     /// Closest surface along the ray, with its differential geometry.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
-        let hit = self.accel.intersect(ray)?;
-        Some(self.surface_hit(ray, &hit))
+        let hit = self.accel.intersect(ray);
+        if let Some(instances) = &self.instances {
+            return self.intersect_instances(instances, ray, hit);
+        }
+        Some(self.surface_hit(ray, &hit?))
     }
 
-    /// The differential geometry of `hit`, a closest hit along `ray`.
+    /// [`RenderScene::intersect`] in a scene with instances: the closest of `world` (the world's
+    /// own closest hit) and the instances' hits before it.
+    #[inline(never)]
+    fn intersect_instances(
+        &self,
+        instances: &Instances,
+        ray: &Ray,
+        world: Option<ClosestHit>,
+    ) -> Option<SurfaceHit> {
+        let tmax = world.map_or(ray.tmax, |h| h.t);
+        match instances.intersect(&Ray { tmax, ..*ray }) {
+            Some((hit, i)) => {
+                let instance = instances.instance(i);
+                let local = self.surface_hit(&instance.local_ray(ray), &hit);
+                Some(instance.surface_to_world(local))
+            }
+            None => world.map(|hit| self.surface_hit(ray, &hit)),
+        }
+    }
+
+    /// The differential geometry of `hit`, a closest hit of [`RenderScene::accel`] (the world's
+    /// own primitives, not the instances') along `ray`.
     #[inline(never)]
     pub fn surface(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         self.surface_hit(ray, hit)
@@ -89,6 +139,7 @@ impl RenderScene {
     /// True when nothing blocks the segment from `origin` along `dir` up to `tmax`.
     #[inline]
     pub fn visible(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> bool {
-        !self.accel.occluded(&Ray { origin, dir, tmax })
+        let ray = Ray { origin, dir, tmax };
+        !self.accel.occluded(&ray) && self.instances.as_ref().is_none_or(|i| !i.occluded(&ray))
     }
 }

@@ -4,6 +4,7 @@
 //! variant with one-line arms below, its primitive in [`crate::accel::PrimGeom`] (or triangles),
 //! the parser mapping and the docs.
 
+pub mod instance;
 pub mod mesh;
 pub mod sphere;
 pub mod triangle;
