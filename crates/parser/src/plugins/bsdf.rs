@@ -351,10 +351,9 @@ fn principled(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Princi
             eta
         }
     } else {
-        let mut specular =
-            props.float_where(ctx, &["specular"], 0.5, "in [0, 12.5)", |v| {
-                (0.0..12.5).contains(&v)
-            })?;
+        let mut specular = props.float_where(ctx, &["specular"], 0.5, "in [0, 12.5)", |v| {
+            (0.0..12.5).contains(&v)
+        })?;
         if transmits && specular == 0.0 {
             specular = 1e-3;
         }

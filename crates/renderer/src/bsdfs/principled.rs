@@ -17,8 +17,8 @@
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{Microfacet, MicrofacetKind};
 use super::principled_lobes::{
-    clearcoat_eval, cosine_pdf, disney_alphas, mac_mic_compatible, reflect,
-    schlick_eta, schlick_r0, tint_color, DiffuseLobes, Gtr1,
+    clearcoat_eval, cosine_pdf, disney_alphas, mac_mic_compatible, reflect, schlick_eta,
+    schlick_r0, tint_color, DiffuseLobes, Gtr1,
 };
 use super::{BsdfFlags, BsdfSample};
 use crate::sampling::square_to_cosine_hemisphere;
@@ -191,7 +191,11 @@ impl Principled<'_> {
     #[inline]
     fn half_vector(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, bool, f32) {
         let reflect = wo.z * wi.z > 0.0;
-        let eta_path = if wo.z > 0.0 { self.p.eta } else { 1.0 / self.p.eta };
+        let eta_path = if wo.z > 0.0 {
+            self.p.eta
+        } else {
+            1.0 / self.p.eta
+        };
         let h = (wo + wi * if reflect { 1.0 } else { eta_path }).normalize();
         (if h.z < 0.0 { -h } else { h }, reflect, eta_path)
     }
@@ -218,7 +222,8 @@ impl Principled<'_> {
             let compatible = mac_mic_compatible(wh, wo, wi, cos_o, true);
             if compatible && f_diel > 0.0 {
                 let f = if front {
-                    let mut f = Vec3A::splat((1.0 - self.metallic) * (1.0 - self.spec_tint) * f_diel);
+                    let mut f =
+                        Vec3A::splat((1.0 - self.metallic) * (1.0 - self.spec_tint) * f_diel);
                     if self.metallic != 0.0 {
                         f += self.metallic * schlick_eta(self.base_color, oh, eta);
                     }
@@ -297,9 +302,8 @@ impl Principled<'_> {
             if mac_mic_compatible(wh, wo, wi, cos_o, true) {
                 pdf += probs.reflect * self.distr().pdf_visible(wo_up, wh) * jacobian;
                 if probs.clearcoat > 0.0 {
-                    pdf += probs.clearcoat
-                        * Gtr1::clearcoat(self.clearcoat_gloss).pdf(wh)
-                        * jacobian;
+                    pdf +=
+                        probs.clearcoat * Gtr1::clearcoat(self.clearcoat_gloss).pdf(wh) * jacobian;
                 }
             }
             pdf += probs.diffuse * cosine_pdf(wi);

@@ -151,7 +151,14 @@ pub fn clearcoat_g(wi: Vec3A, wo: Vec3A, m: Vec3A) -> f32 {
 
 /// The clearcoat lobe's f·|cos θo|: Mitsuba's 0.25·clearcoat·F_schlick(0.04)·D·G·|cos θo|.
 #[inline]
-pub fn clearcoat_eval(clearcoat: f32, gloss: f32, eta: f32, wi: Vec3A, wo: Vec3A, wh: Vec3A) -> f32 {
+pub fn clearcoat_eval(
+    clearcoat: f32,
+    gloss: f32,
+    eta: f32,
+    wi: Vec3A,
+    wo: Vec3A,
+    wh: Vec3A,
+) -> f32 {
     let f = schlick_eta(Vec3A::splat(0.04), wi.dot(wh), eta).x;
     let d = Gtr1::clearcoat(gloss).d(wh);
     0.25 * clearcoat * f * d * clearcoat_g(wi, wo, wh) * wo.z.abs()

@@ -268,7 +268,10 @@ impl PrincipledThin<'_> {
             }
             (l, BsdfFlags::GLOSSY_TRANSMISSION)
         } else if u_lobe < probs.spec_reflect + probs.spec_trans + probs.diff_reflect {
-            (square_to_cosine_hemisphere(u), BsdfFlags::DIFFUSE_REFLECTION)
+            (
+                square_to_cosine_hemisphere(u),
+                BsdfFlags::DIFFUSE_REFLECTION,
+            )
         } else if probs.diff_trans > 0.0 {
             (
                 -square_to_cosine_hemisphere(u),
@@ -282,7 +285,12 @@ impl PrincipledThin<'_> {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample::reflection(wi, self.eval(wo, wi) / pdf, pdf, lobe))
+        Some(BsdfSample::reflection(
+            wi,
+            self.eval(wo, wi) / pdf,
+            pdf,
+            lobe,
+        ))
     }
 
     /// About the widest lobe's angular width: diffuse unless the sheet is all specular.

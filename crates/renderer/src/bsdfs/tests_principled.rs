@@ -186,11 +186,15 @@ fn eval_and_pdf_match_mitsuba() {
         let ours = b.eval(wo, wi);
         let theirs = Vec3A::from(value);
         if (ours - theirs).abs().max_element() > 2e-3 * theirs.max_element() + 1e-7 {
-            failures.push(format!("{name} eval wo {wo} wi {wi}: ours {ours}, Mitsuba {theirs}"));
+            failures.push(format!(
+                "{name} eval wo {wo} wi {wi}: ours {ours}, Mitsuba {theirs}"
+            ));
         }
         let p = b.pdf(wo, wi);
         if (p - pdf).abs() > 2e-3 * pdf + 1e-7 {
-            failures.push(format!("{name} pdf wo {wo} wi {wi}: ours {p}, Mitsuba {pdf}"));
+            failures.push(format!(
+                "{name} pdf wo {wo} wi {wi}: ours {p}, Mitsuba {pdf}"
+            ));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -203,51 +207,71 @@ fn models() -> Vec<(&'static str, Bsdf<'static>, Vec<f32>)> {
     let front = vec![0.0, 40.0, 80.0];
     let both = vec![0.0, 40.0, 80.0, 100.0, 150.0, 180.0];
     vec![
-        ("principled coat", mitsuba_model("principled_coat"), front.clone()),
+        (
+            "principled coat",
+            mitsuba_model("principled_coat"),
+            front.clone(),
+        ),
         (
             "principled glass anisotropic",
-            resolve(BsdfParams::Principled(principled_params([0.6, 0.8, 0.9], |p| {
-                p.roughness = c(0.55);
-                p.spec_trans = c(0.7);
-                p.anisotropic = c(0.6);
-                p.eta = 1.4;
-                p.metallic = c(0.1);
-                p.clearcoat = c(0.5);
-                p.clearcoat_gloss = c(0.2);
-            }))),
+            resolve(BsdfParams::Principled(principled_params(
+                [0.6, 0.8, 0.9],
+                |p| {
+                    p.roughness = c(0.55);
+                    p.spec_trans = c(0.7);
+                    p.anisotropic = c(0.6);
+                    p.eta = 1.4;
+                    p.metallic = c(0.1);
+                    p.clearcoat = c(0.5);
+                    p.clearcoat_gloss = c(0.2);
+                },
+            ))),
             both.clone(),
         ),
         (
             "principled spec_trans 1",
-            resolve(BsdfParams::Principled(principled_params([0.9, 0.9, 0.9], |p| {
-                p.roughness = c(0.5);
-                p.spec_trans = c(1.0);
-                p.sheen = c(0.5);
-            }))),
+            resolve(BsdfParams::Principled(principled_params(
+                [0.9, 0.9, 0.9],
+                |p| {
+                    p.roughness = c(0.5);
+                    p.spec_trans = c(1.0);
+                    p.sheen = c(0.5);
+                },
+            ))),
             both.clone(),
         ),
         (
             "principled metal anisotropic",
-            resolve(BsdfParams::Principled(principled_params([0.9, 0.6, 0.3], |p| {
-                p.roughness = c(0.45);
-                p.metallic = c(1.0);
-                p.anisotropic = c(0.8);
-            }))),
+            resolve(BsdfParams::Principled(principled_params(
+                [0.9, 0.6, 0.3],
+                |p| {
+                    p.roughness = c(0.45);
+                    p.metallic = c(1.0);
+                    p.anisotropic = c(0.8);
+                },
+            ))),
             front,
         ),
         (
             "principledthin glossy",
-            resolve(BsdfParams::PrincipledThin(thin_params([0.7, 0.3, 0.1], |p| {
-                p.roughness = c(0.45);
-                p.spec_tint = c(0.3);
-                p.anisotropic = c(0.5);
-                p.spec_trans = c(0.7);
-                p.diff_trans = c(0.6);
-                p.eta = c(1.33);
-            }))),
+            resolve(BsdfParams::PrincipledThin(thin_params(
+                [0.7, 0.3, 0.1],
+                |p| {
+                    p.roughness = c(0.45);
+                    p.spec_tint = c(0.3);
+                    p.anisotropic = c(0.5);
+                    p.spec_trans = c(0.7);
+                    p.diff_trans = c(0.6);
+                    p.eta = c(1.33);
+                },
+            ))),
             both.clone(),
         ),
-        ("principledthin diffuse", mitsuba_model("thin_diffuse"), both),
+        (
+            "principledthin diffuse",
+            mitsuba_model("thin_diffuse"),
+            both,
+        ),
     ]
 }
 
@@ -304,11 +328,18 @@ fn sidedness() {
     let thin = mitsuba_model("thin_glossy");
     let (wo, wi) = (dir(35.0, 0.4), dir(120.0, 2.5));
     let flip = |w: Vec3A| -w;
-    assert!((thin.eval(wo, wi) - thin.eval(flip(wo), flip(wi))).abs().max_element() < 1e-6);
+    assert!(
+        (thin.eval(wo, wi) - thin.eval(flip(wo), flip(wi)))
+            .abs()
+            .max_element()
+            < 1e-6
+    );
     assert!((thin.pdf(wo, wi) - thin.pdf(flip(wo), flip(wi))).abs() < 1e-6);
     let coat = mitsuba_model("principled_coat");
     assert_eq!(coat.eval(dir(150.0, 0.1), dir(130.0, 2.0)), Vec3A::ZERO);
-    assert!(coat.sample(dir(150.0, 0.1), Vec2::new(0.3, 0.6), 0.5).is_none());
+    assert!(coat
+        .sample(dir(150.0, 0.1), Vec2::new(0.3, 0.6), 0.5)
+        .is_none());
 }
 
 /// Textured parameters are looked up per hit: a checkerboard metallic switches the lobes.
@@ -316,7 +347,10 @@ fn sidedness() {
 fn textured_metallic_is_resolved_per_hit() {
     let p = principled_params([0.9, 0.6, 0.3], |p| p.metallic = FloatSource::Constant(1.0));
     let q = principled_params([0.9, 0.6, 0.3], |_| {});
-    let (a, b) = (resolve(BsdfParams::Principled(p)), resolve(BsdfParams::Principled(q)));
+    let (a, b) = (
+        resolve(BsdfParams::Principled(p)),
+        resolve(BsdfParams::Principled(q)),
+    );
     let (wo, wi) = (dir(30.0, 0.3), dir(50.0, 2.0));
     // A metal has no diffuse base: away from the specular peak it is much darker.
     assert!(a.eval(wo, wi).x < 0.5 * b.eval(wo, wi).x);
