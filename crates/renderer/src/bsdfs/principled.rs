@@ -13,6 +13,7 @@
 //! matching mixture. The back side is black unless the material transmits.
 //!
 //! Directions: `wo` here is Mitsuba's `si.wi` (towards the viewer), `wi` its sampled `wo`.
+//! `eval`/`pdf`/`sample` are not inlined: the path loop's `Bsdf` match stays as small as it was.
 
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{Microfacet, MicrofacetKind};
@@ -201,6 +202,7 @@ impl Principled<'_> {
     }
 
     /// f(wo, wi)·|cos θi| (Mitsuba's `eval`).
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
         let cos_o = wo.z;
         let cos_i = wi.z;
@@ -276,6 +278,7 @@ impl Principled<'_> {
     }
 
     /// The solid-angle density of [`Principled::sample`] (Mitsuba's `pdf`).
+    #[inline(never)]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
         let cos_o = wo.z;
         let cos_i = wi.z;
@@ -315,6 +318,7 @@ impl Principled<'_> {
 
     /// A lobe chosen by `u_lobe` with the probabilities of [`Principled::pdf`], its direction
     /// from `u`; weight eval/pdf of the whole mixture, as Mitsuba's `sample` returns.
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         let cos_o = wo.z;
         if cos_o == 0.0 || !cos_o.is_finite() {

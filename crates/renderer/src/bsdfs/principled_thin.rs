@@ -168,6 +168,7 @@ impl PrincipledThin<'_> {
     }
 
     /// f(wo, wi)·|cos θi| (Mitsuba's `eval`).
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
         if wo.z == 0.0 {
             return Vec3A::ZERO;
@@ -215,6 +216,7 @@ impl PrincipledThin<'_> {
     }
 
     /// The solid-angle density of [`PrincipledThin::sample`] (Mitsuba's `pdf`).
+    #[inline(never)]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
         if wo.z == 0.0 {
             return 0.0;
@@ -245,6 +247,7 @@ impl PrincipledThin<'_> {
 
     /// A lobe chosen by `u_lobe` with the probabilities of [`PrincipledThin::pdf`], its
     /// direction from `u`; weight eval/pdf of the mixture. Nothing bends: η is 1.
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         if wo.z == 0.0 || !wo.z.is_finite() {
             return None;

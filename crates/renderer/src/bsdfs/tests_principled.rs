@@ -359,3 +359,13 @@ fn textured_metallic_is_resolved_per_hit() {
     }))
     .is_textured());
 }
+
+/// The per-hit principled BSDFs are no larger than the largest other variant (a blend), so
+/// adding them left `Bsdf`, copied at every hit of every scene, as large as it was (80 bytes).
+#[test]
+fn per_hit_size_does_not_grow_bsdf() {
+    use std::mem::size_of;
+    assert!(size_of::<Principled>() <= size_of::<Blend>());
+    assert!(size_of::<PrincipledThin>() <= size_of::<Blend>());
+    assert!(size_of::<Bsdf>() <= 80, "{}", size_of::<Bsdf>());
+}
