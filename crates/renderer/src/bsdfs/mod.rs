@@ -18,7 +18,7 @@
 //! `blinnphong`, `blinn_microfacet`; the course's ρ already includes the cosine of the light
 //! direction, so `eval` returns exactly that ρ), and Mitsuba 3's (`dielectric`,
 //! `thindielectric`, `roughdielectric`, `conductor`, `roughconductor`, Mitsuba's `plastic` and
-//! `roughplastic`) with its parameters, defaults and conventions (exact Fresnel, microfacet
+//! `roughplastic`, `principled` and `principledthin`) with its parameters, defaults and conventions (exact Fresnel, microfacet
 //! models in [`microfacet`]).
 //!
 //! A new BSDF is a file (parameters, `resolve`, `eval`/`pdf`/`sample`, its tests), a variant in
