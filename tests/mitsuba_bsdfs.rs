@@ -168,6 +168,10 @@ verdict_tests!(
     blendbsdf_env,
     blendbsdf_area,
     mask_env,
+    principled_env,
+    principled_area,
+    principledthin_env,
+    principledthin_area,
 );
 
 /// `mask` under an area light is judged against the truth rather than Mitsuba: with direct light

@@ -89,6 +89,8 @@ pub(crate) fn scene_summary(s: &torrey_parser::Scene) -> String {
             torrey_parser::BsdfKind::Blend { .. } => "blendbsdf",
             torrey_parser::BsdfKind::Null => "null",
             torrey_parser::BsdfKind::Mask { .. } => "mask",
+            torrey_parser::BsdfKind::Principled(_) => "principled",
+            torrey_parser::BsdfKind::PrincipledThin(_) => "principledthin",
         });
         if b.normal_map.is_some() {
             kinds.insert("normalmap");

@@ -361,6 +361,50 @@ pub enum BsdfKind {
         eta: f32,
         nonlinear: bool,
     },
+    /// Mitsuba's `principled` (the Disney BSDF).
+    Principled(Box<PrincipledDesc>),
+    /// Mitsuba's `principledthin` (the thin-sheet Disney BSDF).
+    PrincipledThin(Box<PrincipledThinDesc>),
+}
+
+/// Mitsuba's `principled` parameters; the float ones may be textures (first channel).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrincipledDesc {
+    pub base_color: ColorParam,
+    pub roughness: ColorParam,
+    pub anisotropic: ColorParam,
+    pub metallic: ColorParam,
+    pub spec_trans: ColorParam,
+    pub spec_tint: ColorParam,
+    pub sheen: ColorParam,
+    pub sheen_tint: ColorParam,
+    pub flatness: ColorParam,
+    pub clearcoat: ColorParam,
+    pub clearcoat_gloss: ColorParam,
+    /// Interior/exterior IOR, given or derived from `specular`.
+    pub eta: f32,
+    pub main_specular_sampling_rate: f32,
+    pub clearcoat_sampling_rate: f32,
+    pub diffuse_reflectance_sampling_rate: f32,
+}
+
+/// Mitsuba's `principledthin` parameters; the float ones may be textures (first channel).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrincipledThinDesc {
+    pub base_color: ColorParam,
+    pub roughness: ColorParam,
+    pub anisotropic: ColorParam,
+    pub spec_trans: ColorParam,
+    pub spec_tint: ColorParam,
+    pub sheen: ColorParam,
+    pub sheen_tint: ColorParam,
+    pub flatness: ColorParam,
+    pub diff_trans: ColorParam,
+    pub eta: ColorParam,
+    pub specular_reflectance_sampling_rate: f32,
+    pub specular_transmittance_sampling_rate: f32,
+    pub diffuse_reflectance_sampling_rate: f32,
+    pub diffuse_transmittance_sampling_rate: f32,
 }
 
 /// Mitsuba's microfacet `distribution`.

@@ -661,3 +661,73 @@ fn spot_and_directional_errors_name_the_parameter() {
         assert_err(&e, message, pos_of(xml, at));
     }
 }
+
+#[test]
+fn principled_parameters_and_defaults() {
+    let xml = r#"<scene version="3.0.0">
+  <bsdf type="principled" id="a"/>
+  <bsdf type="principled" id="b"><float name="specular" value="0"/><float name="spec_trans" value="0.5"/>
+    <texture type="checkerboard" name="metallic"/><float name="clearcoat_sampling_rate" value="0"/></bsdf>
+  <bsdf type="principled" id="c"><float name="eta" value="1"/><float name="spec_trans" value="0"/></bsdf>
+  <bsdf type="principledthin" id="d"><float name="diff_trans" value="1.5"/><float name="eta" value="1.33"/></bsdf>
+</scene>"#;
+    let s = parse_ok(xml);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let BsdfKind::Principled(a) = &s.bsdfs[0].kind else {
+        panic!("{:?}", s.bsdfs[0].kind)
+    };
+    // specular 0.5: η = 2 / (1 − √0.04) − 1 = 1.5.
+    assert!((a.eta - 1.5).abs() < 1e-6, "{}", a.eta);
+    assert_eq!(a.base_color, ColorParam::Constant(Vec3::splat(0.5)));
+    assert_eq!(a.roughness, ColorParam::Constant(Vec3::splat(0.5)));
+    assert_eq!(a.clearcoat_sampling_rate, 1.0);
+    let BsdfKind::Principled(b) = &s.bsdfs[1].kind else {
+        panic!()
+    };
+    // With transmission, specular 0 becomes 0.001 (η = 1 is not plausible), as in Mitsuba.
+    let eta = 2.0 / (1.0 - (0.08f32 * 1e-3).sqrt()) - 1.0;
+    assert!((b.eta - eta).abs() < 1e-6 && b.eta > 1.0, "{}", b.eta);
+    assert!(matches!(b.metallic, ColorParam::Texture(_)));
+    assert_eq!(b.clearcoat_sampling_rate, 0.0);
+    let BsdfKind::Principled(c) = &s.bsdfs[2].kind else {
+        panic!()
+    };
+    assert_eq!(c.eta, 1.0, "no transmission: η stays 1");
+    let BsdfKind::PrincipledThin(d) = &s.bsdfs[3].kind else {
+        panic!()
+    };
+    assert_eq!(d.diff_trans, ColorParam::Constant(Vec3::splat(1.5)));
+    assert_eq!(d.eta, ColorParam::Constant(Vec3::splat(1.33)));
+    assert_eq!(d.roughness, ColorParam::Constant(Vec3::splat(0.5)));
+}
+
+#[test]
+fn principled_errors_point_at_the_problem() {
+    for (xml, message, at) in [
+        (
+            "<scene version=\"3.0.0\">\n  <bsdf type=\"principled\"><float name=\"eta\" value=\"1.4\"/><float name=\"specular\" value=\"0.3\"/></bsdf></scene>",
+            "bsdf 'principled': give either eta or specular, not both",
+            "<bsdf",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <bsdf type=\"principled\"><float name=\"eta\" value=\"-2\"/></bsdf></scene>",
+            "parameter 'eta' of bsdf 'principled' must be positive, found -2",
+            "-2\"/>",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <bsdf type=\"principledthin\"><boolean name=\"sample_visible\" value=\"false\"/></bsdf></scene>",
+            "sample_visible",
+            "<boolean",
+        ),
+    ] {
+        match common::parse(xml) {
+            Err(e) => assert_err(&e, message, pos_of(xml, at)),
+            Ok(s) => {
+                // Unknown parameters are warnings, naming the parameter and its position.
+                let w = s.warnings.iter().find(|w| w.message.contains(message));
+                let w = w.unwrap_or_else(|| panic!("{message}: {:?}", s.warnings));
+                assert_eq!((w.location.line, w.location.column), pos_of(xml, at), "{w}");
+            }
+        }
+    }
+}

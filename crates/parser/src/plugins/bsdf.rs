@@ -1,14 +1,16 @@
 //! BSDF plugins: `diffuse`, `mirror`, `plastic`, `phong`, `blinn`/`blinnphong`,
 //! `blinn_microfacet`/`blinnphong_microfacet`; Mitsuba 3's `dielectric`, `thindielectric`,
 //! `roughdielectric`, `conductor`, `roughconductor`, `roughplastic`; and the wrappers
-//! `twosided`, `blendbsdf`, `mask` and `normalmap`, and `null`.
+//! `twosided`, `blendbsdf`, `mask` and `normalmap`, and `null`; Mitsuba 3's `principled` and
+//! `principledthin`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::plugins::texture::parse_texture;
 use crate::props::Props;
 use crate::scene::{
-    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, MicrofacetType, TextureId, TextureKind,
+    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, MicrofacetType, PrincipledDesc,
+    PrincipledThinDesc, TextureId, TextureKind,
 };
 use crate::xml::Element;
 use glam::Vec3;
@@ -35,6 +37,8 @@ pub(crate) const KNOWN: &[&str] = &[
     "twosided",
     "normalmap",
     "roughdiffuse",
+    "principled",
+    "principledthin",
 ];
 
 /// Mitsuba 3's named conductors (`material`), as its RGB variants see them: the tabulated
@@ -299,6 +303,118 @@ fn float_param(
     color_param(ctx, props, names, Vec3::splat(default))
 }
 
+/// A float parameter that may be a texture, without [`color_param`]'s reflectance warning
+/// (principled's `diff_trans` goes to 2, `eta` above 1).
+fn float_texture(ctx: &mut Ctx, props: &mut Props, name: &str, default: f32) -> Result<ColorParam> {
+    let Some(e) = props.take_any(&[name]) else {
+        return Ok(ColorParam::Constant(Vec3::splat(default)));
+    };
+    match e.tag.as_str() {
+        "texture" => Ok(ColorParam::Texture(parse_texture(ctx, e)?)),
+        "ref" => texture_ref(ctx, e).map(ColorParam::Texture),
+        _ => Ok(ColorParam::Constant(props.color_of(ctx, e)?)),
+    }
+}
+
+/// Whether a lobe parameter is switched on, as Mitsuba's `get_flag`: given, and not a constant 0.
+fn lobe_on(p: &ColorParam) -> bool {
+    !matches!(p, ColorParam::Constant(c) if *c == Vec3::ZERO)
+}
+
+/// Mitsuba's `principled` (src/bsdfs/principled.cpp): `eta` or `specular` (not both); with
+/// transmission on, η = 1 becomes 1.001 and specular 0 becomes 0.001.
+fn principled(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<PrincipledDesc> {
+    let base_color = color_param(ctx, props, &["base_color"], Vec3::splat(0.5))?;
+    let mut f = |name: &str, default: f32| float_texture(ctx, props, name, default);
+    let roughness = f("roughness", 0.5)?;
+    let anisotropic = f("anisotropic", 0.0)?;
+    let metallic = f("metallic", 0.0)?;
+    let spec_trans = f("spec_trans", 0.0)?;
+    let spec_tint = f("spec_tint", 0.0)?;
+    let sheen = f("sheen", 0.0)?;
+    let sheen_tint = f("sheen_tint", 0.0)?;
+    let flatness = f("flatness", 0.0)?;
+    let clearcoat = f("clearcoat", 0.0)?;
+    let clearcoat_gloss = f("clearcoat_gloss", 0.0)?;
+    let transmits = lobe_on(&spec_trans);
+    if props.has(&["eta"]) && props.has(&["specular"]) {
+        return Err(ctx.err(
+            elem.pos,
+            "bsdf 'principled': give either eta or specular, not both",
+        ));
+    }
+    let eta = if props.has(&["eta"]) {
+        let eta = props.float_where(ctx, &["eta"], 1.5, "positive", |v| v > 0.0)?;
+        if transmits && eta == 1.0 {
+            1.001
+        } else {
+            eta
+        }
+    } else {
+        let mut specular = props.float_where(ctx, &["specular"], 0.5, "in [0, 12.5)", |v| {
+            (0.0..12.5).contains(&v)
+        })?;
+        if transmits && specular == 0.0 {
+            specular = 1e-3;
+        }
+        2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0
+    };
+    let rate = |props: &mut Props, name: &str| {
+        props.float_where(ctx, &[name], 1.0, "at least 0", |v| v >= 0.0)
+    };
+    Ok(PrincipledDesc {
+        base_color,
+        roughness,
+        anisotropic,
+        metallic,
+        spec_trans,
+        spec_tint,
+        sheen,
+        sheen_tint,
+        flatness,
+        clearcoat,
+        clearcoat_gloss,
+        eta,
+        main_specular_sampling_rate: rate(props, "main_specular_sampling_rate")?,
+        clearcoat_sampling_rate: rate(props, "clearcoat_sampling_rate")?,
+        diffuse_reflectance_sampling_rate: rate(props, "diffuse_reflectance_sampling_rate")?,
+    })
+}
+
+/// Mitsuba's `principledthin` (src/bsdfs/principledthin.cpp).
+fn principled_thin(ctx: &mut Ctx, props: &mut Props) -> Result<PrincipledThinDesc> {
+    let base_color = color_param(ctx, props, &["base_color"], Vec3::splat(0.5))?;
+    let mut f = |name: &str, default: f32| float_texture(ctx, props, name, default);
+    let roughness = f("roughness", 0.5)?;
+    let anisotropic = f("anisotropic", 0.0)?;
+    let spec_trans = f("spec_trans", 0.0)?;
+    let spec_tint = f("spec_tint", 0.0)?;
+    let sheen = f("sheen", 0.0)?;
+    let sheen_tint = f("sheen_tint", 0.0)?;
+    let flatness = f("flatness", 0.0)?;
+    let diff_trans = f("diff_trans", 0.0)?;
+    let eta = f("eta", 1.5)?;
+    let rate = |props: &mut Props, name: &str| {
+        props.float_where(ctx, &[name], 1.0, "at least 0", |v| v >= 0.0)
+    };
+    Ok(PrincipledThinDesc {
+        base_color,
+        roughness,
+        anisotropic,
+        spec_trans,
+        spec_tint,
+        sheen,
+        sheen_tint,
+        flatness,
+        diff_trans,
+        eta,
+        specular_reflectance_sampling_rate: rate(props, "specular_reflectance_sampling_rate")?,
+        specular_transmittance_sampling_rate: rate(props, "specular_transmittance_sampling_rate")?,
+        diffuse_reflectance_sampling_rate: rate(props, "diffuse_reflectance_sampling_rate")?,
+        diffuse_transmittance_sampling_rate: rate(props, "diffuse_transmittance_sampling_rate")?,
+    })
+}
+
 /// Mitsuba's `int_ior` / `ext_ior` pair as their ratio.
 fn eta_param(ctx: &Ctx, props: &mut Props, elem: &Element, int_default: f32) -> Result<f32> {
     let int_ior = ior(ctx, props, "int_ior", int_default)?;
@@ -425,6 +541,15 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | `mask` | `opacity`; one nested bsdf | float or texture; bsdf | 0.5; required |
 /// | `null` | none | | |
 /// | `normalmap` | `normalmap` texture + nested bsdf | bitmap, bsdf | required |
+/// | `principled`, `principledthin` | `base_color` | colour or texture | 0.5 |
+/// | same | `roughness` | float or texture | 0.5 |
+/// | same | `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness` | float or texture | 0 |
+/// | `principled` | `metallic`, `clearcoat`, `clearcoat_gloss` | float or texture | 0 |
+/// | `principled` | `eta` or `specular` (not both) | float | specular 0.5 (η = 2 / (1 − √(0.08 s)) − 1 ≈ 1.5) |
+/// | `principled` | `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` | float | 1 |
+/// | `principledthin` | `diff_trans` | float or texture, 0 to 2 | 0 |
+/// | `principledthin` | `eta` | float or texture | 1.5 |
+/// | `principledthin` | `specular_reflectance_sampling_rate`, `specular_transmittance_sampling_rate`, `diffuse_reflectance_sampling_rate`, `diffuse_transmittance_sampling_rate` | float | 1 |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
@@ -544,6 +669,12 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
         "null" => plain(BsdfKind::Null),
+        "principled" => plain(BsdfKind::Principled(Box::new(principled(
+            ctx, &mut props, elem,
+        )?))),
+        "principledthin" => plain(BsdfKind::PrincipledThin(Box::new(principled_thin(
+            ctx, &mut props,
+        )?))),
         "mask" => {
             let opacity = float_param(ctx, &mut props, &["opacity"], 0.5)?;
             let mut nested = nested_bsdfs(ctx, &mut props, elem, 1)?;

@@ -18,7 +18,7 @@
 //! `blinnphong`, `blinn_microfacet`; the course's ρ already includes the cosine of the light
 //! direction, so `eval` returns exactly that ρ), and Mitsuba 3's (`dielectric`,
 //! `thindielectric`, `roughdielectric`, `conductor`, `roughconductor`, Mitsuba's `plastic` and
-//! `roughplastic`) with its parameters, defaults and conventions (exact Fresnel, microfacet
+//! `roughplastic`, `principled` and `principledthin`) with its parameters, defaults and conventions (exact Fresnel, microfacet
 //! models in [`microfacet`]).
 //!
 //! A new BSDF is a file (parameters, `resolve`, `eval`/`pdf`/`sample`, its tests), a variant in
@@ -40,6 +40,9 @@ mod mirror;
 mod null;
 mod phong;
 mod plastic;
+mod principled;
+mod principled_lobes;
+mod principled_thin;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -48,6 +51,8 @@ mod smooth_plastic;
 mod tests;
 #[cfg(test)]
 mod tests_mitsuba;
+#[cfg(test)]
+mod tests_principled;
 
 pub use blend::{Blend, BlendParams};
 pub use blinn::{Blinn, BlinnParams};
@@ -61,6 +66,8 @@ pub use mirror::{Mirror, MirrorParams};
 pub use null::Null;
 pub use phong::{Phong, PhongParams};
 pub use plastic::{Plastic, PlasticParams};
+pub use principled::{Principled, PrincipledParams};
+pub use principled_thin::{PrincipledThin, PrincipledThinParams};
 pub use rough_conductor::{RoughConductor, RoughConductorParams};
 pub use rough_dielectric::{RoughDielectric, RoughDielectricParams};
 pub use rough_plastic::{RoughPlastic, RoughPlasticParams};
@@ -137,6 +144,8 @@ pub enum Bsdf<'a> {
     RoughPlastic(RoughPlastic<'a>),
     Blend(Blend<'a>),
     Null(Null),
+    Principled(Principled<'a>),
+    PrincipledThin(PrincipledThin<'a>),
 }
 
 impl Bsdf<'_> {
@@ -159,6 +168,8 @@ impl Bsdf<'_> {
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
             Bsdf::Blend(b) => b.eval(wo, wi),
             Bsdf::Null(b) => b.eval(wo, wi),
+            Bsdf::Principled(b) => b.eval(wo, wi),
+            Bsdf::PrincipledThin(b) => b.eval(wo, wi),
         }
     }
 
@@ -182,6 +193,8 @@ impl Bsdf<'_> {
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
             Bsdf::Blend(b) => b.pdf(wo, wi),
             Bsdf::Null(b) => b.pdf(wo, wi),
+            Bsdf::Principled(b) => b.pdf(wo, wi),
+            Bsdf::PrincipledThin(b) => b.pdf(wo, wi),
         }
     }
 
@@ -215,6 +228,8 @@ impl Bsdf<'_> {
             Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::Blend(b) => b.sample(wo, u, u_lobe),
             Bsdf::Null(b) => b.sample(wo),
+            Bsdf::Principled(b) => b.sample(wo, u, u_lobe),
+            Bsdf::PrincipledThin(b) => b.sample(wo, u, u_lobe),
         }
     }
 
@@ -236,6 +251,8 @@ impl Bsdf<'_> {
             Bsdf::RoughPlastic(_) => RoughPlastic::FLAGS,
             Bsdf::Blend(b) => b.flags(),
             Bsdf::Null(_) => Null::FLAGS,
+            Bsdf::Principled(b) => b.flags(),
+            Bsdf::PrincipledThin(_) => PrincipledThin::FLAGS,
         }
     }
 
@@ -258,6 +275,8 @@ impl Bsdf<'_> {
             Bsdf::Phong(b) => b.roughness(),
             Bsdf::Blinn(b) => b.roughness(),
             Bsdf::BlinnMicrofacet(b) => b.roughness(),
+            Bsdf::Principled(b) => b.roughness(),
+            Bsdf::PrincipledThin(b) => b.roughness(),
         }
     }
 }
@@ -283,6 +302,8 @@ pub enum BsdfParams {
     RoughPlastic(RoughPlasticParams),
     Blend(BlendParams),
     Null,
+    Principled(PrincipledParams),
+    PrincipledThin(PrincipledThinParams),
 }
 
 impl BsdfParams {
@@ -412,6 +433,39 @@ impl BsdfParams {
                 *eta,
                 *nonlinear,
             )),
+            BsdfKind::Principled(d) => BsdfParams::Principled(PrincipledParams {
+                base_color: color(&d.base_color),
+                roughness: float_tex(&d.roughness),
+                anisotropic: float_tex(&d.anisotropic),
+                metallic: float_tex(&d.metallic),
+                spec_trans: float_tex(&d.spec_trans),
+                spec_tint: float_tex(&d.spec_tint),
+                sheen: float_tex(&d.sheen),
+                sheen_tint: float_tex(&d.sheen_tint),
+                flatness: float_tex(&d.flatness),
+                clearcoat: float_tex(&d.clearcoat),
+                clearcoat_gloss: float_tex(&d.clearcoat_gloss),
+                eta: d.eta,
+                main_specular_sampling_rate: d.main_specular_sampling_rate,
+                clearcoat_sampling_rate: d.clearcoat_sampling_rate,
+                diffuse_reflectance_sampling_rate: d.diffuse_reflectance_sampling_rate,
+            }),
+            BsdfKind::PrincipledThin(d) => BsdfParams::PrincipledThin(PrincipledThinParams {
+                base_color: color(&d.base_color),
+                roughness: float_tex(&d.roughness),
+                anisotropic: float_tex(&d.anisotropic),
+                spec_trans: float_tex(&d.spec_trans),
+                spec_tint: float_tex(&d.spec_tint),
+                sheen: float_tex(&d.sheen),
+                sheen_tint: float_tex(&d.sheen_tint),
+                flatness: float_tex(&d.flatness),
+                diff_trans: float_tex(&d.diff_trans),
+                eta: float_tex(&d.eta),
+                specular_reflectance_sampling_rate: d.specular_reflectance_sampling_rate,
+                specular_transmittance_sampling_rate: d.specular_transmittance_sampling_rate,
+                diffuse_reflectance_sampling_rate: d.diffuse_reflectance_sampling_rate,
+                diffuse_transmittance_sampling_rate: d.diffuse_transmittance_sampling_rate,
+            }),
             BsdfKind::Diffuse { reflectance } => BsdfParams::Diffuse(DiffuseParams {
                 reflectance: color(reflectance),
             }),
@@ -467,6 +521,8 @@ impl BsdfParams {
             BsdfParams::RoughPlastic(p) => Bsdf::RoughPlastic(p.resolve(q)),
             BsdfParams::Blend(p) => Bsdf::Blend(p.resolve(q)),
             BsdfParams::Null => Bsdf::Null(Null),
+            BsdfParams::Principled(p) => Bsdf::Principled(p.resolve(q)),
+            BsdfParams::PrincipledThin(p) => Bsdf::PrincipledThin(p.resolve(q)),
         }
     }
 
@@ -491,6 +547,8 @@ impl BsdfParams {
             BsdfParams::RoughPlastic(p) => p.is_textured(),
             BsdfParams::Blend(p) => p.is_textured(),
             BsdfParams::Null => false,
+            BsdfParams::Principled(p) => p.is_textured(),
+            BsdfParams::PrincipledThin(p) => p.is_textured(),
         }
     }
 
@@ -504,6 +562,8 @@ impl BsdfParams {
             BsdfParams::RoughConductor(p) => differ(&p.alpha_u, &p.alpha_v),
             BsdfParams::RoughDielectric(p) => differ(&p.alpha_u, &p.alpha_v),
             BsdfParams::Blend(p) => p.children.iter().any(|c| c.anisotropic()),
+            BsdfParams::Principled(p) => p.anisotropic(),
+            BsdfParams::PrincipledThin(p) => p.anisotropic(),
             _ => false,
         }
     }
@@ -516,6 +576,8 @@ impl BsdfParams {
             | BsdfParams::ThinDielectric(_)
             | BsdfParams::RoughDielectric(_) => true,
             BsdfParams::Blend(p) => p.children.iter().any(|c| c.transmits()),
+            BsdfParams::Principled(p) => p.transmits(),
+            BsdfParams::PrincipledThin(_) => true,
             _ => false,
         }
     }

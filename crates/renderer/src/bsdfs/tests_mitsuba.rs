@@ -208,21 +208,21 @@ fn blend_with_a_delta_child_conserves_its_parts() {
     );
 }
 
-struct Drawn {
+pub(super) struct Drawn {
     /// Accepted non-delta sample directions; None for rejected or delta samples.
-    dirs: Vec<Option<Vec3A>>,
+    pub(super) dirs: Vec<Option<Vec3A>>,
     /// Mean sample weight (all samples, rejected ones counting 0).
-    mean_weight: glam::DVec3,
+    pub(super) mean_weight: glam::DVec3,
     /// Mean of weight·η² (what a white furnace conserves through refraction).
-    mean_eta_weight: f64,
-    stderr: f64,
-    accepted: f64,
+    pub(super) mean_eta_weight: f64,
+    pub(super) stderr: f64,
+    pub(super) accepted: f64,
 }
 
 /// Draws `n` samples, checking each one's bookkeeping: unit direction, finite non-negative
 /// weight, lobe flags matching the side of `wi`, η = 1 for reflections, and for non-delta
 /// samples the returned pdf equal to `pdf()` and the weight equal to eval/pdf.
-fn draw(name: &str, b: &Bsdf, wo: Vec3A, n: usize, seed: u64) -> Drawn {
+pub(super) fn draw(name: &str, b: &Bsdf, wo: Vec3A, n: usize, seed: u64) -> Drawn {
     let mut rng = Rng::new(seed);
     let mut dirs = Vec::with_capacity(n);
     let (mut sum, mut sum_eta, mut sum2, mut accepted) = (glam::DVec3::ZERO, 0.0, 0.0, 0usize);
@@ -287,7 +287,7 @@ fn draw(name: &str, b: &Bsdf, wo: Vec3A, n: usize, seed: u64) -> Drawn {
 /// Chi-square test of directions against `pdf` on a (θ, φ) grid over the whole sphere, about
 /// +z: `KT` θ bins and `KP` φ bins, each cell's expectation the pdf integrated over it; rejected
 /// and delta samples form one extra cell expecting the pdf's missing mass. Returns the p-value.
-fn chi2_sphere(dirs: &[Option<Vec3A>], pdf: impl Fn(Vec3A) -> f64, what: &str) -> f64 {
+pub(super) fn chi2_sphere(dirs: &[Option<Vec3A>], pdf: impl Fn(Vec3A) -> f64, what: &str) -> f64 {
     const KT: usize = 60;
     const KP: usize = 30;
     let n = dirs.len() as f64;
@@ -381,7 +381,7 @@ fn chi2_catches_a_wrong_visible_normal_pdf() {
 
 /// ∫ f(ω) dω over the sphere by Gauss-Legendre in (θ, φ), fine enough for lobes compressed
 /// near the poles by refraction.
-fn sphere_quadrature(f: impl Fn(Vec3A) -> f64) -> f64 {
+pub(super) fn sphere_quadrature(f: impl Fn(Vec3A) -> f64) -> f64 {
     let mut g = |theta: f64, phi: f64| {
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = phi.sin_cos();
