@@ -8,12 +8,12 @@ mod material;
 pub use build::BuildError;
 pub use material::Material;
 
-use crate::accel::{Accel, ClosestHit};
+use crate::accel::{Accel, ClosestHit, PrimGeom};
 use crate::cameras::Camera;
 use crate::lights::Light;
 use crate::ray::Ray;
 use crate::shapes::mesh::MeshData;
-use crate::shapes::{PrimInfo, Shape, SurfaceHit};
+use crate::shapes::{PrimInfo, Shape, ShapeKind, SurfaceHit};
 use crate::textures::Texture;
 use glam::Vec3A;
 
@@ -52,6 +52,20 @@ impl RenderScene {
 
     pub fn triangle_count(&self) -> usize {
         self.mesh.triangle_count
+    }
+
+    /// World-space geometry of the BVH's primitive `prim` (as in [`ClosestHit::prim`], below
+    /// [`Accel::primitive_count`]): lets another ray tracer be built over the same primitives
+    /// (the traversal bench's Embree comparison).
+    pub fn prim_geom(&self, prim: u32) -> PrimGeom {
+        let info = &self.prims[prim as usize];
+        match &self.shapes[info.shape as usize].kind {
+            ShapeKind::Sphere(sphere) => sphere.prim_geom(),
+            ShapeKind::Mesh(_) => {
+                let [p0, p1, p2] = info.indices.map(|i| self.mesh.positions[i as usize]);
+                PrimGeom::Triangle { p0, p1, p2 }
+            }
+        }
     }
 
     /// Closest surface along the ray, with its differential geometry.
