@@ -140,7 +140,8 @@ pub struct Embree {
 
 impl Embree {
     /// Builds the scene with one build thread (`threads=1`: no worker threads stay around to
-    /// disturb the single-threaded timings).
+    /// disturb the single-threaded timings); `TORREY_EMBREE_CONFIG` adds to the device's
+    /// configuration (e.g. `isa=avx2`, `verbose=2`).
     pub fn new(scene: &RenderScene, quality: Quality) -> Self {
         let mut triangles = Vec::new();
         let mut spheres = Vec::new();
@@ -160,7 +161,12 @@ impl Embree {
         // SAFETY: the buffers Embree allocates are written within their item counts and
         // strides; every handle is checked for errors after the build.
         unsafe {
-            let device = rtcNewDevice(c"threads=1".as_ptr());
+            let mut config = "threads=1".to_string();
+            if let Ok(extra) = std::env::var("TORREY_EMBREE_CONFIG") {
+                config = format!("{config},{extra}");
+            }
+            let config = std::ffi::CString::new(config).expect("no NUL in TORREY_EMBREE_CONFIG");
+            let device = rtcNewDevice(config.as_ptr());
             assert!(!device.is_null(), "Embree device");
             let handle = rtcNewScene(device);
             rtcSetSceneBuildQuality(handle, quality as u32);
