@@ -97,3 +97,67 @@ impl RenderScene {
         !self.accel.occluded(&Ray { origin, dir, tmax })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::BvhWidth;
+    use crate::cameras::CameraSample;
+    use glam::Vec2;
+    use std::path::Path;
+
+    /// A BVH rebuilt from `prim_geom` finds the scene's hits: same primitive, same distance.
+    #[test]
+    fn prim_geom_rebuilds_the_scene_geometry() {
+        let xml = r#"<scene version="0.6.0">
+            <sensor type="perspective">
+                <float name="fov" value="50"/>
+                <transform name="toWorld"><lookAt origin="0, 1, 4" target="0, 0.6, 0" up="0, 1, 0"/></transform>
+                <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/></film>
+            </sensor>
+            <shape type="rectangle">
+                <transform name="toWorld"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+            </shape>
+            <shape type="sphere"><point name="center" x="0.4" y="0.5" z="0"/><float name="radius" value="0.5"/>
+                <transform name="toWorld"><scale value="1.5"/><translate x="0.2"/></transform></shape>
+            <shape type="obj"><string name="filename" value="meshes/torus.obj"/>
+                <transform name="toWorld"><scale value="0.5"/><translate x="-0.7" y="0.4"/></transform></shape>
+        </scene>"#;
+        let desc = torrey_parser::parse_scene_str(
+            xml,
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
+            &[],
+        )
+        .unwrap();
+        let scene = RenderScene::build(&desc, 32, 24).unwrap();
+        let count = scene.accel().primitive_count() as u32;
+        let geoms: Vec<PrimGeom> = (0..count).map(|i| scene.prim_geom(i)).collect();
+        assert!(geoms.iter().any(|g| matches!(g, PrimGeom::Sphere { .. })));
+        let rebuilt = Accel::build(&geoms, BvhWidth::Four);
+        let (mut hits, mut sphere_hits) = (0, 0);
+        for y in 0..24 {
+            for x in 0..32 {
+                let (origin, dir) = scene.camera().generate_ray(&CameraSample {
+                    film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                    lens: Vec2::ZERO,
+                });
+                let ray = Ray {
+                    origin,
+                    dir,
+                    tmax: f32::INFINITY,
+                };
+                let a = scene.accel().intersect(&ray).map(|h| (h.prim, h.t));
+                let b = rebuilt.intersect(&ray).map(|h| (h.prim, h.t));
+                assert_eq!(a, b, "pixel ({x}, {y})");
+                hits += a.is_some() as usize;
+                sphere_hits += a
+                    .is_some_and(|(p, _)| matches!(geoms[p as usize], PrimGeom::Sphere { .. }))
+                    as usize;
+            }
+        }
+        assert!(
+            hits > 300 && sphere_hits > 20,
+            "{hits} hits, {sphere_hits} on the sphere"
+        );
+    }
+}
