@@ -26,7 +26,7 @@ mod scene;
 mod shapes;
 mod textures;
 
-pub use accel::{Accel, BvhWidth, ClosestHit, Simd};
+pub use accel::{Accel, BvhWidth, ClosestHit, PrimGeom, Simd};
 pub use cameras::{Camera, CameraSample};
 pub use integrator::EnvStrategy;
 pub use ray::{offset_origin, Ray};

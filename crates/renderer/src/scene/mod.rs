@@ -9,12 +9,12 @@ pub use build::BuildError;
 pub use material::Material;
 
 use crate::accel::instances::Instances;
-use crate::accel::{Accel, ClosestHit};
+use crate::accel::{Accel, ClosestHit, PrimGeom};
 use crate::cameras::Camera;
 use crate::lights::Light;
 use crate::ray::Ray;
 use crate::shapes::mesh::MeshData;
-use crate::shapes::{PrimInfo, Shape, SurfaceHit};
+use crate::shapes::{PrimInfo, Shape, ShapeKind, SurfaceHit};
 use crate::textures::Texture;
 use glam::Vec3A;
 
@@ -89,6 +89,20 @@ impl RenderScene {
         }
     }
 
+    /// World-space geometry of the BVH's primitive `prim` (as in [`ClosestHit::prim`], below
+    /// [`Accel::primitive_count`]): lets another ray tracer be built over the same primitives
+    /// (the traversal bench's Embree comparison).
+    pub fn prim_geom(&self, prim: u32) -> PrimGeom {
+        let info = &self.prims[prim as usize];
+        match &self.shapes[info.shape as usize].kind {
+            ShapeKind::Sphere(sphere) => sphere.prim_geom(),
+            ShapeKind::Mesh(_) => {
+                let [p0, p1, p2] = info.indices.map(|i| self.mesh.positions[i as usize]);
+                PrimGeom::Triangle { p0, p1, p2 }
+            }
+        }
+    }
+
     /// Closest surface along the ray, with its differential geometry.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
@@ -141,5 +155,69 @@ impl RenderScene {
     pub fn visible(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> bool {
         let ray = Ray { origin, dir, tmax };
         !self.accel.occluded(&ray) && self.instances.as_ref().is_none_or(|i| !i.occluded(&ray))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::BvhWidth;
+    use crate::cameras::CameraSample;
+    use glam::Vec2;
+    use std::path::Path;
+
+    /// A BVH rebuilt from `prim_geom` finds the scene's hits: same primitive, same distance.
+    #[test]
+    fn prim_geom_rebuilds_the_scene_geometry() {
+        let xml = r#"<scene version="0.6.0">
+            <sensor type="perspective">
+                <float name="fov" value="50"/>
+                <transform name="toWorld"><lookAt origin="0, 1, 4" target="0, 0.6, 0" up="0, 1, 0"/></transform>
+                <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/></film>
+            </sensor>
+            <shape type="rectangle">
+                <transform name="toWorld"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+            </shape>
+            <shape type="sphere"><point name="center" x="0.4" y="0.5" z="0"/><float name="radius" value="0.5"/>
+                <transform name="toWorld"><scale value="1.5"/><translate x="0.2"/></transform></shape>
+            <shape type="obj"><string name="filename" value="meshes/torus.obj"/>
+                <transform name="toWorld"><scale value="0.5"/><translate x="-0.7" y="0.4"/></transform></shape>
+        </scene>"#;
+        let desc = torrey_parser::parse_scene_str(
+            xml,
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
+            &[],
+        )
+        .unwrap();
+        let scene = RenderScene::build(&desc, 32, 24).unwrap();
+        let count = scene.accel().primitive_count() as u32;
+        let geoms: Vec<PrimGeom> = (0..count).map(|i| scene.prim_geom(i)).collect();
+        assert!(geoms.iter().any(|g| matches!(g, PrimGeom::Sphere { .. })));
+        let rebuilt = Accel::build(&geoms, BvhWidth::Four);
+        let (mut hits, mut sphere_hits) = (0, 0);
+        for y in 0..24 {
+            for x in 0..32 {
+                let (origin, dir) = scene.camera().generate_ray(&CameraSample {
+                    film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                    lens: Vec2::ZERO,
+                });
+                let ray = Ray {
+                    origin,
+                    dir,
+                    tmax: f32::INFINITY,
+                };
+                let a = scene.accel().intersect(&ray).map(|h| (h.prim, h.t));
+                let b = rebuilt.intersect(&ray).map(|h| (h.prim, h.t));
+                assert_eq!(a, b, "pixel ({x}, {y})");
+                hits += a.is_some() as usize;
+                sphere_hits += a
+                    .is_some_and(|(p, _)| matches!(geoms[p as usize], PrimGeom::Sphere { .. }))
+                    as usize;
+            }
+        }
+        assert!(
+            hits > 300 && sphere_hits > 20,
+            "{hits} hits, {sphere_hits} on the sphere"
+        );
     }
 }
