@@ -13,7 +13,8 @@ src/render/tests/test_renders.py does:
                                            converts it back with sRGB -> XYZ, recovering the XYZ
                                            variance exactly)
 and tests/references/verdict/manifest.json (sizes, spp, the test's spp, render times).
-Also (re)writes the scenes' own sky texture tests/scenes/mitsuba/textures/gradient_sky.exr.
+Also (re)writes the scenes' own sky textures tests/scenes/mitsuba/textures/gradient_sky.exr and
+sun_sky.exr.
 Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
 """
 import argparse
@@ -67,6 +68,22 @@ def gradient_sky(path, width=64, height=32):
     write_exr_zip(path, img.astype(np.float32))
 
 
+def sun_sky(path, width=32, height=16):
+    """A low-resolution sky with a small sun well above the horizon: a 2 x 2 block of bright
+    texels (rows 3-4 of 16, about 40-50 degrees of elevation) over a dim gradient. Where a
+    renderer places the texel rows decides how high the sun stands, so this sky tells texel
+    placements apart (envmap_sun.xml)."""
+    from exr_zip import write_exr_zip
+    rows = np.arange(height)[:, None, None] / (height - 1)
+    up = np.cos(np.pi * rows)
+    sky = np.where(up > 0, np.array([0.2, 0.3, 0.6]) * (0.3 + 0.7 * up),
+                   np.array([0.15, 0.12, 0.1]))
+    img = np.broadcast_to(sky, (height, width, 3)).copy()
+    img[3:5, 5:7] = [60.0, 50.0, 35.0]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_exr_zip(path, img.astype(np.float32))
+
+
 def render(path, spp):
     scene = mi.load_file(path, spp=spp)
     t0 = time.time()
@@ -96,6 +113,7 @@ def main():
     variant = pick_variant()
     from exr_zip import write_exr_zip
     gradient_sky(os.path.join(SCENES, "textures", "gradient_sky.exr"))
+    sun_sky(os.path.join(SCENES, "textures", "sun_sky.exr"))
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = {}
