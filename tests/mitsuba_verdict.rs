@@ -90,6 +90,7 @@ macro_rules! verdict_tests {
 
 verdict_tests!(
     area_diffuse,
+    area_reflective,
     directional,
     envmap_textured,
     envmap_sun,
@@ -138,6 +139,7 @@ fn every_scene_has_a_reference() {
     assert_eq!(scenes, listed);
     let tested = [
         "area_diffuse",
+        "area_reflective",
         "directional",
         "envmap_sun",
         "envmap_textured",
