@@ -91,6 +91,7 @@ macro_rules! verdict_tests {
 verdict_tests!(
     area_diffuse,
     area_reflective,
+    area_textured,
     directional,
     envmap_textured,
     envmap_sun,
@@ -140,6 +141,7 @@ fn every_scene_has_a_reference() {
     let tested = [
         "area_diffuse",
         "area_reflective",
+        "area_textured",
         "directional",
         "envmap_sun",
         "envmap_textured",

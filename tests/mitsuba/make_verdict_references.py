@@ -14,7 +14,7 @@ src/render/tests/test_renders.py does:
                                            variance exactly)
 and tests/references/verdict/manifest.json (sizes, spp, the test's spp, render times).
 Also (re)writes the scenes' own sky textures tests/scenes/mitsuba/textures/gradient_sky.exr and
-sun_sky.exr.
+sun_sky.exr, and the radiance texture emission_pattern.exr.
 Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
 """
 import argparse
@@ -84,6 +84,21 @@ def sun_sky(path, width=32, height=16):
     write_exr_zip(path, img.astype(np.float32))
 
 
+def emission_pattern(path, width=16, height=8):
+    """A small radiance texture for textured area emitters (area_textured.xml): dim coloured
+    stripes, one bright 2 x 1 spot and black texels, so that sampling by the texture matters and
+    a texture read upside down or mirrored shows."""
+    from exr_zip import write_exr_zip
+    img = np.zeros((height, width, 3), np.float32)
+    for x in range(width):
+        img[:, x] = [0.5 + 0.5 * (x % 3 == 0), 0.3 + 0.4 * (x % 4 == 1), 0.4 + 0.6 * (x % 5 == 2)]
+    img[:, 6:8] = 0.0
+    img[2, 10:12] = [30.0, 24.0, 12.0]
+    img[6, 1] = [0.0, 8.0, 16.0]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_exr_zip(path, img)
+
+
 def render(path, spp):
     scene = mi.load_file(path, spp=spp)
     t0 = time.time()
@@ -114,6 +129,7 @@ def main():
     from exr_zip import write_exr_zip
     gradient_sky(os.path.join(SCENES, "textures", "gradient_sky.exr"))
     sun_sky(os.path.join(SCENES, "textures", "sun_sky.exr"))
+    emission_pattern(os.path.join(SCENES, "textures", "emission_pattern.exr"))
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = {}

@@ -436,12 +436,13 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
         assert_err(&e, message, pos_of(xml, at));
     }
     let xml = r#"<scene version="3.0.0">
-  <shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance"/></emitter></shape>
+  <bsdf type="diffuse" id="b"/>
+  <shape type="sphere"><emitter type="area"><ref id="b" name="radiance"/></emitter></shape>
 </scene>"#;
     assert_err(
         &common::parse(xml).unwrap_err(),
-        "a textured area emitter radiance is not supported yet",
-        pos_of(xml, "<texture"),
+        "<ref id=\"b\"> must name a texture here",
+        pos_of(xml, "<ref"),
     );
     let xml =
         "<scene version=\"3.0.0\">\n  <shape type=\"instance\"><ref id=\"nope\"/></shape></scene>";
@@ -450,6 +451,22 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
         "reference to undefined id 'nope'",
         pos_of(xml, "nope"),
     );
+}
+
+#[test]
+fn area_emitters_take_a_textured_radiance() {
+    let xml = r#"<scene version="3.0.0">
+  <texture type="checkerboard" id="t"/>
+  <shape type="rectangle"><emitter type="area"><ref id="t" name="radiance"/></emitter></shape>
+  <shape type="sphere"><emitter type="area"><texture type="checkerboard" name="radiance"/></emitter></shape>
+  <shape type="sphere"><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
+</scene>"#;
+    let s = common::parse(xml).unwrap();
+    assert_eq!(s.shapes[0].emitter, Some(glam::Vec3::ONE));
+    assert_eq!(s.shapes[0].emitter_texture, Some(0));
+    assert_eq!(s.shapes[1].emitter_texture, Some(1));
+    assert_eq!(s.shapes[2].emitter, Some(glam::Vec3::splat(2.0)));
+    assert_eq!(s.shapes[2].emitter_texture, None);
 }
 
 #[test]

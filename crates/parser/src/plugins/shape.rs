@@ -4,7 +4,7 @@ use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::files::input_file;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
-use crate::plugins::bsdf::parse_bsdf;
+use crate::plugins::bsdf::{color_param, parse_bsdf};
 use crate::props::Props;
 use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TriangleMesh};
 use crate::xml::Element;
@@ -280,7 +280,7 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
 /// | all | `to_world` (`toWorld`) | transform | identity |
 /// | all | `flip_normals` (`flipNormals`) | boolean | false |
 /// | all | nested `<bsdf>` or `<ref>` | bsdf | none (Mitsuba's diffuse 0.5) |
-/// | all | nested `<emitter type="area">` | `radiance` colour, default 1 | none |
+/// | all | nested `<emitter type="area">` | `radiance`: colour (default 1), or a `<texture>` / `<ref>` (evaluated at the surface's uv) | none |
 /// | obj, ply, serialized | `filename` | string | required |
 /// | obj, ply, serialized | `face_normals` (`faceNormals`) | boolean | false |
 /// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
@@ -386,18 +386,24 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
                 ));
             }
             let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
-            if let Some(t) = e.children.iter().find(|c| {
+            let textured = e.children.iter().any(|c| {
                 c.attr_value("name") == Some("radiance") && (c.tag == "texture" || c.tag == "ref")
-            }) {
-                return Err(ctx.err(
-                    t.pos,
-                    "a textured area emitter radiance is not supported yet (give a colour)",
-                ));
-            }
-            let radiance = ep.color(ctx, &["radiance"], Vec3::ONE)?;
+            });
+            let emission = if textured {
+                match color_param(ctx, &mut ep, &["radiance"], Vec3::ONE)? {
+                    ColorParam::Texture(t) => (Vec3::ONE, Some(t)),
+                    ColorParam::Constant(c) => (c, None),
+                }
+            } else {
+                (ep.color(ctx, &["radiance"], Vec3::ONE)?, None)
+            };
             ep.finish(ctx);
-            Some(radiance)
+            Some(emission)
         }
+    };
+    let (emitter, emitter_texture) = match emitter {
+        Some((radiance, texture)) => (Some(radiance), texture),
+        None => (None, None),
     };
     // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
     // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
@@ -421,6 +427,7 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         to_world,
         bsdf,
         emitter,
+        emitter_texture,
         flip_normals,
         location: ctx.location(elem.pos),
     }])

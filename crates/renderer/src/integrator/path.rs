@@ -141,12 +141,12 @@ pub fn radiance(
             if hit.ng.dot(wo) > 0.0 {
                 let light = &scene.lights[li as usize];
                 if let crate::lights::Light::Area(area) = light {
-                    let radiance = area.radiance;
+                    let radiance = area.radiance_at(&scene.textures, hit.uv);
                     let w = if prev_delta {
                         1.0
                     } else {
-                        let pdf =
-                            light.pdf_area_hit(prev_p, ray.dir, hit.t, hit.ng) * light_select_pdf;
+                        let pdf = light.pdf_area_hit(prev_p, ray.dir, hit.t, hit.ng, hit.uv)
+                            * light_select_pdf;
                         power_heuristic(prev_bsdf_pdf, pdf)
                     };
                     result += throughput * radiance * w;
@@ -189,7 +189,7 @@ pub fn radiance(
         if let (true, Some((index, draw))) = (bsdf.flags(wo_local).has_smooth(), light_draw) {
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
-            if let Some(ls) = light.connect(draw, hit.p, uniform_env) {
+            if let Some(ls) = light.connect(draw, hit.p, uniform_env, &scene.textures) {
                 let wi_local = frame.to_local(ls.wi);
                 let f = bsdf.eval(wo_local, wi_local);
                 if f.max_element() > 0.0 && ls.pdf > 0.0 {

@@ -6,7 +6,8 @@ use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
 use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
 use crate::lights::{
-    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
+    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EmissionTexture, EnvLight, Light,
+    PointLight, SpotLight, TexelDistribution, UvMap,
 };
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
@@ -110,14 +111,22 @@ impl RenderScene {
             let shape_prims = &prims[first_prim..];
             let area_light = match shape.emitter {
                 Some(radiance) if radiance.max_element() > 0.0 && !shape_prims.is_empty() => {
+                    let textured = shape.emitter_texture.is_some();
                     let emitter = match kind {
                         ShapeKind::Sphere(sphere) => AreaEmitter::Sphere(sphere),
+                        ShapeKind::Mesh(_) if textured => {
+                            AreaEmitter::Mesh(MeshEmitter::with_uvs(&mesh, shape_prims))
+                        }
                         ShapeKind::Mesh(_) => {
                             AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
                         }
                     };
+                    let texture = shape
+                        .emitter_texture
+                        .map(|t| emission_texture(t as u32, &textures, shape, &kind, shape_prims));
                     lights.push(Light::Area(AreaLight {
                         radiance: radiance.into(),
+                        texture,
                         emitter,
                         flip_normals: shape.flip_normals,
                     }));
@@ -129,6 +138,7 @@ impl RenderScene {
                 kind,
                 material: shape.bsdf.map_or(default_material, |b| b as u32),
                 area_light,
+                textured_emission: area_light.is_some() && shape.emitter_texture.is_some(),
                 flip_normals: shape.flip_normals,
             });
         }
@@ -261,6 +271,41 @@ fn load_bitmap_image(
 }
 
 /// A texture of the scene from its description, its bitmap loaded and mip-mapped.
+/// A textured area emitter's radiance: texture `index`, sampled by its luminance where Mitsuba
+/// inverts the shape's uv map (a bitmap without a uv transform on a rectangle or a sphere).
+fn emission_texture(
+    index: u32,
+    textures: &[Texture],
+    shape: &desc::Shape,
+    kind: &ShapeKind,
+    prims: &[PrimInfo],
+) -> EmissionTexture {
+    let map = match (&shape.geometry, kind) {
+        (desc::Geometry::Rectangle, _) => prims.first().map(|prim| UvMap::Rectangle {
+            origin: shape.to_world.transform_point3(glam::Vec3::ZERO).into(),
+            ax: shape.to_world.transform_vector3(glam::Vec3::X).into(),
+            ay: shape.to_world.transform_vector3(glam::Vec3::Y).into(),
+            normal: prim.ng,
+        }),
+        (_, ShapeKind::Sphere(sphere)) => Some(UvMap::Sphere {
+            center: sphere.center,
+            radius: sphere.radius,
+            to_world: sphere.to_object.transpose(),
+        }),
+        _ => None,
+    };
+    let sampling = match (&textures[index as usize], map) {
+        (Texture::Bitmap(b), Some(map)) if b.to_uv() == glam::Affine2::IDENTITY => {
+            TexelDistribution::new(b.mip().level(0)).map(|d| (d, map))
+        }
+        _ => None,
+    };
+    EmissionTexture {
+        texture: index,
+        sampling,
+    }
+}
+
 fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Texture, BuildError> {
     Ok(match &t.kind {
         desc::TextureKind::Bitmap(bitmap) => {
