@@ -101,6 +101,7 @@ verdict_tests!(
     mitsuba06_indoor,
     no_fov,
     orthographic,
+    projector,
     spot,
     thinlens,
 );
@@ -151,6 +152,7 @@ fn every_scene_has_a_reference() {
         "mitsuba06_indoor",
         "no_fov",
         "orthographic",
+        "projector",
         "spot",
         "textured_plane_gaussian",
         "thinlens",

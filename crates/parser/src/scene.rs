@@ -430,4 +430,14 @@ pub enum Light {
         scale: f32,
         to_world: Mat4,
     },
+    /// Mitsuba's `projector`: a pinhole at `to_world`'s origin projecting `irradiance` along its
+    /// +z, the field of view given as a perspective camera's (`fov_degrees` along `fov_axis` of
+    /// the irradiance texture's image), times `scale`.
+    Projector {
+        to_world: Mat4,
+        irradiance: ColorParam,
+        scale: f32,
+        fov_degrees: f32,
+        fov_axis: FovAxis,
+    },
 }

@@ -427,9 +427,9 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
             "disk",
         ),
         (
-            "<scene version=\"3.0.0\">\n  <emitter type=\"projector\"/></scene>",
-            "emitter 'projector' is not supported yet",
-            "projector",
+            "<scene version=\"3.0.0\">\n  <emitter type=\"sunsky\"/></scene>",
+            "emitter 'sunsky' is not supported yet",
+            "sunsky",
         ),
     ] {
         let e = common::parse(xml).unwrap_err();

@@ -10,6 +10,7 @@ mod directional;
 mod emission_texture;
 mod envmap;
 mod point;
+mod projector;
 mod spot;
 
 pub use area::{AreaEmitter, AreaLight};
@@ -18,6 +19,7 @@ pub use directional::DirectionalLight;
 pub use emission_texture::{EmissionTexture, TexelDistribution, UvMap};
 pub use envmap::EnvLight;
 pub use point::PointLight;
+pub use projector::ProjectorLight;
 pub use spot::SpotLight;
 
 use crate::textures::Texture;
@@ -34,6 +36,8 @@ pub enum Light {
     Area(AreaLight),
     Constant(ConstantLight),
     Env(Box<EnvLight>),
+    /// Mitsuba's `projector`: a delta-position light projecting a texture.
+    Projector(ProjectorLight),
 }
 
 /// A sampled light connection from a shading point.
@@ -123,6 +127,7 @@ impl Light {
             Light::Area(area) => area.sample_deferred(p, u, textures),
             Light::Constant(constant) => constant.sample(u),
             Light::Env(env) => env.sample(u, uniform_env),
+            Light::Projector(projector) => projector.sample(p, textures),
         }
     }
 

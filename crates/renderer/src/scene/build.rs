@@ -7,13 +7,13 @@ use crate::bsdfs::{BsdfParams, DiffuseParams};
 use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
 use crate::lights::{
     AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EmissionTexture, EnvLight, Light,
-    PointLight, SpotLight, TexelDistribution, UvMap,
+    PointLight, ProjectorLight, SpotLight, TexelDistribution, UvMap,
 };
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
 use crate::textures::{ColorSource, Texture};
-use glam::{Mat3, Vec3A};
+use glam::{Mat3, Mat4, Vec3A};
 use torrey_light::EnvMap;
 use torrey_parser as desc;
 use torrey_texture::{BitmapTexture, MipMap};
@@ -182,6 +182,36 @@ impl RenderScene {
                 desc::Light::Constant { radiance } => Light::Constant(ConstantLight {
                     radiance: (*radiance).into(),
                 }),
+                desc::Light::Projector {
+                    to_world,
+                    irradiance,
+                    scale,
+                    fov_degrees,
+                    fov_axis,
+                } => {
+                    let (irradiance, (w, h)) = match irradiance {
+                        desc::ColorParam::Constant(c) => {
+                            (ColorSource::Constant((*c).into()), (1, 1))
+                        }
+                        desc::ColorParam::Texture(t) => (
+                            ColorSource::Texture(*t as u32),
+                            match &textures[*t] {
+                                Texture::Bitmap(b) => (b.mip().width(), b.mip().height()),
+                                _ => (1, 1),
+                            },
+                        ),
+                    };
+                    // The field of view as a perspective camera of the texture's size has it.
+                    let camera =
+                        PerspectiveCamera::new(Mat4::IDENTITY, *fov_degrees, *fov_axis, w, h);
+                    Light::Projector(ProjectorLight::new(
+                        *to_world,
+                        irradiance,
+                        *scale,
+                        camera.tan_half_x(),
+                        w as f32 / h as f32,
+                    ))
+                }
                 desc::Light::Envmap {
                     bitmap,
                     scale,
