@@ -273,6 +273,35 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
     })
 }
 
+/// An `<emitter type="area">` (inside a shape, or with an id outside one): its radiance, 1 with a
+/// texture, and the texture.
+pub(crate) fn parse_area_emitter(
+    ctx: &mut Ctx,
+    e: &Element,
+) -> Result<(Vec3, Option<crate::scene::TextureId>)> {
+    let ety = plugin_type(ctx, e)?;
+    if ety != "area" {
+        return Err(ctx.err(
+            e.pos,
+            format!("only area emitters can be attached to a shape, found '{ety}'"),
+        ));
+    }
+    let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
+    let textured = e.children.iter().any(|c| {
+        c.attr_value("name") == Some("radiance") && (c.tag == "texture" || c.tag == "ref")
+    });
+    let emission = if textured {
+        match color_param(ctx, &mut ep, &["radiance"], Vec3::ONE)? {
+            ColorParam::Texture(t) => (Vec3::ONE, Some(t)),
+            ColorParam::Constant(c) => (c, None),
+        }
+    } else {
+        (ep.color(ctx, &["radiance"], Vec3::ONE)?, None)
+    };
+    ep.finish(ctx);
+    Ok(emission)
+}
+
 /// Parses a `<shape>`; inline bsdfs are added to the scene.
 ///
 /// | shapes | name | type | default |
@@ -335,15 +364,25 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     }
 
     let mut candidates: Vec<&Element> = props.take_tag("bsdf");
+    let mut emitters = props.take_tag("emitter");
     for r in props.take_tag("ref") {
-        match r.attr_value("name") {
-            None | Some("bsdf") => candidates.push(r),
-            Some(n) => ctx.warn(
-                r.pos,
-                format!("<ref name=\"{n}\"> in {} is not used; ignored", props.owner),
-            ),
+        // Mitsuba resolves a shape's refs by what they name: a bsdf, an area emitter, a medium.
+        match ctx.lookup(r)? {
+            IdTarget::Bsdf(_) => candidates.push(r),
+            IdTarget::AreaEmitter(_) => emitters.push(r),
+            IdTarget::Medium => ctx.warn_media(r, Some(&props.owner)),
+            _ => {
+                return Err(ctx.err(
+                    r.pos,
+                    format!(
+                        "<ref id=\"{}\"> in a shape must name a bsdf, an area emitter or a medium",
+                        r.attr_value("id").unwrap_or("")
+                    ),
+                ))
+            }
         }
     }
+    emitters.sort_by_key(|e| (e.pos.line, e.pos.column));
     candidates.sort_by_key(|e| (e.pos.line, e.pos.column));
     if let Some(second) = candidates.get(1) {
         return Err(ctx.err(
@@ -368,7 +407,6 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         Some(e) => Some(parse_bsdf(ctx, e)?),
     };
 
-    let emitters = props.take_tag("emitter");
     if let Some(second) = emitters.get(1) {
         return Err(ctx.err(
             second.pos,
@@ -377,29 +415,11 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     }
     let emitter = match emitters.first() {
         None => None,
-        Some(e) => {
-            let ety = plugin_type(ctx, e)?;
-            if ety != "area" {
-                return Err(ctx.err(
-                    e.pos,
-                    format!("only area emitters can be attached to a shape, found '{ety}'"),
-                ));
-            }
-            let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
-            let textured = e.children.iter().any(|c| {
-                c.attr_value("name") == Some("radiance") && (c.tag == "texture" || c.tag == "ref")
-            });
-            let emission = if textured {
-                match color_param(ctx, &mut ep, &["radiance"], Vec3::ONE)? {
-                    ColorParam::Texture(t) => (Vec3::ONE, Some(t)),
-                    ColorParam::Constant(c) => (c, None),
-                }
-            } else {
-                (ep.color(ctx, &["radiance"], Vec3::ONE)?, None)
-            };
-            ep.finish(ctx);
-            Some(emission)
-        }
+        Some(e) if e.tag == "ref" => match ctx.lookup(e)? {
+            IdTarget::AreaEmitter(i) => Some(ctx.area_emitters[i]),
+            _ => unreachable!("only area emitter refs are collected as emitters"),
+        },
+        Some(e) => Some(parse_area_emitter(ctx, e)?),
     };
     let (emitter, emitter_texture) = match emitter {
         Some((radiance, texture)) => (Some(radiance), texture),
