@@ -261,7 +261,7 @@ fn shadow_ray(p: Vec3A, ng: Vec3A, ls: &LightSample) -> (Vec3A, Vec3A, f32) {
     }
     let to_target = p + ls.wi * ls.dist - origin;
     let len = to_target.length();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return (origin, ls.wi, 0.0);
     }
     (origin, to_target / len, len * (1.0 - 2e-4))

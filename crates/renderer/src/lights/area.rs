@@ -101,7 +101,7 @@ impl AreaLight {
                 }
                 let wi = d / dist;
                 let cos_light = -n.dot(wi);
-                if !(cos_light > 0.0) {
+                if cos_light.is_nan() || cos_light <= 0.0 {
                     return None;
                 }
                 return Some(LightSample {

@@ -50,7 +50,7 @@ impl ProjectorLight {
     #[inline]
     pub fn project(&self, p: Vec3A) -> Option<(Vec2, f32)> {
         let local = self.to_local.transform_point3(p.into());
-        if !(local.z > 0.0) {
+        if local.z.is_nan() || local.z <= 0.0 {
             return None;
         }
         let uv = Vec2::new(
@@ -66,12 +66,12 @@ impl ProjectorLight {
         let (uv, z) = self.project(p)?;
         let d = self.position - p;
         let dist = d.length();
-        if !(dist > 0.0) {
+        if dist.is_nan() || dist <= 0.0 {
             return None;
         }
         let wi = d / dist;
         let cos = -self.axis.dot(wi);
-        if !(cos > 0.0) {
+        if cos.is_nan() || cos <= 0.0 {
             return None;
         }
         let irradiance = self.irradiance.eval(textures, uv, Footprint::POINT);
