@@ -103,6 +103,7 @@ pub(crate) fn scene_summary(s: &torrey_parser::Scene) -> String {
             torrey_parser::Light::Directional { .. } => "directional",
             torrey_parser::Light::Spot { .. } => "spot",
             torrey_parser::Light::Envmap { .. } => "envmap",
+            torrey_parser::Light::Projector { .. } => "projector",
         });
     }
     if !s.textures.is_empty() {

@@ -13,8 +13,8 @@ src/render/tests/test_renders.py does:
                                            converts it back with sRGB -> XYZ, recovering the XYZ
                                            variance exactly)
 and tests/references/verdict/manifest.json (sizes, spp, the test's spp, render times).
-Also (re)writes the scenes' own textures tests/scenes/mitsuba/textures/gradient_sky.exr and
-spot_pattern.png.
+Also (re)writes the scenes' own textures tests/scenes/mitsuba/textures/gradient_sky.exr,
+sun_sky.exr, emission_pattern.exr (radiance) and spot_pattern.png.
 Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
 """
 import argparse
@@ -83,6 +83,37 @@ def spot_pattern(path, width=24, height=16):
     mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(path)
 
 
+def sun_sky(path, width=32, height=16):
+    """A low-resolution sky with a small sun well above the horizon: a 2 x 2 block of bright
+    texels (rows 3-4 of 16, about 40-50 degrees of elevation) over a dim gradient. Where a
+    renderer places the texel rows decides how high the sun stands, so this sky tells texel
+    placements apart (envmap_sun.xml)."""
+    from exr_zip import write_exr_zip
+    rows = np.arange(height)[:, None, None] / (height - 1)
+    up = np.cos(np.pi * rows)
+    sky = np.where(up > 0, np.array([0.2, 0.3, 0.6]) * (0.3 + 0.7 * up),
+                   np.array([0.15, 0.12, 0.1]))
+    img = np.broadcast_to(sky, (height, width, 3)).copy()
+    img[3:5, 5:7] = [60.0, 50.0, 35.0]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_exr_zip(path, img.astype(np.float32))
+
+
+def emission_pattern(path, width=16, height=8):
+    """A small radiance texture for textured area emitters (area_textured.xml): dim coloured
+    stripes, one bright 2 x 1 spot and black texels, so that sampling by the texture matters and
+    a texture read upside down or mirrored shows."""
+    from exr_zip import write_exr_zip
+    img = np.zeros((height, width, 3), np.float32)
+    for x in range(width):
+        img[:, x] = [0.5 + 0.5 * (x % 3 == 0), 0.3 + 0.4 * (x % 4 == 1), 0.4 + 0.6 * (x % 5 == 2)]
+    img[:, 6:8] = 0.0
+    img[2, 10:12] = [30.0, 24.0, 12.0]
+    img[6, 1] = [0.0, 8.0, 16.0]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_exr_zip(path, img)
+
+
 def render(path, spp):
     scene = mi.load_file(path, spp=spp)
     t0 = time.time()
@@ -113,6 +144,8 @@ def main():
     from exr_zip import write_exr_zip
     gradient_sky(os.path.join(SCENES, "textures", "gradient_sky.exr"))
     spot_pattern(os.path.join(SCENES, "textures", "spot_pattern.png"))
+    sun_sky(os.path.join(SCENES, "textures", "sun_sky.exr"))
+    emission_pattern(os.path.join(SCENES, "textures", "emission_pattern.exr"))
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = {}

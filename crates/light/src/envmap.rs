@@ -5,19 +5,28 @@
 //! zenith and u = 0 looks down -z. Inverse: u = atan2(d.x, -d.z) / 2pi wrapped to [0, 1),
 //! v = acos(d.y) / pi (computed with atan2 for precision at the poles).
 //!
-//! Sampling weight of texel (i, j) = Rec.709 luminance x sin(theta_j), with the cell-centred
-//! theta_j = pi (j + 0.5) / H, where the luminance is that of the bilinear reconstruction averaged
-//! over the texel's cell (a 3x3 stencil, see `sampling_weights`) so that the piecewise-constant pdf
-//! covers everything the bilinear `eval` returns. Mitsuba instead treats row j as a point sample at pi j / (H - 1)
-//! with bilinear interpolation; the two differ by under one texel. The density over solid angle is
-//! p(u, v) / (2 pi^2 sin theta), with theta the direction's own polar angle (exact Jacobian of the
-//! lat-long map), so sample/pdf stay consistent everywhere.
+//! Texel placement, as Mitsuba 3.9.1's `envmap.cpp`: texel (i, j) is the radiance at
+//! u = (i + 0.5) / W (column centres: its half-texel shift) and v = j / (H - 1) (row 0 exactly at
+//! the zenith, row H - 1 exactly at the nadir), bilinear in between, u wrapping (the first column
+//! follows the last). So the rows are not at cell centres: the lookup maps v to the texel-centred
+//! coordinate (v (H - 1) + 0.5) / H of the (centre-based) mip pyramid. Coarser levels follow the
+//! same rule with their own H (they only matter for wide ray cones, which Mitsuba does not filter).
 //!
-//! The cells are chosen with alias tables (a marginal one over rows, one per row over columns):
-//! one dependent memory read per level, where an inverse-cdf search reads a guide table and then
-//! the cdf. Each finest-level texel is stored with its cell's density in one 16-byte record, so
-//! the bilinear lookup of a sampled or escaped direction brings its pdf along in the same cache
-//! lines. Environment-map work was about half of an envmap-lit render before this layout
+//! Sampling, as Mitsuba's (a piecewise-bilinear `Hierarchical2D` over the same grid): the density
+//! over the unit square p(u, v) is the bilinear interpolant, on the texel grid above, of each
+//! texel's Rec.709 luminance x sin(theta of its row), normalised. A patch (i, j) (between texels
+//! (i, j) and (i + 1, j + 1), i + 1 wrapping; W x (H - 1) of them) is chosen by alias tables
+//! (a marginal one over bands of rows, one per band over columns) with the mean of its corners
+//! (the exact integral of the interpolant over it), then a point inside it by the bilinear warp.
+//! The density over solid angle is p(u, v) / (2 pi^2 sin theta), with theta the direction's own
+//! polar angle (exact Jacobian of the lat-long map). Since p is continuous and read from the same
+//! four texels as the radiance, sample and pdf agree everywhere and `eval_pdf` gets both from one
+//! bilinear lookup.
+//!
+//! Alias tables take one dependent memory read per level, where an inverse-cdf search reads a
+//! guide table and then the cdf. Each finest-level texel is stored with its normalised sampling
+//! weight in one 16-byte record, so the bilinear lookup of a sampled or escaped direction brings
+//! its pdf along in the same cache lines. Environment-map work was about half of an envmap-lit render before this layout
 //! (docs/performance.md, design decisions).
 
 use crate::alias::{self, AliasSlot};
@@ -26,9 +35,6 @@ use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};
-
-/// How far (in texels) sampled directions stay from texel edges; see `EnvMap::sample`.
-const TEXEL_EDGE_MARGIN: f32 = 1e-3;
 
 /// Rec.709 luminance: the importance of a linear RGB radiance for sampling purposes.
 #[inline]
@@ -60,13 +66,16 @@ pub struct EnvMap {
     size: Vec2,
     /// 1 / `size`.
     inv_size: Vec2,
+    /// 1 / (number of bands of sampling patches, `height` - 1).
+    inv_bands: f32,
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
     /// The finest level's texels: rgb in xyz, and in w the density over the unit square of
-    /// choosing the texel's cell (marginal x conditional, as the alias tables realise them).
+    /// choosing the patch whose top-left corner the texel is (marginal x conditional, as the
+    /// alias tables realise them; 0 in the last row).
     texels: Vec<Vec4>,
-    /// Alias table over rows (`height` slots).
+    /// Alias table over bands of patches (`height` - 1 slots).
     row_slots: Vec<AliasSlot>,
     /// One alias table per row over its columns, `width` slots each, flattened.
     column_slots: Vec<AliasSlot>,
@@ -74,57 +83,50 @@ pub struct EnvMap {
     samplable: bool,
 }
 
-/// How texel luminance becomes a sampling weight (both multiplied by sin(theta_j)).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum SamplingWeights {
-    /// Luminance of the texel itself (pbrt-v3 style); kept for comparisons in tests.
-    #[cfg_attr(not(test), allow(dead_code))]
-    Texel,
-    /// Luminance of the mean of the bilinear reconstruction over the texel's cell.
-    BilinearCellMean,
-}
-
-/// Per-texel sampling weights, row-major. With [`SamplingWeights::BilinearCellMean`] the weight is
-/// the luminance averaged over the cell of the bilinear interpolant that `eval` returns, which is
-/// the 3x3 stencil (1/64, 3/32, 1/64; 3/32, 9/16, 3/32; 1/64, 3/32, 1/64) with u wrapping and v
-/// clamped at the poles. So the pdf is never 0 where `eval` is not (no bias when the map is the
-/// only strategy), and a sun's bilinear fringe is sampled in proportion to its radiance instead of
-/// the dim texel it falls in, which removes the heavy tail of L/pdf around small bright sources.
-fn sampling_weights(image: &Image, mode: SamplingWeights) -> Vec<f32> {
+/// Each texel's sampling weight (row-major): luminance x sin(theta) of its row, theta = pi j /
+/// (H - 1) (sin clamped at 0 on the poles).
+fn vertex_weights(image: &Image) -> Vec<f32> {
     let (w, h) = (image.width as usize, image.height as usize);
-    let lum: Vec<f32> = image.pixels.iter().map(|&p| luminance(p)).collect();
+    let dtheta = std::f64::consts::PI / (h - 1) as f64;
     let mut weights = Vec::with_capacity(w * h);
     for j in 0..h {
-        let sin_theta = (PI * (j as f32 + 0.5) / h as f32).sin();
-        let rows = [j.saturating_sub(1), j, (j + 1).min(h - 1)];
-        for i in 0..w {
-            let l = match mode {
-                SamplingWeights::Texel => lum[j * w + i],
-                SamplingWeights::BilinearCellMean => {
-                    let cols = [(i + w - 1) % w, i, (i + 1) % w];
-                    const K: [f32; 3] = [0.125, 0.75, 0.125];
-                    let mut acc = 0.0;
-                    for (r, kr) in rows.iter().zip(K) {
-                        for (c, kc) in cols.iter().zip(K) {
-                            acc += kr * kc * lum[r * w + c];
-                        }
-                    }
-                    acc
-                }
-            };
-            weights.push(l * sin_theta);
+        let sin_theta = (j as f64 * dtheta).sin().max(0.0) as f32;
+        let row = &image.pixels[j * w..(j + 1) * w];
+        weights.extend(row.iter().map(|&p| luminance(p) * sin_theta));
+    }
+    weights
+}
+
+/// The mean of each patch's four corner weights (row-major, `width` x (`height` - 1)): the
+/// integral of the bilinear interpolant over the patch, in patch units.
+fn patch_weights(vertex: &[f32], width: usize, height: usize) -> Vec<f32> {
+    let mut weights = Vec::with_capacity(width * (height - 1));
+    for j in 0..height - 1 {
+        let (top, bottom) = (&vertex[j * width..], &vertex[(j + 1) * width..]);
+        for i in 0..width {
+            let i1 = (i + 1) % width;
+            weights.push(0.25 * (top[i] + top[i1] + bottom[i] + bottom[i1]));
         }
     }
     weights
 }
 
-/// The alias tables over an environment map's sampling weights, and the density each cell gets.
+/// Inverts the cdf of the density proportional to a (1 - t) + b t on [0, 1] (both >= 0) at `xi`,
+/// in the form that stays accurate when a and b are close.
+#[inline(always)]
+fn sample_linear(a: f32, b: f32, xi: f32) -> f32 {
+    let denominator = a + (a * a * (1.0 - xi) + b * b * xi).sqrt();
+    if denominator > 0.0 {
+        (xi * (a + b) / denominator).min(ONE_MINUS_EPSILON)
+    } else {
+        xi
+    }
+}
+
+/// The alias tables over an environment map's patch weights.
 struct SamplingTables {
     row_slots: Vec<AliasSlot>,
     column_slots: Vec<AliasSlot>,
-    /// Density over the unit square of choosing each cell (row-major): the probability the tables
-    /// realise, times the cell count.
-    density: Vec<f32>,
     /// Sum of all weights (0: nothing to sample).
     weight_sum: f64,
 }
@@ -133,10 +135,9 @@ impl SamplingTables {
     /// `weights` row-major, `width * height` of them.
     fn new(weights: &[f32], width: usize, height: usize) -> Self {
         let mut column_slots = Vec::with_capacity(width * height);
-        let mut conditional = Vec::with_capacity(width * height);
         let mut row_weights = Vec::with_capacity(height);
         for row in weights.chunks_exact(width) {
-            conditional.extend(alias::build_slots(row, &mut column_slots));
+            alias::build_slots(row, &mut column_slots);
             row_weights.push(
                 row.iter()
                     .filter(|w| w.is_finite() && **w > 0.0)
@@ -145,20 +146,28 @@ impl SamplingTables {
             );
         }
         let mut row_slots = Vec::with_capacity(height);
-        let marginal = alias::build_slots_f64(&row_weights, &mut row_slots);
-        let cells = (width * height) as f64;
-        let density = conditional
-            .iter()
-            .enumerate()
-            .map(|(k, &p_column)| (marginal[k / width] * p_column * cells) as f32)
-            .collect();
+        alias::build_slots_f64(&row_weights, &mut row_slots);
         Self {
             row_slots,
             column_slots,
-            density,
             weight_sum: row_weights.iter().sum(),
         }
     }
+}
+
+/// Negative, NaN and infinite texels become 0.
+fn sanitised(mut image: Image) -> Image {
+    for p in &mut image.pixels {
+        *p = Vec3::select(p.cmpgt(Vec3::ZERO) & p.is_finite_mask(), *p, Vec3::ZERO);
+    }
+    image
+}
+
+/// The texel-centred v (what the mip pyramid's bilinear lookup takes) of the direction's v on a
+/// level of `height` rows placed as Mitsuba places them (row j at v = j / (height - 1)).
+#[inline(always)]
+fn row_v(v: f32, height: f32) -> f32 {
+    (v * (height - 1.0) + 0.5) / height
 }
 
 /// Makes `m` a proper orthonormal basis (Gram-Schmidt on its columns, keeping handedness), so that
@@ -180,36 +189,46 @@ impl EnvMap {
     /// Negative/NaN/infinite texels become 0, a non-positive or NaN scale gives a black map, a
     /// non-rotation `to_world` is orthonormalised, and an empty image acts as a black 1x1 map.
     pub fn new(image: Image, scale: f32, to_world: Mat3) -> Self {
-        Self::with_weights(image, scale, to_world, SamplingWeights::BilinearCellMean)
-    }
-
-    fn with_weights(image: Image, scale: f32, to_world: Mat3, mode: SamplingWeights) -> Self {
         let image = if image.width == 0
             || image.height == 0
             || image.pixels.len() != image.width as usize * image.height as usize
         {
-            Image::filled(1, 1, Vec3::ZERO)
+            Image::filled(1, 2, Vec3::ZERO)
+        } else if image.height == 1 {
+            // One row is the radiance at the zenith and at the nadir alike (a map constant in v):
+            // two equal rows, so that there is a band of patches between them.
+            let mut pixels = image.pixels.clone();
+            pixels.extend_from_slice(&image.pixels);
+            sanitised(Image::new(image.width, 2, pixels))
         } else {
-            let mut image = image;
-            for p in &mut image.pixels {
-                *p = Vec3::select(p.cmpgt(Vec3::ZERO) & p.is_finite_mask(), *p, Vec3::ZERO);
-            }
-            image
+            sanitised(image)
         };
+        Self::from_sanitised(image, scale, to_world)
+    }
+
+    fn from_sanitised(image: Image, scale: f32, to_world: Mat3) -> Self {
         let scale = if scale.is_finite() && scale > 0.0 {
             scale
         } else {
             0.0
         };
         let (width, height) = (image.width as usize, image.height as usize);
-        let weights = sampling_weights(&image, mode);
-        let tables = SamplingTables::new(&weights, width, height);
+        let vertex = vertex_weights(&image);
+        let tables = SamplingTables::new(&patch_weights(&vertex, width, height), width, height - 1);
         let samplable = tables.weight_sum > 0.0 && scale > 0.0;
+        // The interpolant's integral over the unit square is the patches' mean weight; dividing
+        // by it makes the interpolant of the stored weights the density p(u, v).
+        let integral = tables.weight_sum / (width * (height - 1)) as f64;
+        let norm = if samplable {
+            (1.0 / integral) as f32
+        } else {
+            0.0
+        };
         let texels = image
             .pixels
             .iter()
-            .zip(&tables.density)
-            .map(|(rgb, &density)| rgb.extend(density))
+            .zip(&vertex)
+            .map(|(rgb, &w)| rgb.extend(w * norm))
             .collect();
         let to_world = orthonormalize(to_world);
         let texel_angle = (PI / height as f32).max(2.0 * PI / width as f32);
@@ -220,6 +239,7 @@ impl EnvMap {
             height,
             size: Vec2::new(width as f32, height as f32),
             inv_size: Vec2::new(width as f32, height as f32).recip(),
+            inv_bands: 1.0 / (height - 1) as f32,
             scale,
             to_world,
             to_local: to_world.transpose(),
@@ -310,9 +330,10 @@ impl EnvMap {
         self.to_world * Self::uv_to_local_dir(uv)
     }
 
-    /// Trilinear lookup with Mitsuba's texel centres; u repeats (the map is periodic in phi), v
-    /// clamps at the poles. The pyramid is built with `Repeat`, which would blend the zenith row
-    /// with the nadir row, so each level's v is clamped to its first/last texel centre here.
+    /// Trilinear lookup of the direction's `uv` with Mitsuba's texel placement (module doc); u
+    /// repeats (the map is periodic in phi). The pyramid is built with `Repeat`, which would
+    /// blend the zenith row with the nadir row, so each level's v is clamped to its first/last
+    /// texel centre here (the row remap keeps every v in [0, 1] inside already).
     #[inline]
     fn lookup(&self, uv: Vec2, footprint: f32) -> Vec3 {
         if footprint <= 0.0 {
@@ -338,18 +359,34 @@ impl EnvMap {
     /// load per texel, and the cell density comes along in the same cache lines.
     #[inline]
     fn bilinear_finest(&self, uv: Vec2) -> Vec3 {
+        self.bilinear_finest_with_density(uv).truncate()
+    }
+
+    /// [`Self::bilinear_finest`] with, in w, the sampling density over the unit square p(u, v)
+    /// (0 for a uv outside [0, 1]^2).
+    #[inline]
+    fn bilinear_finest_with_density(&self, uv: Vec2) -> Vec4 {
         let half = 0.5 * self.inv_size.y;
+        let uv = Vec2::new(uv.x, row_v(uv.y, self.size.y));
         let Some(t) = BilinearTaps::new(uv, self.size, half, self.width, self.height) else {
-            return self.lookup_level_clamped(0, uv);
+            return self.lookup_level_texel_centred(0, uv).extend(0.0);
         };
         let px = &self.texels;
         let top = px[t.index[0]] * (1.0 - t.fx) + px[t.index[1]] * t.fx;
         let bottom = px[t.index[2]] * (1.0 - t.fx) + px[t.index[3]] * t.fx;
-        (top * (1.0 - t.fy) + bottom * t.fy).truncate()
+        top * (1.0 - t.fy) + bottom * t.fy
     }
 
     #[inline]
     fn lookup_level_clamped(&self, level: usize, uv: Vec2) -> Vec3 {
+        let h = self.mip.level(level).height as f32;
+        self.lookup_level_texel_centred(level, Vec2::new(uv.x, row_v(uv.y, h)))
+    }
+
+    /// [`Self::lookup_level_clamped`] after the row remap: `uv` in the pyramid's texel-centred
+    /// coordinates.
+    #[inline]
+    fn lookup_level_texel_centred(&self, level: usize, uv: Vec2) -> Vec3 {
         let img = self.mip.level(level);
         let size = Vec2::new(img.width as f32, img.height as f32);
         let half = 0.5 / size.y;
@@ -397,8 +434,27 @@ impl EnvMap {
             return (Vec3::ZERO, 0.0);
         }
         let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
-        let radiance = self.lookup(uv, self.footprint(spread)) * self.scale;
+        let footprint = self.footprint(spread);
+        if footprint <= 0.0 && self.samplable {
+            // Radiance and density from the same four texel records.
+            let l = self.bilinear_finest_with_density(uv);
+            return (
+                l.truncate() * self.scale,
+                Self::solid_angle_pdf(l.w, sin_theta),
+            );
+        }
+        let radiance = self.lookup(uv, footprint) * self.scale;
         (radiance, self.pdf_uv(uv, sin_theta))
+    }
+
+    /// The density over solid angle of a direction whose density over the unit square is `p_uv`.
+    #[inline(always)]
+    fn solid_angle_pdf(p_uv: f32, sin_theta: f32) -> f32 {
+        if sin_theta.is_nan() || sin_theta <= 0.0 || p_uv.is_nan() || p_uv <= 0.0 {
+            0.0
+        } else {
+            p_uv / (2.0 * PI * PI * sin_theta)
+        }
     }
 
     /// Starts loading the memory [`Self::sample`] will read for `u`: the row is chosen here (its
@@ -419,50 +475,52 @@ impl EnvMap {
         prefetch(self.texels.as_ptr().wrapping_add(cell));
     }
 
-    /// Importance-samples a direction by luminance x sin(theta). `None` for a black map or a
-    /// sample that lands exactly on a pole.
+    /// Importance-samples a direction by luminance x sin(theta) (module doc). `None` for a black
+    /// map or a sample that lands exactly on a pole.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<EnvSample> {
         if !self.samplable {
             return None;
         }
         let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
-        let (row, v_in_cell) = alias::pick(&self.row_slots, u.y);
+        let (row, v_in_patch) = alias::pick(&self.row_slots, u.y);
         let columns = &self.column_slots[row * self.width..(row + 1) * self.width];
-        let (column, u_in_cell) = alias::pick(columns, u.x);
-        let density = self.texels[row * self.width + column].w;
-        if density.is_nan() || density <= 0.0 {
-            return None;
+        let (column, u_in_patch) = alias::pick(columns, u.x);
+        let column1 = if column + 1 == self.width {
+            0
+        } else {
+            column + 1
+        };
+        let (top, bottom) = (row * self.width, (row + 1) * self.width);
+        let [w00, w10, w01, w11] = [
+            self.texels[top + column],
+            self.texels[top + column1],
+            self.texels[bottom + column],
+            self.texels[bottom + column1],
+        ]
+        .map(|t| t.w);
+        // The bilinear warp: the row position by the marginal (linear in t), then the column
+        // position given it.
+        let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
+        let (left, right) = (w00 * (1.0 - t) + w01 * t, w10 * (1.0 - t) + w11 * t);
+        let s = sample_linear(left, right, u_in_patch);
+        let p_uv = left * (1.0 - s) + right * s;
+        let mut su = (column as u32 as f32 + 0.5 + s) * self.inv_size.x;
+        if su >= 1.0 {
+            su -= 1.0;
         }
-        let uv = self.in_cell(column, row, Vec2::new(u_in_cell, v_in_cell));
+        let uv = Vec2::new(su, (row as u32 as f32 + t) * self.inv_bands)
+            .min(Vec2::splat(ONE_MINUS_EPSILON));
         let (local, sin_theta) = Self::uv_to_local_dir_sin(uv);
-        if sin_theta.is_nan() || sin_theta <= 0.0 {
+        let pdf = Self::solid_angle_pdf(p_uv, sin_theta);
+        if pdf <= 0.0 {
             return None;
         }
-        let pdf = density / (2.0 * PI * PI * sin_theta);
         Some(EnvSample {
             direction: self.to_world * local,
             radiance: self.bilinear_finest(uv) * self.scale,
             pdf,
         })
-    }
-
-    /// The uv of position `offset` (in [0, 1)^2) inside cell (`column`, `row`), kept at least
-    /// [`TEXEL_EDGE_MARGIN`] texels from the cell's edges, so that the f32 round trip uv ->
-    /// direction -> uv in [`Self::pdf`] cannot land in the neighbouring cell, whose density may
-    /// differ by orders of magnitude next to a sun. This moves 0.2% of each cell's mass by at most
-    /// a thousandth of a texel: far below any visible effect, whereas a mismatched pdf would skew
-    /// MIS weights.
-    #[inline]
-    fn in_cell(&self, column: usize, row: usize, offset: Vec2) -> Vec2 {
-        let frac = offset.clamp(
-            Vec2::splat(TEXEL_EDGE_MARGIN),
-            Vec2::splat(1.0 - TEXEL_EDGE_MARGIN),
-        );
-        // A multiplication rather than a division: the sample's direction waits for this value.
-        // Its rounding (under an ulp of uv) is far inside the margin.
-        ((Vec2::new(column as u32 as f32, row as u32 as f32) + frac) * self.inv_size)
-            .min(Vec2::splat(ONE_MINUS_EPSILON))
     }
 
     /// Density over solid angle of [`Self::sample`] producing world direction `dir`.
@@ -478,13 +536,10 @@ impl EnvMap {
     /// [`Self::pdf`] of the direction with local `uv` (in [0, 1]^2) and `sin_theta`.
     #[inline]
     fn pdf_uv(&self, uv: Vec2, sin_theta: f32) -> f32 {
-        if !self.samplable || sin_theta.is_nan() || sin_theta <= 0.0 {
+        if !self.samplable {
             return 0.0;
         }
-        // Float-to-int `as` saturates (NaN gives 0), so only the upper edge needs a clamp.
-        let column = ((uv.x * self.size.x) as u32).min(self.width as u32 - 1) as usize;
-        let row = ((uv.y * self.size.y) as u32).min(self.height as u32 - 1) as usize;
-        self.texels[row * self.width + column].w / (2.0 * PI * PI * sin_theta)
+        Self::solid_angle_pdf(self.bilinear_finest_with_density(uv).w, sin_theta)
     }
 }
 
@@ -609,12 +664,14 @@ mod tests {
         ] {
             assert!(close(env.uv_to_dir(uv), formula_dir(uv)));
         }
-        // Each texel is seen from the direction of its centre, with and without a rotation.
+        // Each texel is seen from the direction of its column's centre and its row's line
+        // (Mitsuba's placement: v = j / (H - 1)), with and without a rotation.
         for to_world in [Mat3::IDENTITY, rotation()] {
             let img = test_image(16, 8);
             let env = EnvMap::new(img.clone(), 2.0, to_world);
-            for (i, j) in [(0u32, 0u32), (5, 2), (15, 7), (8, 4)] {
-                let uv = Vec2::new((i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 8.0);
+            // (Not on the poles, where u is undefined.)
+            for (i, j) in [(0u32, 1u32), (5, 2), (15, 6), (8, 4)] {
+                let uv = Vec2::new((i as f32 + 0.5) / 16.0, j as f32 / 7.0);
                 let dir = to_world * formula_dir(uv);
                 let got = env.eval(dir, 0.0);
                 let want = img.get(i, j) * 2.0;
@@ -628,9 +685,41 @@ mod tests {
 
     /// The generic MipMap path that `lookup_level_clamped` specialises.
     fn generic_lookup(env: &EnvMap, level: usize, uv: Vec2) -> Vec3 {
-        let half = 0.5 / env.mip.level(level).height as f32;
-        env.mip
-            .lookup_level(level, Vec2::new(uv.x, uv.y.clamp(half, 1.0 - half)))
+        let h = env.mip.level(level).height as f32;
+        let half = 0.5 / h;
+        env.mip.lookup_level(
+            level,
+            Vec2::new(uv.x, row_v(uv.y, h).clamp(half, 1.0 - half)),
+        )
+    }
+
+    /// Radiance of a 4x3 map whose texel (x, y) is (x, y, 0), along directions given by their
+    /// lat-long uv: the values Mitsuba 3.9.1's `envmap` returns for the same map and directions
+    /// (`eval` in scalar_rgb; the texel at u = (x + 0.5) / W, v = y / (H - 1), the seam blending
+    /// the last column with the first).
+    #[test]
+    fn lookup_matches_mitsuba_3_9_1() {
+        let px = (0..12)
+            .map(|k| Vec3::new((k % 4) as f32, (k / 4) as f32, 0.0))
+            .collect();
+        let env = EnvMap::new(Image::new(4, 3, px), 1.0, Mat3::IDENTITY);
+        let mitsuba = [
+            ((0.125, 0.25), (0.0, 0.5)),
+            ((0.0, 0.25), (1.5, 0.5)),
+            ((0.25, 0.5), (0.5, 1.0)),
+            ((0.375, 0.5), (1.0, 1.0)),
+            ((0.125, 0.01), (0.0, 0.02)),
+            ((0.125, 0.99), (0.0, 1.98)),
+            ((0.9, 0.5), (2.7, 1.0)),
+            ((0.99, 0.5), (1.62, 1.0)),
+        ];
+        for ((u, v), (r, g)) in mitsuba {
+            let got = env.eval(formula_dir(Vec2::new(u, v)), 0.0);
+            assert!(
+                (got - Vec3::new(r, g, 0.0)).abs().max_element() < 2e-4,
+                "uv ({u}, {v}): {got} vs Mitsuba's ({r}, {g}, 0)"
+            );
+        }
     }
 
     #[test]
@@ -867,10 +956,10 @@ mod tests {
     }
 
     /// Env-only estimate of the power of a map with one bright texel, against quadrature of eval.
-    fn single_texel_estimate(mode: SamplingWeights) -> (f64, f64, f64) {
+    fn single_texel_estimate() -> (f64, f64, f64) {
         let mut img = Image::filled(16, 8, Vec3::ZERO);
         img.pixels[3 * 16 + 6] = Vec3::splat(100.0);
-        let env = EnvMap::with_weights(img, 1.0, rotation(), mode);
+        let env = EnvMap::new(img, 1.0, rotation());
         let reference = integrate_over_sphere(|d| env.eval(d, 0.0).y as f64, 800, 1600);
         let mut rng = Rng::new(25);
         let count = 40_000;
@@ -887,19 +976,17 @@ mod tests {
     }
 
     #[test]
-    fn bilinear_weights_cover_eval() {
-        // Sampling by the texel alone misses the bilinear fringe (biased low); the cell-mean
-        // weights cover it and the estimate matches quadrature.
-        let (mean, sigma, reference) = single_texel_estimate(SamplingWeights::BilinearCellMean);
+    fn bilinear_density_covers_eval() {
+        // The piecewise-bilinear density covers the bright texel's whole bilinear footprint, and
+        // is proportional to it (luminance x sin(theta) over 2 pi^2 sin(theta) per unit of
+        // solid angle, with sin(theta) of the rows, not the direction): a tight estimate that
+        // matches quadrature.
+        let (mean, sigma, reference) = single_texel_estimate();
         assert!(
             (mean - reference).abs() < 3.0 * sigma + 2e-3 * reference,
             "{mean} ± {sigma} vs {reference}"
         );
-        let (texel_mean, _, _) = single_texel_estimate(SamplingWeights::Texel);
-        assert!(
-            texel_mean < 0.8 * reference,
-            "texel-only estimate {texel_mean} vs {reference}"
-        );
+        assert!(sigma < 0.05 * reference, "{mean} ± {sigma}");
     }
 
     #[test]
@@ -909,24 +996,28 @@ mod tests {
         assert_eq!(env.pdf(Vec3::Y), 0.0);
         assert_eq!(env.eval(Vec3::X, 0.0), Vec3::ZERO);
         // Negative and NaN texels read as 0; the rest of the map still samples.
-        let mut img = Image::filled(4, 2, Vec3::ONE);
-        img.pixels[0] = Vec3::new(-5.0, f32::NAN, f32::INFINITY);
+        let mut img = Image::filled(4, 3, Vec3::ONE);
+        img.pixels[4] = Vec3::new(-5.0, f32::NAN, f32::INFINITY);
         let env = EnvMap::new(img, 1.0, Mat3::IDENTITY);
-        let d = env.uv_to_dir(Vec2::new(0.125, 0.25));
+        let d = env.uv_to_dir(Vec2::new(0.125, 0.5));
         assert_eq!(env.eval(d, 0.0), Vec3::ZERO);
         let mut rng = Rng::new(24);
         for _ in 0..1000 {
             let s = env.sample(rng.vec2()).unwrap();
             assert!(s.pdf.is_finite() && s.pdf > 0.0 && s.radiance.is_finite());
         }
-        // Only black 3x3 neighbourhoods have zero density.
+        // Only patches with four black corners have zero density: texel (5, 1) lit, patch
+        // (i, j) centred at u = (i + 1) / 8, v = (j + 0.5) / 3.
         let mut img = Image::filled(8, 4, Vec3::ZERO);
         img.pixels[8 + 5] = Vec3::ONE;
         let env = EnvMap::new(img, 1.0, Mat3::IDENTITY);
-        let texel = |i: f32, j: f32| env.uv_to_dir(Vec2::new((i + 0.5) / 8.0, (j + 0.5) / 4.0));
-        assert!(env.pdf(texel(4.0, 2.0)) > 0.0 && env.pdf(texel(6.0, 0.0)) > 0.0);
-        assert_eq!(env.pdf(texel(1.0, 1.0)), 0.0);
-        assert_eq!(env.pdf(texel(5.0, 3.0)), 0.0);
+        let patch = |i: f32, j: f32| env.uv_to_dir(Vec2::new((i + 1.0) / 8.0, (j + 0.5) / 3.0));
+        for (i, j) in [(4.0, 0.0), (5.0, 0.0), (4.0, 1.0), (5.0, 1.0)] {
+            assert!(env.pdf(patch(i, j)) > 0.0, "patch ({i}, {j})");
+        }
+        for (i, j) in [(3.0, 1.0), (6.0, 1.0), (4.0, 2.0), (5.0, 2.0), (1.0, 0.0)] {
+            assert_eq!(env.pdf(patch(i, j)), 0.0, "patch ({i}, {j})");
+        }
         // Empty image, NaN scale, degenerate rotation: no panic, no NaN.
         let env = EnvMap::new(
             Image {
@@ -955,7 +1046,7 @@ mod tests {
             .map(|k| Vec3::splat(((k % w + k / w) % 2) as f32))
             .collect();
         let env = EnvMap::new(Image::new(w, h, px), 1.0, Mat3::IDENTITY);
-        let uv = Vec2::new((10.0 + 0.5) / w as f32, (16.0 + 0.5) / h as f32);
+        let uv = Vec2::new((10.0 + 0.5) / w as f32, 16.0 / (h - 1) as f32);
         let d = env.uv_to_dir(uv);
         assert!((env.eval(d, 0.0).x - 0.0).abs() < 1e-5);
         let texel_angle = PI / h as f32;

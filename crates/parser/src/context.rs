@@ -16,6 +16,12 @@ pub(crate) enum IdTarget {
     Texture(TextureId),
     /// Index into [`Ctx::shape_groups`].
     ShapeGroup(usize),
+    /// Index into [`Ctx::area_emitters`]: an `area` emitter declared outside a shape, attached
+    /// by a `<ref>` inside one.
+    AreaEmitter(usize),
+    /// A medium: accepted by `<ref>` in a shape's `interior`/`exterior`, then ignored with the
+    /// media warning.
+    Medium,
     /// Shapes, sensors, emitters...: may carry ids but cannot be referenced here.
     Other,
 }
@@ -30,6 +36,8 @@ pub(crate) struct Ctx {
     /// Every `shapegroup`, and every `instance` placing one.
     pub shape_groups: Vec<crate::scene::ShapeGroup>,
     pub instances: Vec<crate::scene::Instance>,
+    /// Area emitters declared with an id outside shapes: radiance (1 with a texture) and texture.
+    pub area_emitters: Vec<(glam::Vec3, Option<TextureId>)>,
     /// Every file name resolved so far, in order: [`crate::Scene::files`].
     pub files: std::cell::RefCell<Vec<PathBuf>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
@@ -52,6 +60,7 @@ impl Ctx {
             bsdfs: Vec::new(),
             shape_groups: Vec::new(),
             instances: Vec::new(),
+            area_emitters: Vec::new(),
             files: Default::default(),
             ids: HashMap::new(),
             media_warned: false,

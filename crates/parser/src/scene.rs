@@ -422,7 +422,11 @@ pub struct Shape {
     /// `None` means Mitsuba's default: a diffuse bsdf with reflectance 0.5.
     pub bsdf: Option<BsdfId>,
     /// Area emitter radiance, if the shape is an area light (one-sided, along the normal).
+    /// With [`Shape::emitter_texture`] it is 1 and the texture gives the radiance.
     pub emitter: Option<Vec3>,
+    /// Mitsuba's textured `radiance` of an area emitter: the texture, evaluated at the surface's
+    /// uv, is the emitted radiance.
+    pub emitter_texture: Option<TextureId>,
     pub flip_normals: bool,
     /// Where the shape was declared, for renderer-side diagnostics.
     pub location: SourceLocation,
@@ -496,5 +500,15 @@ pub enum Light {
         bitmap: Bitmap,
         scale: f32,
         to_world: Mat4,
+    },
+    /// Mitsuba's `projector`: a pinhole at `to_world`'s origin projecting `irradiance` along its
+    /// +z, the field of view given as a perspective camera's (`fov_degrees` along `fov_axis` of
+    /// the irradiance texture's image), times `scale`.
+    Projector {
+        to_world: Mat4,
+        irradiance: ColorParam,
+        scale: f32,
+        fov_degrees: f32,
+        fov_axis: FovAxis,
     },
 }

@@ -519,21 +519,22 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
             "disk",
         ),
         (
-            "<scene version=\"3.0.0\">\n  <emitter type=\"projector\"/></scene>",
-            "emitter 'projector' is not supported yet",
-            "projector",
+            "<scene version=\"3.0.0\">\n  <emitter type=\"sunsky\"/></scene>",
+            "emitter 'sunsky' is not supported yet",
+            "sunsky",
         ),
     ] {
         let e = common::parse(xml).unwrap_err();
         assert_err(&e, message, pos_of(xml, at));
     }
     let xml = r#"<scene version="3.0.0">
-  <shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance"/></emitter></shape>
+  <bsdf type="diffuse" id="b"/>
+  <shape type="sphere"><emitter type="area"><ref id="b" name="radiance"/></emitter></shape>
 </scene>"#;
     assert_err(
         &common::parse(xml).unwrap_err(),
-        "a textured area emitter radiance is not supported yet",
-        pos_of(xml, "<texture"),
+        "<ref id=\"b\"> must name a texture here",
+        pos_of(xml, "<ref"),
     );
     let xml =
         "<scene version=\"3.0.0\">\n  <shape type=\"instance\"><ref id=\"nope\"/></shape></scene>";
@@ -542,6 +543,99 @@ fn shapes_and_emitters_not_supported_yet_are_clear_errors() {
         "reference to undefined id 'nope'",
         pos_of(xml, "nope"),
     );
+}
+
+#[test]
+fn area_emitters_take_a_textured_radiance() {
+    let xml = r#"<scene version="3.0.0">
+  <texture type="checkerboard" id="t"/>
+  <shape type="rectangle"><emitter type="area"><ref id="t" name="radiance"/></emitter></shape>
+  <shape type="sphere"><emitter type="area"><texture type="checkerboard" name="radiance"/></emitter></shape>
+  <shape type="sphere"><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
+</scene>"#;
+    let s = common::parse(xml).unwrap();
+    assert_eq!(s.shapes[0].emitter, Some(glam::Vec3::ONE));
+    assert_eq!(s.shapes[0].emitter_texture, Some(0));
+    assert_eq!(s.shapes[1].emitter_texture, Some(1));
+    assert_eq!(s.shapes[2].emitter, Some(glam::Vec3::splat(2.0)));
+    assert_eq!(s.shapes[2].emitter_texture, None);
+}
+
+/// `<ref>` resolves every kind of object Mitsuba lets a scene name by id: bsdfs (in shapes and
+/// bsdf wrappers), textures (colour parameters, an area emitter's radiance, a projector's
+/// irradiance), area emitters declared outside shapes (attached to shapes), media (in a shape's
+/// interior/exterior; ignored with the media warning), shapegroups (in instances). A missing id
+/// and a ref to the wrong kind are errors at the ref.
+#[test]
+fn refs_resolve_every_kind_mitsuba_allows() {
+    let xml = r#"<scene version="3.0.0">
+  <texture type="checkerboard" id="tex"/>
+  <bsdf type="diffuse" id="b"><ref name="reflectance" id="tex"/></bsdf>
+  <bsdf type="twosided" id="two"><ref id="b"/></bsdf>
+  <emitter type="area" id="lamp"><rgb name="radiance" value="2, 3, 4"/></emitter>
+  <emitter type="area" id="texlamp"><ref name="radiance" id="tex"/></emitter>
+  <emitter type="projector"><ref name="irradiance" id="tex"/><float name="fov" value="30"/></emitter>
+  <medium type="homogeneous" id="fog"/>
+  <shape type="shapegroup" id="g"><shape type="sphere"><ref id="two"/></shape></shape>
+  <shape type="instance"><ref id="g"/></shape>
+  <shape type="sphere"><ref id="lamp"/><ref id="b"/><ref name="interior" id="fog"/></shape>
+  <shape type="rectangle"><ref id="texlamp"/></shape>
+</scene>"#;
+    let s = common::parse(xml).unwrap();
+    // The group's sphere is kept once, placed by the instance (not copied into the shapes).
+    assert_eq!(s.shape_groups.len(), 1);
+    assert_eq!(s.instances.len(), 1);
+    assert_eq!(s.shapes.len(), 2);
+    assert_eq!(s.shapes[0].emitter, Some(glam::Vec3::new(2.0, 3.0, 4.0)));
+    assert_eq!(s.shapes[0].emitter_texture, None);
+    assert!(s.shapes[0].bsdf.is_some());
+    assert_eq!(s.shapes[1].emitter, Some(glam::Vec3::ONE));
+    assert_eq!(s.shapes[1].emitter_texture, Some(0));
+    assert!(matches!(
+        s.lights[0],
+        torrey_parser::Light::Projector {
+            irradiance: torrey_parser::ColorParam::Texture(0),
+            ..
+        }
+    ));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].message.contains("not supported"),
+        "{:?}",
+        s.warnings
+    );
+
+    let cases = [
+        (
+            "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"><ref id=\"nope\"/></shape></scene>",
+            "reference to undefined id 'nope'",
+            "nope",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <texture type=\"checkerboard\" id=\"t\"/>\n  <shape type=\"sphere\"><ref id=\"t\"/></shape></scene>",
+            "<ref id=\"t\"> in a shape must name a bsdf, an area emitter or a medium",
+            "<ref",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"area\" id=\"e\"/>\n  <shape type=\"sphere\"><emitter type=\"area\"/><ref id=\"e\"/></shape></scene>",
+            "shape 'sphere' has more than one emitter",
+            "<ref",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <bsdf type=\"diffuse\" id=\"b\"/>\n  <emitter type=\"projector\"><ref name=\"irradiance\" id=\"b\"/></emitter></scene>",
+            "<ref id=\"b\"> must name a texture here",
+            "<ref",
+        ),
+        (
+            "<scene version=\"3.0.0\">\n  <emitter type=\"area\"/></scene>",
+            "an area emitter must be nested inside a <shape>",
+            "<emitter",
+        ),
+    ];
+    for (xml, message, at) in cases {
+        let e = common::parse(xml).unwrap_err();
+        assert_err(&e, message, pos_of(xml, at));
+    }
 }
 
 #[test]

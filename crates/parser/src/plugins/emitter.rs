@@ -1,24 +1,33 @@
-//! Emitter plugins outside shapes: `point`, `spot`, `directional`, `envmap`, `constant` (and
-//! torrey's `<background>`).
+//! Emitter plugins outside shapes: `point`, `spot`, `directional`, `envmap`, `constant`,
+//! `projector` (and torrey's `<background>`).
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
-use crate::plugins::bsdf::texture_ref;
+use crate::plugins::bsdf::{color_param, texture_ref};
+use crate::plugins::sensor::focal_length_fov;
 use crate::plugins::texture::{bitmap_element, parse_bitmap, parse_texture};
 use crate::props::Props;
-use crate::scene::Light;
+use crate::scene::{ColorParam, FovAxis, Light};
 use crate::transform::frame_problem;
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
 /// The types this parser reads (see `torrey_parser::accepted_plugins`).
-pub(crate) const KNOWN: &[&str] = &["point", "spot", "directional", "envmap", "constant", "area"];
+pub(crate) const KNOWN: &[&str] = &[
+    "point",
+    "spot",
+    "directional",
+    "envmap",
+    "constant",
+    "projector",
+    "area",
+];
 
 /// The emitters that may stand at the top level (all of [`KNOWN`] but `area`).
-const TOP_LEVEL: usize = 5;
+const TOP_LEVEL: usize = 6;
 
 /// Mitsuba 3 emitters the renderer cannot draw yet: a clear error at their place.
-const NOT_YET: &[&str] = &["projector", "directionalarea", "sunsky"];
+const NOT_YET: &[&str] = &["directionalarea", "sunsky"];
 
 /// Parses a top-level `<emitter>`.
 ///
@@ -40,6 +49,12 @@ const NOT_YET: &[&str] = &["projector", "directionalarea", "sunsky"];
 /// | `envmap` | `scale`, `intensity_scale` | float | 1 (both multiply) |
 /// | `envmap` | `to_world` | transform | identity (affine, invertible, axis scales 1e-6 to 1e6) |
 /// | `constant` | `radiance` | colour | 1 |
+/// | `projector` | `irradiance` | colour or texture (`<texture>`, `<ref>`) | required: irradiance on the image plane at z = 1 |
+/// | `projector` | `scale` | float | 1 |
+/// | `projector` | `fov` | float | from `focal_length` (degrees, 0 < fov < 180) |
+/// | `projector` | `focal_length` | string like `50mm` | `50mm`: fov along the diagonal of 36 x 24 mm film |
+/// | `projector` | `fov_axis` | string: x, y, diagonal, smaller, larger | x (with `fov`), of the irradiance texture's image (1 x 1 for a colour) |
+/// | `projector` | `to_world` | transform | identity (a pinhole at its origin projecting along its +z, +x to the image's left, as the perspective camera) |
 pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
     let ty = plugin_type(ctx, elem)?;
     if NOT_YET.contains(&ty) {
@@ -85,6 +100,7 @@ pub(crate) fn parse_emitter(ctx: &mut Ctx, elem: &Element) -> Result<Light> {
         }
         "spot" => parse_spot(ctx, &mut props, elem)?,
         "directional" => parse_directional(ctx, &mut props, elem)?,
+        "projector" => parse_projector(ctx, &mut props, elem)?,
         "constant" => Light::Constant {
             radiance: props.color(ctx, &["radiance"], Vec3::ONE)?,
         },
@@ -205,6 +221,114 @@ fn parse_spot(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light>
         cutoff_angle: cutoff.to_radians(),
         beam_width: beam.to_radians(),
         texture,
+    })
+}
+
+/// Mitsuba's `projector` (see [`parse_emitter`]'s table).
+fn parse_projector(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light> {
+    let textured = elem.children.iter().any(|c| {
+        c.attr_value("name") == Some("irradiance") && (c.tag == "texture" || c.tag == "ref")
+    });
+    let irradiance = if textured {
+        color_param(ctx, props, &["irradiance"], Vec3::ONE)?
+    } else if props.has(&["irradiance"]) {
+        ColorParam::Constant(props.color(ctx, &["irradiance"], Vec3::ONE)?)
+    } else {
+        return Err(ctx.err(
+            elem.pos,
+            "emitter 'projector' needs an 'irradiance' (a colour or a texture)",
+        ));
+    };
+    let (scale, scale_pos) = props
+        .opt_float_pos(ctx, &["scale"])?
+        .unwrap_or((1.0, elem.pos));
+    if !(scale >= 0.0 && scale.is_finite()) {
+        return Err(ctx.err(
+            scale_pos,
+            format!("the projector's scale must be a finite non-negative number, found {scale}"),
+        ));
+    }
+    let fov = props.opt_float_pos(ctx, &["fov"])?;
+    let focal = props.string(ctx, &["focal_length"])?;
+    let axis = props.string(ctx, &["fov_axis"])?;
+    let (fov_degrees, mut fov_axis) = match (fov, focal) {
+        (Some(_), Some(f)) => {
+            return Err(ctx.err(
+                f.value_pos,
+                "a projector takes 'fov' or 'focal_length', not both",
+            ))
+        }
+        (Some((f, pos)), None) => {
+            if !(f > 0.0 && f < 180.0) {
+                return Err(ctx.err(
+                    pos,
+                    format!("fov must be between 0 and 180 degrees, found {f}"),
+                ));
+            }
+            (f, FovAxis::X)
+        }
+        (None, Some(a)) => {
+            let mm = a
+                .value
+                .trim()
+                .strip_suffix("mm")
+                .and_then(|s| s.trim().parse::<f32>().ok())
+                .filter(|&v| v > 0.0 && v.is_finite())
+                .ok_or_else(|| {
+                    ctx.err(
+                        a.value_pos,
+                        format!(
+                            "cannot parse focal_length '{}' (expected e.g. 50mm)",
+                            a.value
+                        ),
+                    )
+                })?;
+            (focal_length_fov(mm), FovAxis::Diagonal)
+        }
+        (None, None) => (focal_length_fov(50.0), FovAxis::Diagonal),
+    };
+    if let Some(a) = axis {
+        if fov.is_none() {
+            ctx.warn(
+                a.value_pos,
+                "fov_axis without fov is ignored: Mitsuba measures focal_length along the diagonal",
+            );
+        } else {
+            fov_axis = match a.value.to_ascii_lowercase().as_str() {
+                "x" => FovAxis::X,
+                "y" => FovAxis::Y,
+                "diagonal" => FovAxis::Diagonal,
+                "smaller" => FovAxis::Smaller,
+                "larger" => FovAxis::Larger,
+                v => {
+                    return Err(ctx.err(
+                        a.value_pos,
+                        format!(
+                            "unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"
+                        ),
+                    ))
+                }
+            };
+        }
+    }
+    let to_world = match props.transform_pos(ctx, &["to_world"], false)? {
+        None => Mat4::IDENTITY,
+        Some((m, pos)) => {
+            if let Some(problem) = frame_problem(m) {
+                return Err(ctx.err(
+                    pos,
+                    format!("the projector's to_world cannot place a light: {problem}"),
+                ));
+            }
+            m
+        }
+    };
+    Ok(Light::Projector {
+        to_world,
+        irradiance,
+        scale,
+        fov_degrees,
+        fov_axis,
     })
 }
 

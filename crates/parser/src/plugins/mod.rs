@@ -6,7 +6,7 @@ pub(crate) mod sensor;
 pub(crate) mod shape;
 pub(crate) mod texture;
 
-use crate::context::Ctx;
+use crate::context::{Ctx, IdTarget};
 use crate::error::{ParseError, Result};
 use crate::include::{self, Sources};
 use crate::props::SKIPPED_TAGS;
@@ -153,6 +153,13 @@ pub(crate) fn parse_scene(
                 texture::parse_texture(&mut ctx, child)?;
             }
             "shape" => shapes.extend(shape::parse_shape(&mut ctx, child)?),
+            "emitter" if child.attr_value("type") == Some("area") && child.attr("id").is_some() => {
+                // Declared here, attached to shapes by `<ref>` (as Mitsuba allows).
+                let emission = shape::parse_area_emitter(&mut ctx, child)?;
+                ctx.area_emitters.push(emission);
+                let index = ctx.area_emitters.len() - 1;
+                ctx.register_id(child, IdTarget::AreaEmitter(index))?;
+            }
             "emitter" => {
                 let light = emitter::parse_emitter(&mut ctx, child)?;
                 has_background |= matches!(light, Light::Envmap { .. } | Light::Constant { .. });
@@ -162,7 +169,12 @@ pub(crate) fn parse_scene(
                 lights.push(emitter::parse_background(&mut ctx, child)?);
                 has_background = true;
             }
-            t if SKIPPED_TAGS.contains(&t) => ctx.warn_media(child, None),
+            t if SKIPPED_TAGS.contains(&t) => {
+                if t == "medium" {
+                    ctx.register_id(child, IdTarget::Medium)?;
+                }
+                ctx.warn_media(child, None)
+            }
             t @ ("film" | "sampler" | "rfilter") => {
                 return Err(ctx.err(child.pos, format!("<{t}> must be inside a <sensor>")));
             }

@@ -4,7 +4,7 @@ use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::files::input_file;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
-use crate::plugins::bsdf::parse_bsdf;
+use crate::plugins::bsdf::{color_param, parse_bsdf};
 use crate::props::Props;
 use crate::scene::{
     Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Instance, Shape, ShapeGroup,
@@ -326,6 +326,35 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
     })
 }
 
+/// An `<emitter type="area">` (inside a shape, or with an id outside one): its radiance, 1 with a
+/// texture, and the texture.
+pub(crate) fn parse_area_emitter(
+    ctx: &mut Ctx,
+    e: &Element,
+) -> Result<(Vec3, Option<crate::scene::TextureId>)> {
+    let ety = plugin_type(ctx, e)?;
+    if ety != "area" {
+        return Err(ctx.err(
+            e.pos,
+            format!("only area emitters can be attached to a shape, found '{ety}'"),
+        ));
+    }
+    let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
+    let textured = e.children.iter().any(|c| {
+        c.attr_value("name") == Some("radiance") && (c.tag == "texture" || c.tag == "ref")
+    });
+    let emission = if textured {
+        match color_param(ctx, &mut ep, &["radiance"], Vec3::ONE)? {
+            ColorParam::Texture(t) => (Vec3::ONE, Some(t)),
+            ColorParam::Constant(c) => (c, None),
+        }
+    } else {
+        (ep.color(ctx, &["radiance"], Vec3::ONE)?, None)
+    };
+    ep.finish(ctx);
+    Ok(emission)
+}
+
 /// Parses a `<shape>`; inline bsdfs are added to the scene.
 ///
 /// | shapes | name | type | default |
@@ -333,7 +362,7 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
 /// | all | `to_world` (`toWorld`) | transform | identity |
 /// | all | `flip_normals` (`flipNormals`) | boolean | false |
 /// | all | nested `<bsdf>` or `<ref>` | bsdf | none (Mitsuba's diffuse 0.5) |
-/// | all | nested `<emitter type="area">` | `radiance` colour, default 1 | none |
+/// | all | nested `<emitter type="area">` | `radiance`: colour (default 1), or a `<texture>` / `<ref>` (evaluated at the surface's uv) | none |
 /// | obj, ply, serialized | `filename` | string | required |
 /// | obj, ply, serialized | `face_normals` (`faceNormals`) | boolean | false |
 /// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
@@ -388,15 +417,25 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     }
 
     let mut candidates: Vec<&Element> = props.take_tag("bsdf");
+    let mut emitters = props.take_tag("emitter");
     for r in props.take_tag("ref") {
-        match r.attr_value("name") {
-            None | Some("bsdf") => candidates.push(r),
-            Some(n) => ctx.warn(
-                r.pos,
-                format!("<ref name=\"{n}\"> in {} is not used; ignored", props.owner),
-            ),
+        // Mitsuba resolves a shape's refs by what they name: a bsdf, an area emitter, a medium.
+        match ctx.lookup(r)? {
+            IdTarget::Bsdf(_) => candidates.push(r),
+            IdTarget::AreaEmitter(_) => emitters.push(r),
+            IdTarget::Medium => ctx.warn_media(r, Some(&props.owner)),
+            _ => {
+                return Err(ctx.err(
+                    r.pos,
+                    format!(
+                        "<ref id=\"{}\"> in a shape must name a bsdf, an area emitter or a medium",
+                        r.attr_value("id").unwrap_or("")
+                    ),
+                ))
+            }
         }
     }
+    emitters.sort_by_key(|e| (e.pos.line, e.pos.column));
     candidates.sort_by_key(|e| (e.pos.line, e.pos.column));
     if let Some(second) = candidates.get(1) {
         return Err(ctx.err(
@@ -421,7 +460,6 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         Some(e) => Some(parse_bsdf(ctx, e)?),
     };
 
-    let emitters = props.take_tag("emitter");
     if let Some(second) = emitters.get(1) {
         return Err(ctx.err(
             second.pos,
@@ -430,27 +468,15 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     }
     let emitter = match emitters.first() {
         None => None,
-        Some(e) => {
-            let ety = plugin_type(ctx, e)?;
-            if ety != "area" {
-                return Err(ctx.err(
-                    e.pos,
-                    format!("only area emitters can be attached to a shape, found '{ety}'"),
-                ));
-            }
-            let mut ep = Props::new(ctx, e, "emitter 'area'".into())?;
-            if let Some(t) = e.children.iter().find(|c| {
-                c.attr_value("name") == Some("radiance") && (c.tag == "texture" || c.tag == "ref")
-            }) {
-                return Err(ctx.err(
-                    t.pos,
-                    "a textured area emitter radiance is not supported yet (give a colour)",
-                ));
-            }
-            let radiance = ep.color(ctx, &["radiance"], Vec3::ONE)?;
-            ep.finish(ctx);
-            Some(radiance)
-        }
+        Some(e) if e.tag == "ref" => match ctx.lookup(e)? {
+            IdTarget::AreaEmitter(i) => Some(ctx.area_emitters[i]),
+            _ => unreachable!("only area emitter refs are collected as emitters"),
+        },
+        Some(e) => Some(parse_area_emitter(ctx, e)?),
+    };
+    let (emitter, emitter_texture) = match emitter {
+        Some((radiance, texture)) => (Some(radiance), texture),
+        None => (None, None),
     };
     // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
     // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
@@ -474,6 +500,7 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         to_world,
         bsdf,
         emitter,
+        emitter_texture,
         flip_normals,
         location: ctx.location(elem.pos),
     }])

@@ -54,6 +54,11 @@ impl PerspectiveCamera {
         }
     }
 
+    /// tan of half the horizontal field of view (the image plane's half width at z = 1).
+    pub fn tan_half_x(&self) -> f32 {
+        self.tan_half.x
+    }
+
     pub fn width(&self) -> u32 {
         self.width
     }

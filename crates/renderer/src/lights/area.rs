@@ -1,11 +1,15 @@
-//! A diffuse area emitter on a shape (Mitsuba's `area`): constant radiance, one-sided (along the
-//! possibly flipped normal only). Meshes are sampled uniformly by area, spheres by the solid
-//! angle they subtend; each shape's file holds its sampling and pdf.
+//! A diffuse area emitter on a shape (Mitsuba's `area`): constant or textured radiance
+//! (emission_texture.rs), one-sided (along the possibly flipped normal only). Meshes are sampled
+//! uniformly by area, spheres by the solid angle they subtend (each shape's file holds its
+//! sampling and pdf); a bitmap radiance on a rectangle or sphere by the texture's luminance.
 
+use super::emission_texture::EmissionTexture;
 use super::{LightDraw, LightSample};
 use crate::shapes::mesh::MeshEmitter;
 use crate::shapes::sphere::Sphere;
+use crate::textures::Texture;
 use glam::{Vec2, Vec3A};
+use torrey_texture::Footprint;
 
 /// The geometry an area light samples from.
 pub enum AreaEmitter {
@@ -15,16 +19,32 @@ pub enum AreaEmitter {
 
 /// An emitting shape.
 pub struct AreaLight {
+    /// The radiance, or with `texture` its scale (1).
     pub radiance: Vec3A,
+    /// A textured radiance: the texture at the surface's uv.
+    pub texture: Option<EmissionTexture>,
     pub emitter: AreaEmitter,
     pub flip_normals: bool,
 }
 
 impl AreaLight {
+    /// The radiance leaving the emitting side at surface coordinates `uv`.
+    #[inline]
+    pub fn radiance_at(&self, textures: &[Texture], uv: Vec2) -> Vec3A {
+        match &self.texture {
+            None => self.radiance,
+            Some(t) => self.radiance * textures[t.texture as usize].eval(uv, Footprint::POINT),
+        }
+    }
+
     /// The part of a sample that does not depend on the shading point: a point on an emitting
     /// mesh ([`super::Light::draw`]); spheres sample by solid angle, so they defer.
     #[inline(always)]
     pub fn draw(&self, u: Vec2) -> LightDraw {
+        if self.texture.is_some() {
+            // A textured radiance needs the point's uv: drawn in `sample_deferred`.
+            return LightDraw::Deferred(u);
+        }
         match &self.emitter {
             AreaEmitter::Mesh(mesh) => {
                 let (q, normal) = mesh.sample_point(u);
@@ -35,7 +55,9 @@ impl AreaLight {
         }
     }
 
-    /// The connection from `p` to point `q` (normal `n`) drawn on an emitting mesh.
+    /// The connection from `p` to point `q` (normal `n`) drawn on an emitting mesh. A textured
+    /// radiance needs the point's uv, which a point drawn by area does not carry: such meshes
+    /// are not drawn early ([`AreaLight::sample_deferred`]).
     #[inline(always)]
     pub fn connect_point(&self, q: Vec3A, n: Vec3A, p: Vec3A) -> Option<LightSample> {
         let AreaEmitter::Mesh(mesh) = &self.emitter else {
@@ -61,11 +83,47 @@ impl AreaLight {
         })
     }
 
-    /// A sample of a sphere emitter from `p` (mesh emitters are drawn by [`AreaLight::draw`]).
+    /// A sample of a sphere emitter, or of a texture-sampled emitter, from `p` (other mesh
+    /// emitters are drawn by [`AreaLight::draw`]).
     #[inline(always)]
-    pub fn sample_deferred(&self, p: Vec3A, u: Vec2) -> Option<LightSample> {
-        let AreaEmitter::Sphere(sphere) = &self.emitter else {
-            unreachable!("mesh lights are drawn by `AreaLight::draw`");
+    pub fn sample_deferred(&self, p: Vec3A, u: Vec2, textures: &[Texture]) -> Option<LightSample> {
+        if let Some(t) = &self.texture {
+            if let Some((texels, map)) = &t.sampling {
+                // Mitsuba's area.cpp: a uv by the texture, mapped onto the shape.
+                let (uv, p_uv) = texels.sample(u);
+                let (q, normal, jacobian) = map.eval(uv);
+                let n = if self.flip_normals { -normal } else { normal };
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0 && jacobian > 0.0 && p_uv > 0.0) {
+                    return None;
+                }
+                let wi = d / dist;
+                let cos_light = -n.dot(wi);
+                if cos_light.is_nan() || cos_light <= 0.0 {
+                    return None;
+                }
+                return Some(LightSample {
+                    wi,
+                    dist,
+                    radiance: self.radiance_at(textures, uv),
+                    pdf: p_uv / jacobian * dist2 / cos_light,
+                    is_delta: false,
+                });
+            }
+        }
+        let sphere = match &self.emitter {
+            AreaEmitter::Sphere(sphere) => sphere,
+            AreaEmitter::Mesh(mesh) => {
+                // A textured mesh sampled by area: as `connect_point`, with the point's uv.
+                let (q, normal, uv) = mesh.sample_point_uv(u);
+                let n = if self.flip_normals { -normal } else { normal };
+                return self.connect_point(q, n, p).map(|ls| LightSample {
+                    radiance: self.radiance_at(textures, uv),
+                    ..ls
+                });
+            }
         };
         let s = sphere.sample_solid_angle(p, u)?;
         let mut n: Vec3A = s.normal.into();
@@ -81,19 +139,34 @@ impl AreaLight {
         if n.dot(wi) >= 0.0 {
             return None;
         }
+        let radiance = match &self.texture {
+            None => self.radiance,
+            Some(_) => self.radiance_at(textures, sphere.uv_of_normal(s.normal.into())),
+        };
         Some(LightSample {
             wi,
             dist,
-            radiance: self.radiance,
+            radiance,
             pdf: s.pdf,
             is_delta: false,
         })
     }
 
     /// Solid-angle pdf that sampling from `p` produces direction `wi` hitting this light at
-    /// distance `dist` where its normal is `n_light`.
+    /// distance `dist` where its normal is `n_light` and its uv `uv`.
     #[inline]
-    pub fn pdf_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A) -> f32 {
+    pub fn pdf_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A, uv: Vec2) -> f32 {
+        if let Some(t) = &self.texture {
+            if let Some((texels, map)) = &t.sampling {
+                let cos = n_light.dot(wi).abs();
+                let jacobian = map.jacobian(uv);
+                return if cos > 0.0 && jacobian > 0.0 {
+                    texels.pdf(uv) / jacobian * dist * dist / cos
+                } else {
+                    0.0
+                };
+            }
+        }
         match &self.emitter {
             AreaEmitter::Mesh(mesh) => {
                 let cos = n_light.dot(wi).abs();

@@ -7,17 +7,22 @@
 mod area;
 mod constant;
 mod directional;
+mod emission_texture;
 mod envmap;
 mod point;
+mod projector;
 mod spot;
 
 pub use area::{AreaEmitter, AreaLight};
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
+pub use emission_texture::{EmissionTexture, TexelDistribution, UvMap};
 pub use envmap::EnvLight;
 pub use point::PointLight;
+pub use projector::ProjectorLight;
 pub use spot::SpotLight;
 
+use crate::textures::Texture;
 use glam::{Vec2, Vec3A};
 
 /// A light of the scene.
@@ -31,6 +36,8 @@ pub enum Light {
     Area(AreaLight),
     Constant(ConstantLight),
     Env(Box<EnvLight>),
+    /// Mitsuba's `projector`: a delta-position light projecting a texture.
+    Projector(ProjectorLight),
 }
 
 /// A sampled light connection from a shading point.
@@ -90,33 +97,46 @@ impl Light {
     /// carries no energy. `uniform_env` samples environment maps uniformly over the sphere
     /// instead of by luminance (only for measuring what importance sampling gains).
     #[inline(always)]
-    pub fn connect(&self, draw: LightDraw, p: Vec3A, uniform_env: bool) -> Option<LightSample> {
+    pub fn connect(
+        &self,
+        draw: LightDraw,
+        p: Vec3A,
+        uniform_env: bool,
+        textures: &[Texture],
+    ) -> Option<LightSample> {
         match (draw, self) {
             (LightDraw::MeshPoint { q, n }, Light::Area(area)) => area.connect_point(q, n, p),
             (LightDraw::MeshPoint { .. }, _) => unreachable!("mesh points come from mesh lights"),
-            (LightDraw::Deferred(u), _) => self.sample_deferred(p, u, uniform_env),
+            (LightDraw::Deferred(u), _) => self.sample_deferred(p, u, uniform_env, textures),
         }
     }
 
     /// The lights that [`Light::draw`] leaves entirely to [`Light::connect`].
     #[inline(always)]
-    fn sample_deferred(&self, p: Vec3A, u: Vec2, uniform_env: bool) -> Option<LightSample> {
+    fn sample_deferred(
+        &self,
+        p: Vec3A,
+        u: Vec2,
+        uniform_env: bool,
+        textures: &[Texture],
+    ) -> Option<LightSample> {
         match self {
             Light::Point(point) => point.sample(p),
             Light::Spot(spot) => spot.sample(p),
             Light::Directional(directional) => directional.sample(),
-            Light::Area(area) => area.sample_deferred(p, u),
+            Light::Area(area) => area.sample_deferred(p, u, textures),
             Light::Constant(constant) => constant.sample(u),
             Light::Env(env) => env.sample(u, uniform_env),
+            Light::Projector(projector) => projector.sample(p, textures),
         }
     }
 
     /// Solid-angle pdf that [`Light::connect`] from `p` produces direction `wi` hitting this
-    /// (area) light at distance `dist` where the light's normal is `n_light`.
+    /// (area) light at distance `dist` where the light's normal is `n_light` and its uv `uv`.
     #[inline]
-    pub fn pdf_area_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A) -> f32 {
+    pub fn pdf_area_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A, uv: Vec2) -> f32 {
         match self {
-            Light::Area(area) => area.pdf_hit(p, wi, dist, n_light),
+            Light::Area(area) => area.pdf_hit(p, wi, dist, n_light, uv),
             _ => 0.0,
         }
     }
@@ -168,6 +188,7 @@ mod tests {
         ];
         Light::Area(AreaLight {
             radiance: Vec3A::ONE,
+            texture: None,
             emitter: AreaEmitter::Mesh(MeshEmitter::from_triangles(geometry)),
             flip_normals: false,
         })
@@ -188,7 +209,7 @@ mod tests {
         for _ in 0..n {
             let u = rng.vec2();
             let ls = light
-                .connect(light.draw(u), p, false)
+                .connect(light.draw(u), p, false, &[])
                 .expect("the light faces p");
             let q = p + ls.wi * ls.dist;
             assert!(q.z.abs() < 1e-4, "{q}");
@@ -200,7 +221,7 @@ mod tests {
                 _ => 4,
             };
             counts[strip] += 1.0;
-            let hit_pdf = light.pdf_area_hit(p, ls.wi, ls.dist, Vec3A::Z);
+            let hit_pdf = light.pdf_area_hit(p, ls.wi, ls.dist, Vec3A::Z, Vec2::ZERO);
             assert!(
                 (ls.pdf - hit_pdf).abs() <= 1e-4 * hit_pdf,
                 "{} vs {hit_pdf}",
@@ -219,7 +240,7 @@ mod tests {
         for _ in 0..1000 {
             let u = rng.vec2();
             let below = Vec3A::new(2.0, 0.5, -1.0);
-            assert!(light.connect(light.draw(u), below, false).is_none());
+            assert!(light.connect(light.draw(u), below, false, &[]).is_none());
         }
     }
 }

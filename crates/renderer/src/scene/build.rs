@@ -7,13 +7,14 @@ use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
 use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
 use crate::lights::{
-    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
+    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EmissionTexture, EnvLight, Light,
+    PointLight, ProjectorLight, SpotLight, TexelDistribution, UvMap,
 };
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
 use crate::textures::{ColorSource, Texture};
-use glam::{Mat3, Vec3A};
+use glam::{Mat3, Mat4, Vec3A};
 use torrey_light::EnvMap;
 use torrey_parser as desc;
 use torrey_texture::{BitmapTexture, MipMap};
@@ -136,14 +137,22 @@ impl RenderScene {
                         && !shape_prims.is_empty()
                         && group.is_none() =>
                 {
+                    let textured = shape.emitter_texture.is_some();
                     let emitter = match kind {
                         ShapeKind::Sphere(sphere) => AreaEmitter::Sphere(sphere),
+                        ShapeKind::Mesh(_) if textured => {
+                            AreaEmitter::Mesh(MeshEmitter::with_uvs(&mesh, shape_prims))
+                        }
                         ShapeKind::Mesh(_) => {
                             AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
                         }
                     };
+                    let texture = shape
+                        .emitter_texture
+                        .map(|t| emission_texture(t as u32, &textures, shape, &kind, shape_prims));
                     lights.push(Light::Area(AreaLight {
                         radiance: radiance.into(),
+                        texture,
                         emitter,
                         flip_normals: shape.flip_normals,
                     }));
@@ -155,6 +164,7 @@ impl RenderScene {
                 kind,
                 material: shape.bsdf.map_or(default_material, |b| b as u32),
                 area_light,
+                textured_emission: area_light.is_some() && shape.emitter_texture.is_some(),
                 flip_normals: shape.flip_normals,
             });
         }
@@ -207,6 +217,36 @@ impl RenderScene {
                 desc::Light::Constant { radiance } => Light::Constant(ConstantLight {
                     radiance: (*radiance).into(),
                 }),
+                desc::Light::Projector {
+                    to_world,
+                    irradiance,
+                    scale,
+                    fov_degrees,
+                    fov_axis,
+                } => {
+                    let (irradiance, (w, h)) = match irradiance {
+                        desc::ColorParam::Constant(c) => {
+                            (ColorSource::Constant((*c).into()), (1, 1))
+                        }
+                        desc::ColorParam::Texture(t) => (
+                            ColorSource::Texture(*t as u32),
+                            match &textures[*t] {
+                                Texture::Bitmap(b) => (b.mip().width(), b.mip().height()),
+                                _ => (1, 1),
+                            },
+                        ),
+                    };
+                    // The field of view as a perspective camera of the texture's size has it.
+                    let camera =
+                        PerspectiveCamera::new(Mat4::IDENTITY, *fov_degrees, *fov_axis, w, h);
+                    Light::Projector(ProjectorLight::new(
+                        *to_world,
+                        irradiance,
+                        *scale,
+                        camera.tan_half_x(),
+                        w as f32 / h as f32,
+                    ))
+                }
                 desc::Light::Envmap {
                     bitmap,
                     scale,
@@ -337,6 +377,41 @@ fn load_bitmap_image(
 }
 
 /// A texture of the scene from its description, its bitmap loaded and mip-mapped.
+/// A textured area emitter's radiance: texture `index`, sampled by its luminance where Mitsuba
+/// inverts the shape's uv map (a bitmap without a uv transform on a rectangle or a sphere).
+fn emission_texture(
+    index: u32,
+    textures: &[Texture],
+    shape: &desc::Shape,
+    kind: &ShapeKind,
+    prims: &[PrimInfo],
+) -> EmissionTexture {
+    let map = match (&shape.geometry, kind) {
+        (desc::Geometry::Rectangle, _) => prims.first().map(|prim| UvMap::Rectangle {
+            origin: shape.to_world.transform_point3(glam::Vec3::ZERO).into(),
+            ax: shape.to_world.transform_vector3(glam::Vec3::X).into(),
+            ay: shape.to_world.transform_vector3(glam::Vec3::Y).into(),
+            normal: prim.ng,
+        }),
+        (_, ShapeKind::Sphere(sphere)) => Some(UvMap::Sphere {
+            center: sphere.center,
+            radius: sphere.radius,
+            to_world: sphere.to_object.transpose(),
+        }),
+        _ => None,
+    };
+    let sampling = match (&textures[index as usize], map) {
+        (Texture::Bitmap(b), Some(map)) if b.to_uv() == glam::Affine2::IDENTITY => {
+            TexelDistribution::new(b.mip().level(0)).map(|d| (d, map))
+        }
+        _ => None,
+    };
+    EmissionTexture {
+        texture: index,
+        sampling,
+    }
+}
+
 fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Texture, BuildError> {
     Ok(match &t.kind {
         desc::TextureKind::Bitmap(bitmap) => {

@@ -146,7 +146,7 @@ impl RenderScene {
         let shape = &self.shapes[prim.shape as usize];
         let material = &self.materials[shape.material as usize];
         // Anisotropic BSDFs need dp/du for their tangent frame.
-        let needs_uv = material.is_textured() || material.anisotropic;
+        let needs_uv = material.is_textured() || material.anisotropic || shape.textured_emission;
         shape.surface(&self.mesh, prim, ray, hit, needs_uv)
     }
 

@@ -196,6 +196,9 @@ pub struct MeshEmitter {
     total_area: f32,
     triangles: AliasTable,
     geometry: Vec<EmitterTriangle>,
+    /// Each triangle's vertex uvs, for a textured radiance ([`MeshEmitter::with_uvs`]; empty
+    /// otherwise).
+    uvs: Vec<[Vec2; 3]>,
 }
 
 impl MeshEmitter {
@@ -232,7 +235,35 @@ impl MeshEmitter {
             total_area,
             triangles: AliasTable::new(&areas),
             geometry,
+            uvs: Vec::new(),
         }
+    }
+
+    /// [`MeshEmitter::new`] that also keeps the triangles' uvs (zero without any), for
+    /// [`MeshEmitter::sample_point_uv`].
+    pub fn with_uvs(mesh: &MeshData, prims: &[PrimInfo]) -> Self {
+        let mut emitter = Self::new(mesh, prims);
+        emitter.uvs = prims
+            .iter()
+            .map(|prim| {
+                prim.indices
+                    .map(|i| mesh.uvs.get(i as usize).copied().unwrap_or(Vec2::ZERO))
+            })
+            .collect();
+        emitter
+    }
+
+    /// [`MeshEmitter::sample_point`] with the point's interpolated uv (needs
+    /// [`MeshEmitter::with_uvs`]).
+    #[inline]
+    pub fn sample_point_uv(&self, u: Vec2) -> (Vec3A, Vec3A, Vec2) {
+        let (index, u_rest) = self.triangles.sample(u.x);
+        let tri = &self.geometry[index];
+        let (b1, b2) = sample_triangle_uniform(Vec2::new(u_rest, u.y));
+        let uv = self.uvs.get(index).map_or(Vec2::ZERO, |t| {
+            t[0] * (1.0 - b1 - b2) + t[1] * b1 + t[2] * b2
+        });
+        (tri.p0 + b1 * tri.e1 + b2 * tri.e2, tri.normal, uv)
     }
 
     /// A point uniform over the mesh's area and the face normal there (before `flip_normals`).

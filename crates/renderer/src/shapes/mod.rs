@@ -60,6 +60,8 @@ pub struct Shape {
     pub kind: ShapeKind,
     pub material: u32,
     pub area_light: Option<u32>,
+    /// The shape emits a textured radiance: its hits need uv.
+    pub textured_emission: bool,
     pub flip_normals: bool,
 }
 

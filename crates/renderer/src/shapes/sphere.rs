@@ -37,6 +37,12 @@ impl Sphere {
         }
     }
 
+    /// Mitsuba's uv of the point with outward unit normal `n`.
+    #[inline]
+    pub fn uv_of_normal(&self, n: Vec3A) -> Vec2 {
+        sphere_uv(self.to_object * n).0
+    }
+
     /// The sphere as a BVH primitive.
     pub fn prim_geom(&self) -> PrimGeom {
         PrimGeom::Sphere {
