@@ -309,6 +309,8 @@ pub enum BsdfKind {
         distribution: MicrofacetType,
         alpha_u: ColorParam,
         alpha_v: ColorParam,
+        /// Mitsuba's `sample_visible`: sample the visible normals (true) or D(m) cos θm.
+        sample_visible: bool,
         eta: f32,
         specular_reflectance: ColorParam,
         specular_transmittance: ColorParam,
@@ -324,6 +326,8 @@ pub enum BsdfKind {
         distribution: MicrofacetType,
         alpha_u: ColorParam,
         alpha_v: ColorParam,
+        /// Mitsuba's `sample_visible`: sample the visible normals (true) or D(m) cos θm.
+        sample_visible: bool,
         eta: ColorParam,
         k: ColorParam,
         specular_reflectance: ColorParam,
@@ -351,6 +355,8 @@ pub enum BsdfKind {
     RoughPlastic {
         distribution: MicrofacetType,
         alpha: f32,
+        /// Mitsuba's `sample_visible`.
+        sample_visible: bool,
         diffuse_reflectance: ColorParam,
         specular_reflectance: ColorParam,
         eta: f32,

@@ -312,14 +312,14 @@ fn eta_param(ctx: &Ctx, props: &mut Props, elem: &Element, int_default: f32) -> 
     Ok(int_ior / ext_ior)
 }
 
-/// Mitsuba's microfacet `distribution` (default beckmann) and roughness: `alpha` for both
-/// axes, or `alpha_u` and `alpha_v` together (default 0.1).
+/// Mitsuba's microfacet `distribution` (default beckmann), roughness (`alpha` for both axes, or
+/// `alpha_u` and `alpha_v` together; default 0.1) and `sample_visible` (default true).
 fn roughness(
     ctx: &mut Ctx,
     props: &mut Props,
     elem: &Element,
     anisotropic: bool,
-) -> Result<(MicrofacetType, ColorParam, ColorParam)> {
+) -> Result<(MicrofacetType, ColorParam, ColorParam, bool)> {
     let distribution = match props.string(ctx, &["distribution"])? {
         None => MicrofacetType::Beckmann,
         Some(a) => match a.value.to_ascii_lowercase().as_str() {
@@ -336,8 +336,7 @@ fn roughness(
             }
         },
     };
-    // sample_visible: torrey always samples visible normals (the same image, less noise).
-    props.boolean(ctx, &["sample_visible"], true)?;
+    let sample_visible = props.boolean(ctx, &["sample_visible"], true)?;
     if anisotropic && props.has(&["alpha_u", "alpha_v"]) {
         if props.has(&["alpha"]) || !(props.has(&["alpha_u"]) && props.has(&["alpha_v"])) {
             return Err(ctx.err(
@@ -350,10 +349,10 @@ fn roughness(
         }
         let u = float_param(ctx, props, &["alpha_u"], 0.1)?;
         let v = float_param(ctx, props, &["alpha_v"], 0.1)?;
-        return Ok((distribution, u, v));
+        return Ok((distribution, u, v, sample_visible));
     }
     let a = float_param(ctx, props, &["alpha"], 0.1)?;
-    Ok((distribution, a.clone(), a))
+    Ok((distribution, a.clone(), a, sample_visible))
 }
 
 /// Mitsuba's conductor parameters: `eta` and `k` (colours or textures), or a named
@@ -409,7 +408,7 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | `roughdielectric`, `roughconductor`, `roughplastic` | `distribution` | string | beckmann (or ggx) |
 /// | same | `alpha` | float or texture (roughplastic: float) | 0.1 |
 /// | `roughdielectric`, `roughconductor` | `alpha_u`, `alpha_v` | float or texture | both or neither |
-/// | same | `sample_visible` | boolean | true (visible normals are always sampled) |
+/// | `roughdielectric`, `roughconductor`, `roughplastic` | `sample_visible` | boolean | true: sample the visible normals; false: D(m) cos θm |
 /// | `conductor`, `roughconductor` | `material` | string (table below) | none: η 0, k 1 |
 /// | same | `eta`, `k` | colour or texture | 0, 1 |
 /// | same | `specular_reflectance` | colour or texture | 1 |
@@ -569,11 +568,13 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             )?,
         }),
         "roughdielectric" => {
-            let (distribution, alpha_u, alpha_v) = roughness(ctx, &mut props, elem, true)?;
+            let (distribution, alpha_u, alpha_v, sample_visible) =
+                roughness(ctx, &mut props, elem, true)?;
             plain(BsdfKind::RoughDielectric {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta: eta_param(ctx, &mut props, elem, 1.5046)?,
                 specular_reflectance: color_param(
                     ctx,
@@ -603,12 +604,14 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
         "roughconductor" => {
-            let (distribution, alpha_u, alpha_v) = roughness(ctx, &mut props, elem, true)?;
+            let (distribution, alpha_u, alpha_v, sample_visible) =
+                roughness(ctx, &mut props, elem, true)?;
             let (eta, k) = conductor_ior(ctx, &mut props)?;
             plain(BsdfKind::RoughConductor {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta,
                 k,
                 specular_reflectance: color_param(
@@ -620,7 +623,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
         "roughplastic" => {
-            let (distribution, alpha, _) = roughness(ctx, &mut props, elem, false)?;
+            let (distribution, alpha, _, sample_visible) =
+                roughness(ctx, &mut props, elem, false)?;
             let ColorParam::Constant(alpha) = alpha else {
                 return Err(ctx.err(
                     elem.pos,
@@ -630,6 +634,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             plain(BsdfKind::RoughPlastic {
                 distribution,
                 alpha: alpha.x,
+                sample_visible,
                 diffuse_reflectance: color_param(
                     ctx,
                     &mut props,

@@ -362,6 +362,7 @@ impl BsdfParams {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta,
                 specular_reflectance,
                 specular_transmittance,
@@ -369,6 +370,7 @@ impl BsdfParams {
                 kind: microfacet(distribution),
                 alpha_u: float_tex(alpha_u),
                 alpha_v: float_tex(alpha_v),
+                sample_visible: *sample_visible,
                 eta: *eta,
                 specular_reflectance: color(specular_reflectance),
                 specular_transmittance: color(specular_transmittance),
@@ -386,6 +388,7 @@ impl BsdfParams {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta,
                 k,
                 specular_reflectance,
@@ -393,6 +396,7 @@ impl BsdfParams {
                 kind: microfacet(distribution),
                 alpha_u: float_tex(alpha_u),
                 alpha_v: float_tex(alpha_v),
+                sample_visible: *sample_visible,
                 eta: color(eta),
                 k: color(k),
                 specular_reflectance: color(specular_reflectance),
@@ -400,18 +404,23 @@ impl BsdfParams {
             BsdfKind::RoughPlastic {
                 distribution,
                 alpha,
+                sample_visible,
                 diffuse_reflectance,
                 specular_reflectance,
                 eta,
                 nonlinear,
-            } => BsdfParams::RoughPlastic(RoughPlasticParams::new(
-                color(diffuse_reflectance),
-                color(specular_reflectance),
-                microfacet(distribution),
-                *alpha,
-                *eta,
-                *nonlinear,
-            )),
+            } => {
+                let mut p = RoughPlasticParams::new(
+                    color(diffuse_reflectance),
+                    color(specular_reflectance),
+                    microfacet(distribution),
+                    *alpha,
+                    *eta,
+                    *nonlinear,
+                );
+                p.distr.visible = *sample_visible;
+                BsdfParams::RoughPlastic(p)
+            }
             BsdfKind::Diffuse { reflectance } => BsdfParams::Diffuse(DiffuseParams {
                 reflectance: color(reflectance),
             }),
