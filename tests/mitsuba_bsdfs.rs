@@ -168,6 +168,12 @@ verdict_tests!(
     blendbsdf_env,
     blendbsdf_area,
     mask_env,
+    bumpmap_env,
+    bumpmap_area,
+    normalmap_env,
+    normalmap_area,
+    sample_visible_env,
+    sample_visible_area,
 );
 
 /// `mask` under an area light is judged against the truth rather than Mitsuba: with direct light

@@ -39,6 +39,22 @@ impl BitmapTexture {
     }
 }
 
+impl BitmapTexture {
+    /// The gradient with respect to (u, v) of the texture's luminance (Rec. 709 weights; a grey
+    /// image's value), bilinearly interpolated at the finest level: Mitsuba 3's bitmap
+    /// `eval_1_grad`, which `bumpmap` reads. Like Mitsuba, the texel-space partials go through
+    /// the transpose of `to_uv`'s linear part and are then scaled by the resolution.
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        let st = self.to_uv.transform_point2(uv);
+        let g = self
+            .mip
+            .bilinear_gradient(st, |c| 0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z);
+        let m = self.to_uv.matrix2;
+        let g = Vec2::new(m.x_axis.dot(g), m.y_axis.dot(g));
+        g * Vec2::new(self.mip.width() as f32, self.mip.height() as f32)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,8 @@ use crate::error::Result;
 use crate::plugins::texture::parse_texture;
 use crate::props::Props;
 use crate::scene::{
-    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, MicrofacetType, TextureId, TextureKind,
+    Bsdf, BsdfId, BsdfKind, BumpMap, ColorParam, Dialect, MicrofacetType, PerturbOptions,
+    TextureId, TextureKind,
 };
 use crate::xml::Element;
 use glam::Vec3;
@@ -35,6 +36,7 @@ pub(crate) const KNOWN: &[&str] = &[
     "twosided",
     "normalmap",
     "roughdiffuse",
+    "bumpmap",
 ];
 
 /// Mitsuba 3's named conductors (`material`), as its RGB variants see them: the tabulated
@@ -158,6 +160,14 @@ fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
             ),
         )),
     }
+}
+
+/// `flip_invalid_normals` and `use_shadowing_function` of Mitsuba's `normalmap` and `bumpmap`.
+fn perturb_options(ctx: &Ctx, props: &mut Props) -> Result<PerturbOptions> {
+    Ok(PerturbOptions {
+        flip_invalid_normals: props.boolean(ctx, &["flip_invalid_normals"], true)?,
+        use_shadowing_function: props.boolean(ctx, &["use_shadowing_function"], true)?,
+    })
 }
 
 /// A normal map parameter: a bitmap texture (inline or by ref), always read raw.
@@ -424,6 +434,10 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | `mask` | `opacity`; one nested bsdf | float or texture; bsdf | 0.5; required |
 /// | `null` | none | | |
 /// | `normalmap` | `normalmap` texture + nested bsdf | bitmap, bsdf | required |
+/// | `bumpmap` | one nested texture (any name) + nested bsdf | float texture (bitmap: luminance), bsdf | required |
+/// | `bumpmap` | `scale` | float | 1 (multiplies the height gradient) |
+/// | `normalmap`, `bumpmap` | `flip_invalid_normals` | boolean | true (Mitsuba-dialect scenes) |
+/// | `normalmap`, `bumpmap` | `use_shadowing_function` | boolean | true (Mitsuba-dialect scenes) |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
@@ -435,6 +449,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
         kind,
         two_sided: false,
         normal_map: None,
+        bump_map: None,
+        perturb: Default::default(),
     };
     let mut bsdf = match ty {
         "twosided" => {
@@ -451,6 +467,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                     },
                     two_sided: true,
                     normal_map: None,
+                    bump_map: None,
+                    perturb: Default::default(),
                 }
             } else {
                 let mut inner = nested.pop().unwrap();
@@ -466,7 +484,63 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                 ));
             };
             let mut inner = nested_bsdf(ctx, &mut props, elem)?;
+            if inner.normal_map.is_some() || inner.bump_map.is_some() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'normalmap' around a bsdf that is already normal- or bump-mapped is not supported",
+                ));
+            }
             inner.normal_map = Some(map);
+            inner.perturb = perturb_options(ctx, &mut props)?;
+            inner
+        }
+        "bumpmap" => {
+            let scale = props.float(ctx, &["scale"], 1.0)?;
+            let perturb = perturb_options(ctx, &mut props)?;
+            // The height field: the one nested <texture> (any name) or a <ref> to a texture.
+            let mut heights: Vec<TextureId> = Vec::new();
+            for e in props.take_tag("texture") {
+                heights.push(parse_texture(ctx, e)?);
+            }
+            let mut bsdf_refs = Vec::new();
+            for e in props.take_tag("ref") {
+                match ctx.lookup(e)? {
+                    IdTarget::Texture(t) => heights.push(t),
+                    _ => bsdf_refs.push(e),
+                }
+            }
+            if heights.len() != 1 {
+                return Err(ctx.err(
+                    elem.pos,
+                    format!(
+                        "bsdf 'bumpmap' needs exactly one nested height <texture>, found {}",
+                        heights.len()
+                    ),
+                ));
+            }
+            let mut nested: Vec<&Element> = props.take_tag("bsdf");
+            nested.extend(bsdf_refs);
+            if nested.len() != 1 {
+                return Err(ctx.err(
+                    elem.pos,
+                    format!(
+                        "bsdf 'bumpmap' needs exactly one nested bsdf, found {}",
+                        nested.len()
+                    ),
+                ));
+            }
+            let mut inner = nested_bsdf_value(ctx, nested[0])?;
+            if inner.normal_map.is_some() || inner.bump_map.is_some() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'bumpmap' around a bsdf that is already normal- or bump-mapped is not supported",
+                ));
+            }
+            inner.bump_map = Some(BumpMap {
+                texture: heights[0],
+                scale,
+            });
+            inner.perturb = perturb;
             inner
         }
         "diffuse" => plain(BsdfKind::Diffuse {
@@ -673,7 +747,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
     };
-    if ty != "twosided" && ty != "normalmap" {
+    if ty != "twosided" && ty != "normalmap" && ty != "bumpmap" {
         if let Some(map) = normal_map_param(ctx, &mut props, &["normal_map", "normalmap"])? {
             bsdf.normal_map = Some(map);
         }

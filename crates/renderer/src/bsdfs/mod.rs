@@ -38,6 +38,7 @@ pub mod fresnel;
 pub mod microfacet;
 mod mirror;
 mod null;
+mod perturbed;
 mod phong;
 mod plastic;
 mod rough_conductor;
@@ -59,6 +60,7 @@ pub use flags::BsdfFlags;
 pub use microfacet::MicrofacetKind;
 pub use mirror::{Mirror, MirrorParams};
 pub use null::Null;
+pub use perturbed::Perturbation;
 pub use phong::{Phong, PhongParams};
 pub use plastic::{Plastic, PlasticParams};
 pub use rough_conductor::{RoughConductor, RoughConductorParams};
@@ -548,6 +550,8 @@ pub enum BackSide<'a> {
 pub struct SurfaceBsdf<'a> {
     pub front: Bsdf<'a>,
     pub back: BackSide<'a>,
+    /// Mitsuba's `normalmap` / `bumpmap` adapter (None: no tilted frame, or torrey's normal map).
+    pub perturbation: Option<Perturbation>,
 }
 
 /// `w` mirrored through the tangent plane.
@@ -572,14 +576,23 @@ impl<'a> SurfaceBsdf<'a> {
 
     #[inline(always)]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
-        match self.side(wo) {
+        let f = match self.side(wo) {
             (b, false) => b.eval(wo, wi),
             (b, true) => b.eval(flip_z(wo), flip_z(wi)),
+        };
+        match &self.perturbation {
+            None => f,
+            Some(p) => f * p.factor(wi),
         }
     }
 
     #[inline(always)]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
+        if let Some(p) = &self.perturbation {
+            if !p.same_side(wi) {
+                return 0.0;
+            }
+        }
         match self.side(wo) {
             (b, false) => b.pdf(wo, wi),
             (b, true) => b.pdf(flip_z(wo), flip_z(wi)),
@@ -588,11 +601,21 @@ impl<'a> SurfaceBsdf<'a> {
 
     #[inline(always)]
     pub fn sample(&self, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        match self.side(wo) {
+        let s = match self.side(wo) {
             (b, false) => b.sample(wo, u, u_lobe),
             (b, true) => b.sample(flip_z(wo), u, u_lobe).map(|s| BsdfSample {
                 wi: flip_z(s.wi),
                 ..s
+            }),
+        };
+        match &self.perturbation {
+            None => s,
+            Some(p) => s.and_then(|s| {
+                let k = p.factor(s.wi);
+                (k > 0.0).then(|| BsdfSample {
+                    weight: s.weight * k,
+                    ..s
+                })
             }),
         }
     }
