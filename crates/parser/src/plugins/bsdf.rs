@@ -1,7 +1,7 @@
 //! BSDF plugins: `diffuse`, `mirror`, `plastic`, `phong`, `blinn`/`blinnphong`,
 //! `blinn_microfacet`/`blinnphong_microfacet`; Mitsuba 3's `dielectric`, `thindielectric`,
 //! `roughdielectric`, `conductor`, `roughconductor`, `roughplastic`; and the wrappers
-//! `twosided`, `blendbsdf`, `mask` and `normalmap`, and `null`.
+//! `twosided`, `blendbsdf`, `mask`, `normalmap` and `bumpmap`, and `null`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -697,8 +697,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
         "roughplastic" => {
-            let (distribution, alpha, _, sample_visible) =
-                roughness(ctx, &mut props, elem, false)?;
+            let (distribution, alpha, _, sample_visible) = roughness(ctx, &mut props, elem, false)?;
             let ColorParam::Constant(alpha) = alpha else {
                 return Err(ctx.err(
                     elem.pos,

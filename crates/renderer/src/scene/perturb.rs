@@ -101,3 +101,127 @@ impl MitsubaPerturb {
         (frame, perturbation)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Affine2, Vec2, Vec3};
+    use torrey_texture::{BitmapTexture, Image, MipMap};
+
+    fn constant_map(rgb: Vec3) -> Texture {
+        let mip = MipMap::new(
+            Image::filled(2, 2, rgb),
+            torrey_texture::WrapMode::Repeat,
+            torrey_texture::FilterType::Bilinear,
+        );
+        Texture::Bitmap(BitmapTexture::new(mip, Affine2::IDENTITY))
+    }
+
+    fn hit() -> SurfaceHit {
+        SurfaceHit {
+            t: 1.0,
+            p: Vec3A::ZERO,
+            ng: Vec3A::Z,
+            ns: Vec3A::Z,
+            uv: Vec2::new(0.3, 0.6),
+            dpdu: Vec3A::X * 2.0,
+            dpdv: Vec3A::Y * 3.0,
+            shape: 0,
+            prim: 0,
+        }
+    }
+
+    fn normal_map(n: Vec3, flip: bool, shadowing: bool) -> (Vec<Texture>, MitsubaPerturb) {
+        let p = MitsubaPerturb::new(
+            PerturbSource::NormalMap(0),
+            desc::PerturbOptions {
+                flip_invalid_normals: flip,
+                use_shadowing_function: shadowing,
+            },
+        );
+        (vec![constant_map((n.normalize() + Vec3::ONE) * 0.5)], p)
+    }
+
+    fn dir(theta_deg: f32, phi_deg: f32) -> Vec3A {
+        let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+        Vec3A::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+    }
+
+    #[test]
+    fn flat_map_leaves_the_frame_and_the_bsdf_alone() {
+        let (tex, p) = normal_map(Vec3::Z, true, true);
+        let (f, pert) = p.frame(&tex, &hit(), dir(30.0, 10.0), Footprint::POINT, false);
+        assert!(f.n.abs_diff_eq(Vec3A::Z, 1e-6), "{:?}", f.n);
+        assert!(pert.n0.abs_diff_eq(Vec3A::Z, 1e-6));
+        assert_eq!(pert.alpha2, 0.0);
+        assert_eq!(pert.factor(dir(70.0, 0.0)), 1.0);
+        // Below both normals is consistent too: the nested BSDF decides there.
+        assert_eq!(pert.factor(dir(110.0, 0.0)), 1.0);
+    }
+
+    #[test]
+    fn tilted_map_flips_for_a_viewer_behind_it_and_shadows() {
+        // n tilted 45° towards +x; a viewer at 80° towards −x sees it from behind.
+        let n = Vec3::new(1.0, 0.0, 1.0);
+        let wo = dir(80.0, 180.0);
+        let (tex, p) = normal_map(n, true, true);
+        let (f, pert) = p.frame(&tex, &hit(), wo, Footprint::POINT, false);
+        let tilt = Vec3A::new(-1.0, 0.0, 1.0).normalize();
+        assert!(f.n.abs_diff_eq(tilt, 2e-2), "flipped: {:?}", f.n);
+        assert!(f.n.dot(wo) > 0.0);
+        // The same without flipping keeps the map's normal.
+        let (tex, p) = normal_map(n, false, true);
+        let (g, _) = p.frame(&tex, &hit(), wo, Footprint::POINT, false);
+        assert!(g.n.abs_diff_eq(Vec3A::new(1.0, 0.0, 1.0).normalize(), 2e-2));
+        // Shadowing: tan²θn ≈ 1 → α² ≈ 1/8; towards 60° from ns, tan² = 3.
+        assert!((pert.alpha2 - 0.125).abs() < 1e-2, "{}", pert.alpha2);
+        let w = f.to_local(dir(60.0, 90.0));
+        let expected = 2.0 / (1.0 + (1.0 + pert.alpha2 * 3.0).sqrt());
+        assert!((pert.factor(w) - expected).abs() < 1e-4);
+        // Below ns but above the tilted normal: 0, and the pdf side test agrees.
+        let below = f.to_local(dir(95.0, 180.0));
+        assert!(below.z > 0.0);
+        assert_eq!(pert.factor(below), 0.0);
+        assert!(!pert.same_side(below));
+    }
+
+    #[test]
+    fn two_sided_back_works_in_the_mirrored_frame() {
+        let (tex, p) = normal_map(Vec3::new(0.3, 0.2, 1.0), true, true);
+        let wo = dir(140.0, 30.0);
+        let (front_view, _) = p.frame(&tex, &hit(), -wo, Footprint::POINT, true);
+        let (back, pert) = p.frame(&tex, &hit(), wo, Footprint::POINT, true);
+        assert!(back.n.z < 0.0 && back.n.dot(wo) > 0.0);
+        // The unperturbed normal, as the tilted frame sees it, is −ns: mirrored.
+        assert!(back.to_world(pert.n0).abs_diff_eq(-Vec3A::Z, 1e-5));
+        // One-sided, the viewer stays behind the tilted normal.
+        let (one, _) = p.frame(&tex, &hit(), wo, Footprint::POINT, false);
+        assert!(one.n.dot(wo) < 0.0);
+        assert!(front_view.n.z > 0.0);
+    }
+
+    #[test]
+    fn bump_gradient_tilts_against_the_slope() {
+        // Height rising along u (0 → 1 over the texture's width): the normal leans to −u.
+        let px = (0..8).map(|k| Vec3::splat((k % 4) as f32 / 3.0)).collect();
+        let mip = MipMap::new(
+            Image::new(4, 2, px),
+            torrey_texture::WrapMode::Clamp,
+            torrey_texture::FilterType::Bilinear,
+        );
+        let tex = vec![Texture::Bitmap(BitmapTexture::new(mip, Affine2::IDENTITY))];
+        let p = MitsubaPerturb::new(
+            PerturbSource::BumpMap {
+                texture: 0,
+                scale: 0.5,
+            },
+            desc::PerturbOptions::default(),
+        );
+        let mut h = hit();
+        h.uv = Vec2::new(0.5, 0.5);
+        let (f, _) = p.frame(&tex, &h, Vec3A::Z, Footprint::POINT, false);
+        // ∂h/∂u = 4/3 per uv; scaled 2/3; dp/du = 2x: n ∝ (−(2/3)·3, 0, 2·3) / |…|.
+        let expected = Vec3A::new(-1.0 / 3.0, 0.0, 1.0).normalize();
+        assert!(f.n.abs_diff_eq(expected, 1e-4), "{:?} vs {expected:?}", f.n);
+    }
+}
