@@ -172,6 +172,7 @@ verdict_tests!(
     bumpmap_area,
     normalmap_env,
     normalmap_area,
+    normalmap_twosided_env,
     sample_visible_env,
     sample_visible_area,
 );

@@ -61,7 +61,7 @@ fn all_normals(b: Bsdf<'static>) -> Bsdf<'static> {
             Bsdf::RoughDielectric(d)
         }
         Bsdf::RoughPlastic(p) => {
-            let mut params = p.params.clone();
+            let mut params = *p.params;
             params.distr.visible = false;
             let params: &'static RoughPlasticParams = Box::leak(Box::new(params));
             Bsdf::RoughPlastic(params.resolve(&no_textures()))

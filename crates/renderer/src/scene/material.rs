@@ -170,8 +170,11 @@ impl Material {
         wo: Vec3A,
         footprint: Footprint,
     ) -> (Frame, Option<Perturbation>) {
-        let two_sided = self.two_sided || self.back.is_some();
-        let (frame, perturbation) = p.frame(textures, hit, wo, footprint, two_sided);
+        if self.back.is_some() && hit.ns.dot(wo) < 0.0 {
+            // Mitsuba's twosided with a second bsdf: the back's has no normal or bump map.
+            return (Frame::from_normal_tangent(hit.ns, hit.dpdu), None);
+        }
+        let (frame, perturbation) = p.frame(textures, hit, wo, footprint, self.two_sided);
         (frame, Some(perturbation))
     }
 
