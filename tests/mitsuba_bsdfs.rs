@@ -172,6 +172,13 @@ verdict_tests!(
     principled_area,
     principledthin_env,
     principledthin_area,
+    bumpmap_env,
+    bumpmap_area,
+    normalmap_env,
+    normalmap_area,
+    normalmap_twosided_env,
+    sample_visible_env,
+    sample_visible_area,
 );
 
 /// `mask` under an area light is judged against the truth rather than Mitsuba: with direct light

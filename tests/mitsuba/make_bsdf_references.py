@@ -3,6 +3,7 @@
 
     export DRJIT_LIBLLVM_PATH=...   (see tests/mitsuba/README.md)
     tests/mitsuba/.venv/bin/python tests/mitsuba/make_bsdf_references.py [--only a,b] [--sky]
+        [--textures]
 
 Renders every tests/scenes/mitsuba_bsdfs/*.xml with Mitsuba's `moment` integrator wrapping the
 scene's `path` integrator (variant llvm_ad_rgb), seed 0, at REF_FACTOR times the test's sample
@@ -16,6 +17,11 @@ rendered with more samples than the test so that its own noise stays small again
 256x8 lat-long sky that varies with the azimuth only (a blue gradient and a bright band 0.25 rad
 wide, peak 12, towards azimuth 2.2): soft, so that caustics through glass stay within what a
 2-million-sample render resolves, and the same under torrey's and Mitsuba's row placement.
+
+--textures regenerates the small 8-bit maps of the bumpmap and normalmap scenes (read raw):
+bump_height.png, a 32x16 grey height field 0.5 + 0.4 sin(8πu) sin(6πv), and normal_map.png,
+a 32x16 tangent-space normal map (x = 0.45 sin(6πu), y = 0.45 cos(4πv), z = 1, normalised,
+stored as (n + 1) / 2).
 """
 import argparse
 import glob
@@ -48,14 +54,34 @@ def make_sky(path):
     mi.Bitmap(img).write(path)
 
 
+def make_textures(folder):
+    w, h = 32, 16
+    u = (np.arange(w) + 0.5) / w
+    v = (np.arange(h) + 0.5) / h
+    uu, vv = np.meshgrid(u, v)
+    height = 0.5 + 0.4 * np.sin(8 * math.pi * uu) * np.sin(6 * math.pi * vv)
+    img = np.round(height * 255).astype(np.uint8)[:, :, None]
+    mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.Y).write(
+        os.path.join(folder, "bump_height.png"))
+    n = np.stack([0.45 * np.sin(6 * math.pi * uu), 0.45 * np.cos(4 * math.pi * vv),
+                  np.ones_like(uu)], axis=2)
+    n /= np.linalg.norm(n, axis=2, keepdims=True)
+    img = np.round((n + 1) / 2 * 255).astype(np.uint8)
+    mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(
+        os.path.join(folder, "normal_map.png"))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="")
     ap.add_argument("--sky", action="store_true")
+    ap.add_argument("--textures", action="store_true")
     args = ap.parse_args()
     mi.set_variant("llvm_ad_rgb")
     if args.sky:
         make_sky(os.path.join(SCENES, "soft_sky.exr"))
+    if args.textures:
+        make_textures(SCENES)
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = json.load(open(manifest_path)) if os.path.exists(manifest_path) else {}

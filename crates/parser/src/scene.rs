@@ -263,6 +263,37 @@ pub struct Bsdf {
     /// Tangent-space normal map (a raw bitmap texture), from the seed dialect's
     /// `<texture name="normal_map">` or Mitsuba 3's `normalmap` wrapper.
     pub normal_map: Option<TextureId>,
+    /// Mitsuba 3's `bumpmap` wrapper.
+    pub bump_map: Option<BumpMap>,
+    /// The options of Mitsuba 3's `normalmap` and `bumpmap` wrappers.
+    pub perturb: PerturbOptions,
+}
+
+/// Mitsuba 3's `bumpmap`: a height texture whose uv gradient, times `scale`, tilts the
+/// shading normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BumpMap {
+    pub texture: TextureId,
+    pub scale: f32,
+}
+
+/// What Mitsuba 3's `normalmap` and `bumpmap` do besides tilting the normal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PerturbOptions {
+    /// `flip_invalid_normals` (default true): a tilted normal that the incident direction sees
+    /// from the other side is mirrored about the unperturbed normal.
+    pub flip_invalid_normals: bool,
+    /// `use_shadowing_function` (default true): Estevez et al.'s microfacet shadowing term.
+    pub use_shadowing_function: bool,
+}
+
+impl Default for PerturbOptions {
+    fn default() -> Self {
+        Self {
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -314,6 +345,8 @@ pub enum BsdfKind {
         distribution: MicrofacetType,
         alpha_u: ColorParam,
         alpha_v: ColorParam,
+        /// Mitsuba's `sample_visible`: sample the visible normals (true) or D(m) cos θm.
+        sample_visible: bool,
         eta: f32,
         specular_reflectance: ColorParam,
         specular_transmittance: ColorParam,
@@ -329,6 +362,8 @@ pub enum BsdfKind {
         distribution: MicrofacetType,
         alpha_u: ColorParam,
         alpha_v: ColorParam,
+        /// Mitsuba's `sample_visible`: sample the visible normals (true) or D(m) cos θm.
+        sample_visible: bool,
         eta: ColorParam,
         k: ColorParam,
         specular_reflectance: ColorParam,
@@ -356,6 +391,8 @@ pub enum BsdfKind {
     RoughPlastic {
         distribution: MicrofacetType,
         alpha: f32,
+        /// Mitsuba's `sample_visible`.
+        sample_visible: bool,
         diffuse_reflectance: ColorParam,
         specular_reflectance: ColorParam,
         eta: f32,

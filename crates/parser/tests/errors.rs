@@ -287,3 +287,21 @@ fn substitution_cannot_inflate_the_scene_past_its_limit() {
         pos_of(&xml, "$a"),
     );
 }
+
+#[test]
+fn bumpmap_needs_one_height_texture_and_one_bsdf() {
+    let xml = "<scene version=\"3.0.0\">\n  <bsdf type=\"bumpmap\" id=\"b\">\n    <bsdf type=\"diffuse\"/>\n  </bsdf>\n</scene>";
+    let e = parse(xml).unwrap_err();
+    assert_err(
+        &e,
+        "bsdf 'bumpmap' needs exactly one nested height <texture>, found 0",
+        pos_of(xml, "<bsdf type=\"bumpmap\""),
+    );
+    let xml = "<scene version=\"3.0.0\">\n  <bsdf type=\"bumpmap\" id=\"b\">\n    <texture type=\"checkerboard\"/>\n  </bsdf>\n</scene>";
+    let e = parse(xml).unwrap_err();
+    assert_err(
+        &e,
+        "bsdf 'bumpmap' needs exactly one nested bsdf, found 0",
+        pos_of(xml, "<bsdf type=\"bumpmap\""),
+    );
+}

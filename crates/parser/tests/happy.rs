@@ -562,3 +562,69 @@ fn film_crop_parameters_give_a_window() {
     );
     assert_eq!(e.location.line, 1); // the film element
 }
+
+#[test]
+fn bumpmap_and_perturb_options() {
+    let dir = temp_dir("bumpmap");
+    std::fs::write(dir.join("h.png"), b"not really a png").unwrap();
+    let xml = r#"<scene version="3.0.0">
+      <texture type="bitmap" id="height"><string name="filename" value="h.png"/></texture>
+      <bsdf type="bumpmap" id="inline">
+        <texture type="bitmap" name="arbitrary"><string name="filename" value="h.png"/></texture>
+        <float name="scale" value="0.25"/>
+        <boolean name="use_shadowing_function" value="false"/>
+        <bsdf type="roughconductor"><boolean name="sample_visible" value="false"/></bsdf>
+      </bsdf>
+      <bsdf type="bumpmap" id="by_ref">
+        <bsdf type="diffuse"/>
+        <ref id="height"/>
+      </bsdf>
+      <bsdf type="normalmap" id="nm">
+        <texture type="bitmap" name="normalmap"><string name="filename" value="h.png"/></texture>
+        <boolean name="flip_invalid_normals" value="false"/>
+        <bsdf type="roughplastic"/>
+      </bsdf>
+    </scene>"#;
+    let s = parse_in(&dir, xml).unwrap();
+    let inline = &s.bsdfs[0];
+    assert_eq!(
+        inline.bump_map,
+        Some(BumpMap {
+            texture: 1,
+            scale: 0.25
+        })
+    );
+    assert_eq!(
+        inline.perturb,
+        PerturbOptions {
+            flip_invalid_normals: true,
+            use_shadowing_function: false
+        }
+    );
+    assert!(matches!(
+        inline.kind,
+        BsdfKind::RoughConductor {
+            sample_visible: false,
+            ..
+        }
+    ));
+    let by_ref = &s.bsdfs[1];
+    assert_eq!(
+        by_ref.bump_map,
+        Some(BumpMap {
+            texture: 0,
+            scale: 1.0
+        })
+    );
+    assert_eq!(by_ref.perturb, PerturbOptions::default());
+    let nm = &s.bsdfs[2];
+    assert!(nm.normal_map.is_some() && nm.bump_map.is_none());
+    assert!(!nm.perturb.flip_invalid_normals && nm.perturb.use_shadowing_function);
+    assert!(matches!(
+        nm.kind,
+        BsdfKind::RoughPlastic {
+            sample_visible: true,
+            ..
+        }
+    ));
+}

@@ -70,6 +70,18 @@ impl Texture {
     }
 }
 
+impl Texture {
+    /// The uv gradient of the float value (Mitsuba's `eval_1_grad`, which `bumpmap` reads): a
+    /// bitmap's luminance, bilinearly interpolated at full resolution; zero for the
+    /// checkerboard, which is piecewise constant.
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Checkerboard { .. } => Vec2::ZERO,
+        }
+    }
+}
+
 /// A colour parameter resolved for rendering: a constant or an index into the scene's textures.
 #[derive(Clone, Copy, Debug)]
 pub enum ColorSource {

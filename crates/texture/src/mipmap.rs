@@ -254,6 +254,35 @@ impl MipMap {
         }
     }
 
+    /// The gradient of the finest level's bilinear interpolant of `f(texel)` at `uv`, with
+    /// respect to the texel coordinates (x, y): what Mitsuba's bitmap `eval_1_grad` computes
+    /// (before its uv transform and resolution factors). Zero for nearest filtering (piecewise
+    /// constant) and for non-finite uv.
+    pub fn bilinear_gradient(&self, uv: Vec2, f: impl Fn(Vec3) -> f32) -> Vec2 {
+        let img = self.level(0);
+        if self.filter == FilterType::Nearest {
+            return Vec2::ZERO;
+        }
+        let x = uv.x * img.width as f32 - 0.5;
+        let y = uv.y * img.height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return Vec2::ZERO;
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (i, j) = (fix(x0), fix(y0));
+        let (w, h) = (img.width as i64, img.height as i64);
+        let col = |i: i64| self.wrap.apply(i, w) as usize;
+        let row = |j: i64| self.wrap.apply(j, h) as usize * img.width as usize;
+        let at = |r: usize, c: usize| f(img.pixels[r + c]);
+        let (c0, c1, r0, r1) = (col(i), col(i + 1), row(j), row(j + 1));
+        let (f00, f10, f01, f11) = (at(r0, c0), at(r0, c1), at(r1, c0), at(r1, c1));
+        Vec2::new(
+            (1.0 - fy) * (f10 - f00) + fy * (f11 - f01),
+            (1.0 - fx) * (f01 - f00) + fx * (f11 - f10),
+        )
+    }
+
     /// The bilinear lookup for any coordinates (texel space, minus the half-texel offset), with
     /// libm floor and i64 wrapping: the reference the fast path in `lookup_level` matches.
     #[cold]

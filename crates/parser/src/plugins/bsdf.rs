@@ -1,16 +1,16 @@
 //! BSDF plugins: `diffuse`, `mirror`, `plastic`, `phong`, `blinn`/`blinnphong`,
 //! `blinn_microfacet`/`blinnphong_microfacet`; Mitsuba 3's `dielectric`, `thindielectric`,
 //! `roughdielectric`, `conductor`, `roughconductor`, `roughplastic`; and the wrappers
-//! `twosided`, `blendbsdf`, `mask` and `normalmap`, and `null`; Mitsuba 3's `principled` and
-//! `principledthin`.
+//! `twosided`, `blendbsdf`, `mask`, `normalmap` and `bumpmap`, and `null`; Mitsuba 3's `principled`
+//! and `principledthin`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::plugins::texture::parse_texture;
 use crate::props::Props;
 use crate::scene::{
-    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, MicrofacetType, PrincipledDesc,
-    PrincipledThinDesc, TextureId, TextureKind,
+    Bsdf, BsdfId, BsdfKind, BumpMap, ColorParam, Dialect, MicrofacetType, PerturbOptions,
+    PrincipledDesc, PrincipledThinDesc, TextureId, TextureKind,
 };
 use crate::xml::Element;
 use glam::Vec3;
@@ -39,6 +39,7 @@ pub(crate) const KNOWN: &[&str] = &[
     "roughdiffuse",
     "principled",
     "principledthin",
+    "bumpmap",
 ];
 
 /// Mitsuba 3's named conductors (`material`), as its RGB variants see them: the tabulated
@@ -162,6 +163,14 @@ pub(crate) fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
             ),
         )),
     }
+}
+
+/// `flip_invalid_normals` and `use_shadowing_function` of Mitsuba's `normalmap` and `bumpmap`.
+fn perturb_options(ctx: &Ctx, props: &mut Props) -> Result<PerturbOptions> {
+    Ok(PerturbOptions {
+        flip_invalid_normals: props.boolean(ctx, &["flip_invalid_normals"], true)?,
+        use_shadowing_function: props.boolean(ctx, &["use_shadowing_function"], true)?,
+    })
 }
 
 /// A normal map parameter: a bitmap texture (inline or by ref), always read raw.
@@ -428,14 +437,14 @@ fn eta_param(ctx: &Ctx, props: &mut Props, elem: &Element, int_default: f32) -> 
     Ok(int_ior / ext_ior)
 }
 
-/// Mitsuba's microfacet `distribution` (default beckmann) and roughness: `alpha` for both
-/// axes, or `alpha_u` and `alpha_v` together (default 0.1).
+/// Mitsuba's microfacet `distribution` (default beckmann), roughness (`alpha` for both axes, or
+/// `alpha_u` and `alpha_v` together; default 0.1) and `sample_visible` (default true).
 fn roughness(
     ctx: &mut Ctx,
     props: &mut Props,
     elem: &Element,
     anisotropic: bool,
-) -> Result<(MicrofacetType, ColorParam, ColorParam)> {
+) -> Result<(MicrofacetType, ColorParam, ColorParam, bool)> {
     let distribution = match props.string(ctx, &["distribution"])? {
         None => MicrofacetType::Beckmann,
         Some(a) => match a.value.to_ascii_lowercase().as_str() {
@@ -452,8 +461,7 @@ fn roughness(
             }
         },
     };
-    // sample_visible: torrey always samples visible normals (the same image, less noise).
-    props.boolean(ctx, &["sample_visible"], true)?;
+    let sample_visible = props.boolean(ctx, &["sample_visible"], true)?;
     if anisotropic && props.has(&["alpha_u", "alpha_v"]) {
         if props.has(&["alpha"]) || !(props.has(&["alpha_u"]) && props.has(&["alpha_v"])) {
             return Err(ctx.err(
@@ -466,10 +474,10 @@ fn roughness(
         }
         let u = float_param(ctx, props, &["alpha_u"], 0.1)?;
         let v = float_param(ctx, props, &["alpha_v"], 0.1)?;
-        return Ok((distribution, u, v));
+        return Ok((distribution, u, v, sample_visible));
     }
     let a = float_param(ctx, props, &["alpha"], 0.1)?;
-    Ok((distribution, a.clone(), a))
+    Ok((distribution, a.clone(), a, sample_visible))
 }
 
 /// Mitsuba's conductor parameters: `eta` and `k` (colours or textures), or a named
@@ -525,7 +533,7 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | `roughdielectric`, `roughconductor`, `roughplastic` | `distribution` | string | beckmann (or ggx) |
 /// | same | `alpha` | float or texture (roughplastic: float) | 0.1 |
 /// | `roughdielectric`, `roughconductor` | `alpha_u`, `alpha_v` | float or texture | both or neither |
-/// | same | `sample_visible` | boolean | true (visible normals are always sampled) |
+/// | `roughdielectric`, `roughconductor`, `roughplastic` | `sample_visible` | boolean | true: sample the visible normals; false: D(m) cos θm |
 /// | `conductor`, `roughconductor` | `material` | string (table below) | none: η 0, k 1 |
 /// | same | `eta`, `k` | colour or texture | 0, 1 |
 /// | same | `specular_reflectance` | colour or texture | 1 |
@@ -550,6 +558,10 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
 /// | `principledthin` | `diff_trans` | float or texture, 0 to 2 | 0 |
 /// | `principledthin` | `eta` | float or texture | 1.5 |
 /// | `principledthin` | `specular_reflectance_sampling_rate`, `specular_transmittance_sampling_rate`, `diffuse_reflectance_sampling_rate`, `diffuse_transmittance_sampling_rate` | float | 1 |
+/// | `bumpmap` | one nested texture (any name) + nested bsdf | float texture (bitmap: luminance), bsdf | required |
+/// | `bumpmap` | `scale` | float | 1 (multiplies the height gradient) |
+/// | `normalmap`, `bumpmap` | `flip_invalid_normals` | boolean | true (Mitsuba-dialect scenes) |
+/// | `normalmap`, `bumpmap` | `use_shadowing_function` | boolean | true (Mitsuba-dialect scenes) |
 pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
@@ -561,6 +573,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
         kind,
         two_sided: false,
         normal_map: None,
+        bump_map: None,
+        perturb: Default::default(),
     };
     let mut bsdf = match ty {
         "twosided" => {
@@ -577,6 +591,8 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                     },
                     two_sided: true,
                     normal_map: None,
+                    bump_map: None,
+                    perturb: Default::default(),
                 }
             } else {
                 let mut inner = nested.pop().unwrap();
@@ -592,7 +608,63 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                 ));
             };
             let mut inner = nested_bsdf(ctx, &mut props, elem)?;
+            if inner.normal_map.is_some() || inner.bump_map.is_some() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'normalmap' around a bsdf that is already normal- or bump-mapped is not supported",
+                ));
+            }
             inner.normal_map = Some(map);
+            inner.perturb = perturb_options(ctx, &mut props)?;
+            inner
+        }
+        "bumpmap" => {
+            let scale = props.float(ctx, &["scale"], 1.0)?;
+            let perturb = perturb_options(ctx, &mut props)?;
+            // The height field: the one nested <texture> (any name) or a <ref> to a texture.
+            let mut heights: Vec<TextureId> = Vec::new();
+            for e in props.take_tag("texture") {
+                heights.push(parse_texture(ctx, e)?);
+            }
+            let mut bsdf_refs = Vec::new();
+            for e in props.take_tag("ref") {
+                match ctx.lookup(e)? {
+                    IdTarget::Texture(t) => heights.push(t),
+                    _ => bsdf_refs.push(e),
+                }
+            }
+            if heights.len() != 1 {
+                return Err(ctx.err(
+                    elem.pos,
+                    format!(
+                        "bsdf 'bumpmap' needs exactly one nested height <texture>, found {}",
+                        heights.len()
+                    ),
+                ));
+            }
+            let mut nested: Vec<&Element> = props.take_tag("bsdf");
+            nested.extend(bsdf_refs);
+            if nested.len() != 1 {
+                return Err(ctx.err(
+                    elem.pos,
+                    format!(
+                        "bsdf 'bumpmap' needs exactly one nested bsdf, found {}",
+                        nested.len()
+                    ),
+                ));
+            }
+            let mut inner = nested_bsdf_value(ctx, nested[0])?;
+            if inner.normal_map.is_some() || inner.bump_map.is_some() {
+                return Err(ctx.err(
+                    elem.pos,
+                    "bsdf 'bumpmap' around a bsdf that is already normal- or bump-mapped is not supported",
+                ));
+            }
+            inner.bump_map = Some(BumpMap {
+                texture: heights[0],
+                scale,
+            });
+            inner.perturb = perturb;
             inner
         }
         "diffuse" => plain(BsdfKind::Diffuse {
@@ -700,11 +772,13 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             )?,
         }),
         "roughdielectric" => {
-            let (distribution, alpha_u, alpha_v) = roughness(ctx, &mut props, elem, true)?;
+            let (distribution, alpha_u, alpha_v, sample_visible) =
+                roughness(ctx, &mut props, elem, true)?;
             plain(BsdfKind::RoughDielectric {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta: eta_param(ctx, &mut props, elem, 1.5046)?,
                 specular_reflectance: color_param(
                     ctx,
@@ -734,12 +808,14 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
         "roughconductor" => {
-            let (distribution, alpha_u, alpha_v) = roughness(ctx, &mut props, elem, true)?;
+            let (distribution, alpha_u, alpha_v, sample_visible) =
+                roughness(ctx, &mut props, elem, true)?;
             let (eta, k) = conductor_ior(ctx, &mut props)?;
             plain(BsdfKind::RoughConductor {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta,
                 k,
                 specular_reflectance: color_param(
@@ -751,7 +827,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
         "roughplastic" => {
-            let (distribution, alpha, _) = roughness(ctx, &mut props, elem, false)?;
+            let (distribution, alpha, _, sample_visible) = roughness(ctx, &mut props, elem, false)?;
             let ColorParam::Constant(alpha) = alpha else {
                 return Err(ctx.err(
                     elem.pos,
@@ -761,6 +837,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             plain(BsdfKind::RoughPlastic {
                 distribution,
                 alpha: alpha.x,
+                sample_visible,
                 diffuse_reflectance: color_param(
                     ctx,
                     &mut props,
@@ -799,7 +876,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             })
         }
     };
-    if ty != "twosided" && ty != "normalmap" {
+    if ty != "twosided" && ty != "normalmap" && ty != "bumpmap" {
         if let Some(map) = normal_map_param(ctx, &mut props, &["normal_map", "normalmap"])? {
             bsdf.normal_map = Some(map);
         }

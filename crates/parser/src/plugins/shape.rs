@@ -489,6 +489,8 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
                 },
                 two_sided: false,
                 normal_map: None,
+                bump_map: None,
+                perturb: Default::default(),
             });
             Some(ctx.bsdfs.len() - 1)
         }

@@ -1,6 +1,7 @@
 //! Microfacet distributions as Mitsuba 3's `MicrofacetDistribution`: Beckmann and GGX
 //! (Trowbridge-Reitz), anisotropic (α_u along the tangent x, α_v along y), Smith shadowing and
-//! sampling of the visible normals (Heitz and d'Eon 2014; for GGX Heitz 2018's closed form).
+//! sampling of the visible normals (Heitz and d'Eon 2014; for GGX Heitz 2018's closed form) or,
+//! with Mitsuba's `sample_visible = false`, of the whole distribution D(m) cos θm.
 //!
 //! Mitsuba evaluates Beckmann's Smith G1 with Walter et al.'s rational fit; `eval`-side code
 //! uses that ([`Microfacet::smith_g1`]) so the BSDF values are Mitsuba's. The pdf of visible
@@ -24,6 +25,9 @@ pub struct Microfacet {
     pub kind: MicrofacetKind,
     pub alpha_u: f32,
     pub alpha_v: f32,
+    /// Sample the normals visible from the incident direction (Mitsuba's `sample_visible`,
+    /// default true) rather than D(m) cos θm: the same BSDF, less noise.
+    pub visible: bool,
 }
 
 impl Microfacet {
@@ -35,7 +39,50 @@ impl Microfacet {
             kind,
             alpha_u: alpha_u.max(Self::MIN_ALPHA),
             alpha_v: alpha_v.max(Self::MIN_ALPHA),
+            visible: true,
         }
+    }
+
+    /// The same distribution, sampled as `visible` says (Mitsuba's `sample_visible`).
+    #[inline(always)]
+    pub fn with_visible(self, visible: bool) -> Self {
+        Self { visible, ..self }
+    }
+
+    /// A normal drawn by the configured strategy: the normals visible from `wi` (wi.z > 0) or
+    /// the whole distribution.
+    #[inline]
+    pub fn sample(&self, wi: Vec3A, u: Vec2) -> Vec3A {
+        if self.visible {
+            self.sample_visible(wi, u)
+        } else {
+            self.sample_all(u)
+        }
+    }
+
+    /// The density (solid angle of m) of [`Microfacet::sample`].
+    #[inline]
+    pub fn pdf(&self, wi: Vec3A, m: Vec3A) -> f32 {
+        if self.visible {
+            self.pdf_visible(wi, m)
+        } else {
+            self.d(m) * m.z.max(0.0)
+        }
+    }
+
+    /// A normal drawn from D(m) cos θm: the slopes of the distribution stretched to α = 1 are
+    /// isotropic (Beckmann: a unit Gaussian, r² = −ln(1 − u); GGX: r² = u / (1 − u)), so draw
+    /// their length and azimuth and stretch back by (α_u, α_v). The density of m is then the
+    /// slope density P22 over cos³θm, which is D(m) cos θm.
+    #[inline]
+    pub fn sample_all(&self, u: Vec2) -> Vec3A {
+        let r2 = match self.kind {
+            MicrofacetKind::Beckmann => -(1.0 - u.x).max(1e-12).ln(),
+            MicrofacetKind::Ggx => u.x / (1.0 - u.x).max(1e-12),
+        };
+        let r = r2.sqrt();
+        let (s, c) = (2.0 * PI * u.y).sin_cos();
+        Vec3A::new(-self.alpha_u * r * c, -self.alpha_v * r * s, 1.0).normalize()
     }
 
     /// D(m): the density of normals m per unit projected area (m in the +z hemisphere).

@@ -38,6 +38,7 @@ pub mod fresnel;
 pub mod microfacet;
 mod mirror;
 mod null;
+mod perturbed;
 mod phong;
 mod plastic;
 mod principled;
@@ -64,6 +65,7 @@ pub use flags::BsdfFlags;
 pub use microfacet::MicrofacetKind;
 pub use mirror::{Mirror, MirrorParams};
 pub use null::Null;
+pub use perturbed::Perturbation;
 pub use phong::{Phong, PhongParams};
 pub use plastic::{Plastic, PlasticParams};
 pub use principled::{Principled, PrincipledParams};
@@ -383,6 +385,7 @@ impl BsdfParams {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta,
                 specular_reflectance,
                 specular_transmittance,
@@ -390,6 +393,7 @@ impl BsdfParams {
                 kind: microfacet(distribution),
                 alpha_u: float_tex(alpha_u),
                 alpha_v: float_tex(alpha_v),
+                sample_visible: *sample_visible,
                 eta: *eta,
                 specular_reflectance: color(specular_reflectance),
                 specular_transmittance: color(specular_transmittance),
@@ -407,6 +411,7 @@ impl BsdfParams {
                 distribution,
                 alpha_u,
                 alpha_v,
+                sample_visible,
                 eta,
                 k,
                 specular_reflectance,
@@ -414,6 +419,7 @@ impl BsdfParams {
                 kind: microfacet(distribution),
                 alpha_u: float_tex(alpha_u),
                 alpha_v: float_tex(alpha_v),
+                sample_visible: *sample_visible,
                 eta: color(eta),
                 k: color(k),
                 specular_reflectance: color(specular_reflectance),
@@ -421,18 +427,23 @@ impl BsdfParams {
             BsdfKind::RoughPlastic {
                 distribution,
                 alpha,
+                sample_visible,
                 diffuse_reflectance,
                 specular_reflectance,
                 eta,
                 nonlinear,
-            } => BsdfParams::RoughPlastic(RoughPlasticParams::new(
-                color(diffuse_reflectance),
-                color(specular_reflectance),
-                microfacet(distribution),
-                *alpha,
-                *eta,
-                *nonlinear,
-            )),
+            } => {
+                let mut p = RoughPlasticParams::new(
+                    color(diffuse_reflectance),
+                    color(specular_reflectance),
+                    microfacet(distribution),
+                    *alpha,
+                    *eta,
+                    *nonlinear,
+                );
+                p.distr.visible = *sample_visible;
+                BsdfParams::RoughPlastic(p)
+            }
             BsdfKind::Principled(d) => BsdfParams::Principled(PrincipledParams {
                 base_color: color(&d.base_color),
                 roughness: float_tex(&d.roughness),
@@ -601,6 +612,8 @@ pub enum BackSide<'a> {
 pub struct SurfaceBsdf<'a> {
     pub front: Bsdf<'a>,
     pub back: BackSide<'a>,
+    /// Mitsuba's `normalmap` / `bumpmap` adapter (None: no tilted frame, or torrey's normal map).
+    pub perturbation: Option<Perturbation>,
 }
 
 /// `w` mirrored through the tangent plane.
@@ -625,14 +638,23 @@ impl<'a> SurfaceBsdf<'a> {
 
     #[inline(always)]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
-        match self.side(wo) {
+        let f = match self.side(wo) {
             (b, false) => b.eval(wo, wi),
             (b, true) => b.eval(flip_z(wo), flip_z(wi)),
+        };
+        match &self.perturbation {
+            None => f,
+            Some(p) => f * p.factor(wi),
         }
     }
 
     #[inline(always)]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
+        if let Some(p) = &self.perturbation {
+            if !p.same_side(wi) {
+                return 0.0;
+            }
+        }
         match self.side(wo) {
             (b, false) => b.pdf(wo, wi),
             (b, true) => b.pdf(flip_z(wo), flip_z(wi)),
@@ -641,11 +663,21 @@ impl<'a> SurfaceBsdf<'a> {
 
     #[inline(always)]
     pub fn sample(&self, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        match self.side(wo) {
+        let s = match self.side(wo) {
             (b, false) => b.sample(wo, u, u_lobe),
             (b, true) => b.sample(flip_z(wo), u, u_lobe).map(|s| BsdfSample {
                 wi: flip_z(s.wi),
                 ..s
+            }),
+        };
+        match &self.perturbation {
+            None => s,
+            Some(p) => s.and_then(|s| {
+                let k = p.factor(s.wi);
+                (k > 0.0).then(|| BsdfSample {
+                    weight: s.weight * k,
+                    ..s
+                })
             }),
         }
     }

@@ -14,6 +14,8 @@ pub struct RoughConductorParams {
     pub kind: MicrofacetKind,
     pub alpha_u: FloatSource,
     pub alpha_v: FloatSource,
+    /// Mitsuba's `sample_visible`: sample visible normals (true) or D(m) cos θm.
+    pub sample_visible: bool,
     pub eta: ColorSource,
     pub k: ColorSource,
     pub specular_reflectance: ColorSource,
@@ -23,7 +25,8 @@ impl RoughConductorParams {
     #[inline(always)]
     pub fn resolve(&self, q: &TextureQuery) -> RoughConductor {
         RoughConductor {
-            distr: Microfacet::new(self.kind, q.float(self.alpha_u), q.float(self.alpha_v)),
+            distr: Microfacet::new(self.kind, q.float(self.alpha_u), q.float(self.alpha_v))
+                .with_visible(self.sample_visible),
             eta: q.color(self.eta),
             k: q.color(self.k),
             specular_reflectance: q.color(self.specular_reflectance),
@@ -78,7 +81,7 @@ impl RoughConductor {
         if !(c > 0.0) {
             return 0.0;
         }
-        self.distr.pdf_visible(wo, h) / (4.0 * c)
+        self.distr.pdf(wo, h) / (4.0 * c)
     }
 
     #[inline]
@@ -86,7 +89,7 @@ impl RoughConductor {
         if !(wo.z > 0.0) {
             return None;
         }
-        let m = self.distr.sample_visible(wo, u);
+        let m = self.distr.sample(wo, u);
         let wi = (m * (2.0 * wo.dot(m)) - wo).normalize();
         if !(wi.z > 0.0) {
             return None;

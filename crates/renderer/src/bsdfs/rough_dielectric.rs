@@ -1,6 +1,7 @@
 //! Mitsuba's `roughdielectric`: Walter et al.'s microfacet model of a rough interface between
 //! two dielectrics (reflection and refraction on both sides), exact Fresnel, Smith shadowing,
-//! visible-normal sampling from the side of `wo`.
+//! visible-normal (or, with `sample_visible = false`, whole-distribution) sampling from the side
+//! of `wo`.
 
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{Microfacet, MicrofacetKind};
@@ -14,6 +15,8 @@ pub struct RoughDielectricParams {
     pub kind: MicrofacetKind,
     pub alpha_u: FloatSource,
     pub alpha_v: FloatSource,
+    /// Mitsuba's `sample_visible`: sample visible normals (true) or D(m) cos θm.
+    pub sample_visible: bool,
     pub eta: f32,
     pub specular_reflectance: ColorSource,
     pub specular_transmittance: ColorSource,
@@ -23,7 +26,8 @@ impl RoughDielectricParams {
     #[inline(always)]
     pub fn resolve(&self, q: &TextureQuery) -> RoughDielectric {
         RoughDielectric {
-            distr: Microfacet::new(self.kind, q.float(self.alpha_u), q.float(self.alpha_v)),
+            distr: Microfacet::new(self.kind, q.float(self.alpha_u), q.float(self.alpha_v))
+                .with_visible(self.sample_visible),
             eta: self.eta,
             specular_reflectance: q.color(self.specular_reflectance),
             specular_transmittance: q.color(self.specular_transmittance),
@@ -107,18 +111,23 @@ impl RoughDielectric {
         };
         let wo_up = if wo.z < 0.0 { -wo } else { wo };
         let f = fresnel_dielectric(om, self.eta).0;
-        let p = self.distr.pdf_visible(wo_up, m) * if reflect { f } else { 1.0 - f };
+        let p = self.distr.pdf(wo_up, m) * if reflect { f } else { 1.0 - f };
         (p * jacobian).abs()
     }
 
-    /// A visible normal from wo's side, then reflection with probability F, else refraction.
+    /// A normal (visible from wo's side unless `sample_visible` is false), then reflection with probability F, else refraction.
     #[inline]
     pub fn sample(&self, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         if wo.z == 0.0 || !wo.z.is_finite() {
             return None;
         }
         let wo_up = if wo.z < 0.0 { -wo } else { wo };
-        let m = self.distr.sample_visible(wo_up, u);
+        let m = self.distr.sample(wo_up, u);
+        if !(wo_up.dot(m) > 0.0) {
+            // Only with sample_visible = false: a normal facing away from wo, whose refraction
+            // would land where the pdf counts another normal.
+            return None;
+        }
         let (f, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.dot(m), self.eta);
         let (wi, eta, lobe) = if u_lobe <= f {
             let wi = m * (2.0 * wo.dot(m)) - wo;

@@ -174,7 +174,7 @@ impl RoughPlastic<'_> {
         let h = (wo + wi).normalize();
         let c = wo.dot(h);
         let spec = if c > 0.0 {
-            self.params.distr.pdf_visible(wo, h) / (4.0 * c)
+            self.params.distr.pdf(wo, h) / (4.0 * c)
         } else {
             0.0
         };
@@ -188,7 +188,7 @@ impl RoughPlastic<'_> {
         }
         let ps = self.prob_specular(self.params.transmittance(wo.z));
         let (wi, lobe) = if u_lobe < ps {
-            let m = self.params.distr.sample_visible(wo, u);
+            let m = self.params.distr.sample(wo, u);
             (
                 (m * (2.0 * wo.dot(m)) - wo).normalize(),
                 BsdfFlags::GLOSSY_REFLECTION,

@@ -670,10 +670,12 @@ fn two_sided_mirrors_the_back_to_the_front() {
         let two = SurfaceBsdf {
             front: bsdf,
             back: BackSide::Mirrored,
+            perturbation: None,
         };
         let one = SurfaceBsdf {
             front: bsdf,
             back: BackSide::Front,
+            perturbation: None,
         };
         let wo = flip(wo_at(35.0));
         for _ in 0..200 {

@@ -48,6 +48,28 @@ fn no_textures() -> crate::textures::TextureQuery<'static> {
     }
 }
 
+/// `b` (a rough conductor, dielectric or plastic) sampling D(m) cos θm instead of the visible
+/// normals (Mitsuba's `sample_visible = false`).
+fn all_normals(b: Bsdf<'static>) -> Bsdf<'static> {
+    match b {
+        Bsdf::RoughConductor(mut c) => {
+            c.distr.visible = false;
+            Bsdf::RoughConductor(c)
+        }
+        Bsdf::RoughDielectric(mut d) => {
+            d.distr.visible = false;
+            Bsdf::RoughDielectric(d)
+        }
+        Bsdf::RoughPlastic(p) => {
+            let mut params = *p.params;
+            params.distr.visible = false;
+            let params: &'static RoughPlasticParams = Box::leak(Box::new(params));
+            Bsdf::RoughPlastic(params.resolve(&no_textures()))
+        }
+        other => panic!("no microfacet distribution in {other:?}"),
+    }
+}
+
 /// Rough plastic parameters live as long as the test (leaked: a few hundred bytes).
 fn rough_plastic(kind: MicrofacetKind, alpha: f32, d: Vec3A, eta: f32) -> Bsdf<'static> {
     use crate::textures::ColorSource::Constant;
@@ -77,6 +99,7 @@ fn blend_models() -> [Bsdf<'static>; 2] {
         kind: MicrofacetKind::Ggx,
         alpha_u: FloatSource::Constant(0.3),
         alpha_v: FloatSource::Constant(0.3),
+        sample_visible: true,
         eta: Constant(GOLD_ETA),
         k: Constant(GOLD_K),
         specular_reflectance: Constant(Vec3A::ONE),
@@ -92,6 +115,7 @@ fn blend_models() -> [Bsdf<'static>; 2] {
         kind: MicrofacetKind::Beckmann,
         alpha_u: FloatSource::Constant(0.3),
         alpha_v: FloatSource::Constant(0.3),
+        sample_visible: false,
         eta: 1.5,
         specular_reflectance: Constant(Vec3A::ONE),
         specular_transmittance: Constant(Vec3A::ONE),
@@ -153,7 +177,7 @@ fn glossy_models() -> Vec<(&'static str, Bsdf<'static>, Vec<f32>)> {
         (
             "roughdielectric beckmann 0.6 eta<1",
             rough_dielectric(Beckmann, 0.6, 0.6, 1.0 / 1.4),
-            both,
+            both.clone(),
         ),
         (
             "plastic",
@@ -173,6 +197,31 @@ fn glossy_models() -> Vec<(&'static str, Bsdf<'static>, Vec<f32>)> {
         (
             "roughplastic ggx 0.2",
             rough_plastic(Ggx, 0.2, Vec3A::new(0.2, 0.5, 0.8), 1.5),
+            front.clone(),
+        ),
+        (
+            "roughconductor beckmann 0.5/0.2, sample_visible false",
+            all_normals(rough_conductor(Beckmann, 0.5, 0.2, GOLD_ETA, GOLD_K)),
+            front.clone(),
+        ),
+        (
+            "roughconductor ggx 0.3, sample_visible false",
+            all_normals(rough_conductor(Ggx, 0.3, 0.3, GOLD_ETA, GOLD_K)),
+            front.clone(),
+        ),
+        (
+            "roughdielectric beckmann 0.3, sample_visible false",
+            all_normals(rough_dielectric(Beckmann, 0.3, 0.3, 1.5)),
+            both.clone(),
+        ),
+        (
+            "roughdielectric ggx 0.2/0.5, sample_visible false",
+            all_normals(rough_dielectric(Ggx, 0.2, 0.5, 1.333)),
+            both.clone(),
+        ),
+        (
+            "roughplastic ggx 0.2, sample_visible false",
+            all_normals(rough_plastic(Ggx, 0.2, Vec3A::new(0.2, 0.5, 0.8), 1.5)),
             front.clone(),
         ),
         ("blend roughconductor/plastic", blend_models()[0], front),
@@ -364,6 +413,18 @@ fn chi2_catches_a_wrong_visible_normal_pdf() {
     let s = draw("ggx", &b, wo, 200_000, 9);
     let p = chi2_sphere(&s.dirs, |w| wrong.pdf(wo, w) as f64, "wrong");
     assert!(p < 1e-3, "p = {p}");
+    // Sampling D(m) cos θm (sample_visible false) but testing against the visible normals'
+    // pdf must fail, and the other way round.
+    let b = rough_conductor(MicrofacetKind::Beckmann, 0.4, 0.4, GOLD_ETA, GOLD_K);
+    let all = all_normals(b);
+    let wo = dir_at(60.0);
+    let s = draw("all", &all, wo, 200_000, 11);
+    let p = chi2_sphere(&s.dirs, |w| b.pdf(wo, w) as f64, "visible pdf");
+    assert!(p < 1e-3, "p = {p}");
+    let s = draw("visible", &b, wo, 200_000, 12);
+    let p = chi2_sphere(&s.dirs, |w| all.pdf(wo, w) as f64, "all-normals pdf");
+    assert!(p < 1e-3, "p = {p}");
+    let wo = dir_at(40.0);
     // A refraction pdf without its Jacobian's dependence on the half vector must fail too.
     let b = rough_dielectric(MicrofacetKind::Beckmann, 0.3, 0.3, 1.5);
     let s = draw("beckmann", &b, wo, 200_000, 10);

@@ -171,13 +171,16 @@ pub fn radiance(
         } else {
             Footprint::POINT
         };
-        let frame = material.shading_frame(&scene.textures, &hit, wo, footprint);
+        let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
         let wo_local = frame.to_local(wo);
-        let bsdf = material.bsdf(&TextureQuery {
-            textures: &scene.textures,
-            uv: hit.uv,
-            footprint,
-        });
+        let bsdf = material.bsdf(
+            &TextureQuery {
+                textures: &scene.textures,
+                uv: hit.uv,
+                footprint,
+            },
+            perturbation,
+        );
 
         // The BSDF sample that continues the path, drawn before next-event estimation although
         // used after it: it depends only on this hit, so its dependent chain of a division, a

@@ -1,7 +1,9 @@
 //! Materials as the integrator sees them: a BSDF's (possibly textured) parameters, the
-//! material's sidedness, and an optional normal map.
+//! material's sidedness, and an optional normal map (torrey's) or normal perturbation
+//! (Mitsuba's `normalmap` / `bumpmap`, see [`MitsubaPerturb`]).
 
-use crate::bsdfs::{BackSide, BsdfParams, SurfaceBsdf};
+use super::perturb::{MitsubaPerturb, PerturbSource};
+use crate::bsdfs::{BackSide, BsdfParams, Perturbation, SurfaceBsdf};
 use crate::sampling::Frame;
 use crate::shapes::SurfaceHit;
 use crate::textures::{Texture, TextureQuery};
@@ -17,7 +19,10 @@ pub struct Material {
     pub back: Option<BsdfParams>,
     /// Shades both sides (torrey-dialect scenes, or Mitsuba's `twosided`).
     pub two_sided: bool,
+    /// torrey's normal map (torrey-dialect scenes: the course's rule).
     pub normal_map: Option<u32>,
+    /// Mitsuba's `normalmap` or `bumpmap` (Mitsuba-dialect scenes; `bumpmap` in both).
+    pub perturb: Option<MitsubaPerturb>,
     /// The BSDF depends on the tangent's direction (anisotropic roughness).
     pub anisotropic: bool,
     /// Shading reads a texture (the normal map, a textured parameter of either side): kept, not
@@ -29,13 +34,27 @@ impl Material {
     /// The material of a parsed bsdf; every material of a torrey-dialect scene is two-sided.
     pub fn from_desc(b: &desc::Bsdf, torrey_dialect: bool) -> Self {
         let bsdf = BsdfParams::from_desc(&b.kind, torrey_dialect);
-        let (back, normal_map) = match &b.kind {
+        let (back, mapped) = match &b.kind {
             desc::BsdfKind::TwoSided { front, back } => (
                 Some(BsdfParams::from_desc(&back.kind, torrey_dialect)),
-                front.normal_map,
+                &**front,
             ),
-            desc::BsdfKind::Mask { nested, .. } => (None, nested.normal_map),
-            _ => (None, b.normal_map),
+            desc::BsdfKind::Mask { nested, .. } => (None, &**nested),
+            _ => (None, b),
+        };
+        let source = match (mapped.normal_map, mapped.bump_map) {
+            (_, Some(bump)) => Some(PerturbSource::BumpMap {
+                texture: bump.texture as u32,
+                scale: bump.scale,
+            }),
+            (Some(t), None) if !torrey_dialect => Some(PerturbSource::NormalMap(t as u32)),
+            _ => None,
+        };
+        let perturb = source.map(|s| MitsubaPerturb::new(s, mapped.perturb));
+        let normal_map = if perturb.is_some() {
+            None
+        } else {
+            mapped.normal_map
         };
         // A mask is as two-sided as what it masks (mirroring its null part changes nothing).
         let two_sided = match &b.kind {
@@ -45,13 +64,18 @@ impl Material {
         let anisotropic = bsdf.anisotropic() || back.as_ref().is_some_and(|b| b.anisotropic());
         // A transmitting BSDF handles its back side itself (it refracts out of it).
         let two_sided = (two_sided || torrey_dialect) && !bsdf.transmits();
-        Material::new(
+        let mut m = Material::new(
             bsdf,
             back,
             two_sided,
             normal_map.map(|t| t as u32),
             anisotropic,
-        )
+        );
+        if perturb.is_some() {
+            m.perturb = perturb;
+            m.textured = true;
+        }
+        m
     }
 
     /// A material from its parts.
@@ -70,6 +94,7 @@ impl Material {
             back,
             two_sided,
             normal_map,
+            perturb: None,
             anisotropic,
             textured,
         }
@@ -82,8 +107,13 @@ impl Material {
     }
 
     /// The BSDF at a hit, its textured parameters looked up through `q`.
+    /// `perturbation` is what [`Material::shading_frame`] returned with the frame.
     #[inline(always)]
-    pub fn bsdf<'a>(&'a self, q: &TextureQuery<'a>) -> SurfaceBsdf<'a> {
+    pub fn bsdf<'a>(
+        &'a self,
+        q: &TextureQuery<'a>,
+        perturbation: Option<Perturbation>,
+    ) -> SurfaceBsdf<'a> {
         SurfaceBsdf {
             front: self.bsdf.resolve(q),
             back: match &self.back {
@@ -91,11 +121,13 @@ impl Material {
                 None if self.two_sided => BackSide::Mirrored,
                 None => BackSide::Front,
             },
+            perturbation,
         }
     }
 
     /// The local shading frame at a hit: the shading normal as the shape gives it (the BSDF
-    /// decides what its back side does, see [`SurfaceBsdf`]), or the normal map's.
+    /// decides what its back side does, see [`SurfaceBsdf`]), or the normal map's; with
+    /// Mitsuba's `normalmap` / `bumpmap`, also the adapter the BSDF applies in that frame.
     ///
     /// With a normal map, the side is decided by the geometric normal, the map perturbs the
     /// normal on that side (n = 2 rgb - 1 in the frame t = dp/du made orthogonal to ns,
@@ -109,17 +141,41 @@ impl Material {
         hit: &SurfaceHit,
         wo: Vec3A,
         footprint: Footprint,
-    ) -> Frame {
+    ) -> (Frame, Option<Perturbation>) {
         let Some(tex) = self.normal_map else {
-            // The common case, inline in the path loop; normal maps take the call below.
+            if let Some(p) = &self.perturb {
+                return self.perturbed_frame(p, textures, hit, wo, footprint);
+            }
+            // The common case, inline in the path loop; normal maps take the calls aside.
             // Anisotropic BSDFs are oriented by the surface's tangent dp/du, as Mitsuba's
             // shading frame is; for the others the tangent's direction does not matter.
             if self.anisotropic {
-                return Frame::from_normal_tangent(hit.ns, hit.dpdu);
+                return (Frame::from_normal_tangent(hit.ns, hit.dpdu), None);
             }
-            return Frame::from_normal(hit.ns);
+            return (Frame::from_normal(hit.ns), None);
         };
-        self.normal_mapped_frame(textures, hit, wo, tex, footprint)
+        (
+            self.normal_mapped_frame(textures, hit, wo, tex, footprint),
+            None,
+        )
+    }
+
+    /// [`Material::shading_frame`] for Mitsuba's `normalmap` / `bumpmap`.
+    #[inline(never)]
+    fn perturbed_frame(
+        &self,
+        p: &MitsubaPerturb,
+        textures: &[Texture],
+        hit: &SurfaceHit,
+        wo: Vec3A,
+        footprint: Footprint,
+    ) -> (Frame, Option<Perturbation>) {
+        if self.back.is_some() && hit.ns.dot(wo) < 0.0 {
+            // Mitsuba's twosided with a second bsdf: the back's has no normal or bump map.
+            return (Frame::from_normal_tangent(hit.ns, hit.dpdu), None);
+        }
+        let (frame, perturbation) = p.frame(textures, hit, wo, footprint, self.two_sided);
+        (frame, Some(perturbation))
     }
 
     /// [`Material::shading_frame`] for a material with normal map `tex`.

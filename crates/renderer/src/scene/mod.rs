@@ -4,6 +4,7 @@
 
 mod build;
 mod material;
+mod perturb;
 
 pub use build::BuildError;
 pub use material::Material;
