@@ -123,17 +123,7 @@ enum SamplerArg {
 
 /// What the scene asks for that the parser reads but the renderer does not draw yet.
 fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
-    use torrey_parser::PixelFilter;
     let mut out = Vec::new();
-    if matches!(
-        scene.film.filter,
-        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. }
-    ) {
-        out.push(format!(
-            "rfilter {:?} is rendered as a box filter for now (filters with negative lobes need splatting)",
-            scene.film.filter
-        ));
-    }
     if scene.camera.principal_point_offset != glam::Vec2::ZERO {
         out.push("principal_point_offset is not rendered yet (the image is centred)".into());
     }
