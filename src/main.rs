@@ -124,9 +124,6 @@ enum SamplerArg {
 /// What the scene asks for that the parser reads but the renderer does not draw yet.
 fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
     let mut out = Vec::new();
-    if scene.camera.principal_point_offset != glam::Vec2::ZERO {
-        out.push("principal_point_offset is not rendered yet (the image is centred)".into());
-    }
     if scene.film.crop.is_some() {
         out.push("the film's crop window is not rendered yet (the whole film is rendered)".into());
     }

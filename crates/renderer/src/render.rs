@@ -11,6 +11,7 @@ use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount};
 use crate::ray::Ray;
 use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
+use crate::shapes::SurfaceHit;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -325,9 +326,40 @@ fn render_pixel<S: Sampler>(
             (o, d, None, offset, inside)
         };
         if inside {
+            let first_hit = Some(clipped_first_hit(scene, o, d, first_hit));
             let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
             film.add_sample((x, y), offset, l);
         }
+    }
+}
+
+/// The camera ray's first hit between the camera's clip planes ([`crate::Camera::clip_range`]):
+/// Mitsuba starts perspective and thin lens rays on the near plane and ends them on the far one.
+/// `traced` is the closest hit from the ray's origin if it was traced already (in a packet); a
+/// hit nearer than the near plane is traced again from there.
+#[inline]
+fn clipped_first_hit(
+    scene: &RenderScene,
+    origin: Vec3A,
+    dir: Vec3A,
+    traced: Option<Option<SurfaceHit>>,
+) -> Option<SurfaceHit> {
+    let (near, far) = scene.camera().clip_range(dir);
+    let hit = traced.unwrap_or_else(|| {
+        scene.intersect(&Ray {
+            origin,
+            dir,
+            tmax: far,
+        })
+    });
+    match hit {
+        Some(h) if h.t < near => scene.intersect(&Ray {
+            origin: origin + dir * near,
+            dir,
+            tmax: far - near,
+        }),
+        Some(h) if h.t > far => None,
+        hit => hit,
     }
 }
 
