@@ -154,6 +154,42 @@ fn filter_scenes_fail_with_a_box_filter() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The camera scene can fail: without its principal point offset, its near clip plane or its
+/// far clip plane (each left out in turn), the render fails the verdict.
+#[test]
+fn camera_scene_fails_without_principal_point_or_clip_planes() {
+    let root = common::root();
+    let dir = std::env::temp_dir().join(format!("torrey-verdict-camera-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let name = "principal_point_clip";
+    let xml = std::fs::read_to_string(root.join(format!("tests/scenes/mitsuba/{name}.xml")))
+        .expect("scene");
+    let case = render_case(name);
+    for (what, lines) in [
+        (
+            "principal point offset",
+            &["principal_point_offset_x", "principal_point_offset_y"][..],
+        ),
+        ("near clip", &["near_clip"][..]),
+        ("far clip", &["far_clip"][..]),
+    ] {
+        let changed: String = xml
+            .lines()
+            .filter(|l| !lines.iter().any(|n| l.contains(&format!("\"{n}\""))))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert!(changed.len() < xml.len(), "{what}: nothing left out");
+        let path = dir.join(format!("{name}.xml"));
+        std::fs::write(&path, changed).unwrap();
+        let r = common::render_scene_opts(&path, 64, 48, case.spp as u32, None, 0, false);
+        let image = RawImage::from_vec3(64, 48, &r.image.pixels);
+        let v = verdict(&image, &case.reference, &case.variance, case.spp);
+        println!("{name} without its {what}: {v}");
+        assert!(!v.pass, "{name} without its {what} must fail: {v}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Every scene under tests/scenes/mitsuba has a reference and a test above.
 #[test]
 fn every_scene_has_a_reference() {
