@@ -5,6 +5,9 @@ use super::filter::Filter;
 use super::pixel::{PixelMean, SplatSum};
 use glam::{Vec2, Vec3A};
 
+/// The most pixels a splat spans along x: 2 radius + 1 for lanczos' largest `lobes` (64).
+const MAX_SPLAT_WIDTH: usize = 130;
+
 /// A window of film pixels that one tile's samples go to: the tile itself for importance-sampled
 /// filters; for splatted filters the tile grown by the filter's border (and clipped to the
 /// rendered window), since splats reach the neighbouring pixels.
@@ -91,16 +94,22 @@ impl TileFilm {
             return;
         }
         let (x0, x1, y0, y1) = (lo.x as u32, hi.x as u32, lo.y as u32, hi.y as u32);
+        // The profile along x, once per column (lanczos' 64 lobes at most reach 129 pixels).
+        let mut wxs = [0.0f32; MAX_SPLAT_WIDTH];
+        for (w, px) in wxs.iter_mut().zip(x0..=x1) {
+            *w = self.filter.eval(px as f32 + 0.5 - film.x);
+        }
         for py in y0..=y1 {
             let fy = self.filter.eval(py as f32 + 0.5 - film.y);
             if fy == 0.0 {
                 continue;
             }
-            let row = (py - wy) as usize * ww as usize;
-            for px in x0..=x1 {
-                let w = self.filter.eval(px as f32 + 0.5 - film.x) * fy;
+            let row = (py - wy) as usize * ww as usize + (x0 - wx) as usize;
+            let pixels = &mut self.splats[row..=row + (x1 - x0) as usize];
+            for (pixel, &fx) in pixels.iter_mut().zip(&wxs) {
+                let w = fx * fy;
                 if w != 0.0 {
-                    self.splats[row + (px - wx) as usize].add(w, value);
+                    pixel.add(w, value);
                 }
             }
         }
