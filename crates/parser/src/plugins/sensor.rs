@@ -343,7 +343,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
 /// | thinlens | `focus_distance` (`focusDistance`) | float | required (perspective: accepted, ignored) |
 /// | orthographic | `to_world` scales the view: x in [-1, 1], y in [-1/aspect, 1/aspect] before it | | |
 /// | all | `to_world` (`toWorld`) | transform | identity |
-/// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000; camera rays see geometry between these depths along the view axis (perspective, thinlens: t = clip / cos to the axis, as Mitsuba starts rays on the near plane; orthographic: rays start on the near plane, far is not applied) |
+/// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000; camera rays see geometry between these depths along the view axis (perspective, thinlens: t = clip / cos to the axis, as Mitsuba starts rays on the near plane; orthographic: rays start on the near plane and end far - near later) |
 /// | all | nested `<film>`, `<sampler>` | | see film and sampler |
 pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Film, Sampler)> {
     let ty = plugin_type(ctx, elem)?;

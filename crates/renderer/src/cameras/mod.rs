@@ -84,14 +84,14 @@ impl Camera {
 
     /// Distances along a camera ray of direction `dir` (from [`Camera::generate_ray`]) between
     /// which it sees geometry: Mitsuba's near and far clip planes for the perspective and thin
-    /// lens cameras (whose rays start on the near plane and end on the far one); the whole ray
-    /// for the orthographic camera (its origin already lies on the near plane).
+    /// lens cameras (whose rays start on the near plane and end on the far one); for the
+    /// orthographic camera, whose rays start on the near plane, `far_clip - near_clip`.
     #[inline]
     pub fn clip_range(&self, dir: Vec3A) -> (f32, f32) {
         match self {
             Camera::Perspective(c) => c.clip_range(dir),
             Camera::ThinLens(c) => c.pinhole.clip_range(dir),
-            Camera::Orthographic(_) => (0.0, f32::INFINITY),
+            Camera::Orthographic(c) => c.clip_range(),
         }
     }
 

@@ -237,12 +237,10 @@ fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, Bui
             aperture_radius,
             focus_distance,
         )),
-        desc::CameraKind::Orthographic => Camera::Orthographic(OrthographicCamera::new(
-            c.to_world,
-            c.near_clip,
-            width,
-            height,
-        )),
+        desc::CameraKind::Orthographic => Camera::Orthographic(
+            OrthographicCamera::new(c.to_world, c.near_clip, width, height)
+                .with_far_clip(c.far_clip),
+        ),
         // Mitsuba's thinlens has no principal point offset; its perspective camera does.
         desc::CameraKind::Perspective => {
             Camera::Perspective(pinhole.with_principal_point(c.principal_point_offset))
