@@ -121,25 +121,6 @@ enum SamplerArg {
     Independent,
 }
 
-/// What the scene asks for that the parser reads but the renderer does not draw yet.
-fn not_rendered_yet(scene: &torrey_parser::Scene) -> Vec<String> {
-    use torrey_parser::PixelFilter;
-    let mut out = Vec::new();
-    if matches!(
-        scene.film.filter,
-        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. }
-    ) {
-        out.push(format!(
-            "rfilter {:?} is rendered as a box filter for now (filters with negative lobes need splatting)",
-            scene.film.filter
-        ));
-    }
-    if scene.camera.principal_point_offset != glam::Vec2::ZERO {
-        out.push("principal_point_offset is not rendered yet (the image is centred)".into());
-    }
-    out
-}
-
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -214,9 +195,6 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let scene = torrey_parser::load_scene_with(scene_path, &options).map_err(|e| e.to_string())?;
     for w in &scene.warnings {
         eprintln!("{w}");
-    }
-    for w in not_rendered_yet(&scene) {
-        eprintln!("warning: {w}");
     }
     let parse_time = load_start.elapsed();
     let (width, height) = args.size.unwrap_or((scene.film.width, scene.film.height));

@@ -96,6 +96,9 @@ verdict_tests!(
     directional,
     envmap_textured,
     envmap_sun,
+    filter_catmullrom,
+    filter_lanczos,
+    filter_mitchell,
     hide_emitters,
     include_path_default_alias,
     instances_cube_direct,
@@ -103,6 +106,7 @@ verdict_tests!(
     mitsuba06_indoor,
     no_fov,
     orthographic,
+    principal_point_clip,
     projector,
     spot,
     spot_textured,
@@ -123,6 +127,72 @@ fn textured_plane_gaussian() {
         case.spp,
     );
     assert!(!darker.pass, "a 3% darker render must fail: {darker}");
+}
+
+/// The filter scenes can fail: drawn with a box filter instead of their own (what torrey did
+/// before it splatted filters with negative lobes), the lanczos, catmull-rom and mitchell scenes
+/// fail the verdict.
+#[test]
+fn filter_scenes_fail_with_a_box_filter() {
+    let root = common::root();
+    let dir = std::env::temp_dir().join(format!("torrey-verdict-box-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for name in ["filter_lanczos", "filter_catmullrom", "filter_mitchell"] {
+        let xml = std::fs::read_to_string(root.join(format!("tests/scenes/mitsuba/{name}.xml")))
+            .expect("scene");
+        let start = xml.find("<rfilter").expect("an rfilter");
+        let end = xml[start..]
+            .find("</rfilter>")
+            .map(|e| start + e + "</rfilter>".len())
+            .or_else(|| xml[start..].find("/>").map(|e| start + e + 2))
+            .expect("rfilter end");
+        let boxed = format!("{}<rfilter type=\"box\"/>{}", &xml[..start], &xml[end..]);
+        let path = dir.join(format!("{name}.xml"));
+        std::fs::write(&path, boxed).unwrap();
+        let case = render_case(name);
+        let r = common::render_scene_opts(&path, 48, 48, case.spp as u32, None, 0, false);
+        let image = RawImage::from_vec3(48, 48, &r.image.pixels);
+        let v = verdict(&image, &case.reference, &case.variance, case.spp);
+        println!("{name} drawn with a box filter: {v}");
+        assert!(!v.pass, "{name} with a box filter must fail: {v}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The camera scene can fail: without its principal point offset, its near clip plane or its
+/// far clip plane (each left out in turn), the render fails the verdict.
+#[test]
+fn camera_scene_fails_without_principal_point_or_clip_planes() {
+    let root = common::root();
+    let dir = std::env::temp_dir().join(format!("torrey-verdict-camera-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let name = "principal_point_clip";
+    let xml = std::fs::read_to_string(root.join(format!("tests/scenes/mitsuba/{name}.xml")))
+        .expect("scene");
+    let case = render_case(name);
+    for (what, lines) in [
+        (
+            "principal point offset",
+            &["principal_point_offset_x", "principal_point_offset_y"][..],
+        ),
+        ("near clip", &["near_clip"][..]),
+        ("far clip", &["far_clip"][..]),
+    ] {
+        let changed: String = xml
+            .lines()
+            .filter(|l| !lines.iter().any(|n| l.contains(&format!("\"{n}\""))))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert!(changed.len() < xml.len(), "{what}: nothing left out");
+        let path = dir.join(format!("{name}.xml"));
+        std::fs::write(&path, changed).unwrap();
+        let r = common::render_scene_opts(&path, 64, 48, case.spp as u32, None, 0, false);
+        let image = RawImage::from_vec3(64, 48, &r.image.pixels);
+        let v = verdict(&image, &case.reference, &case.variance, case.spp);
+        println!("{name} without its {what}: {v}");
+        assert!(!v.pass, "{name} without its {what} must fail: {v}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Every scene under tests/scenes/mitsuba has a reference and a test above.
@@ -150,6 +220,9 @@ fn every_scene_has_a_reference() {
         "directional",
         "envmap_sun",
         "envmap_textured",
+        "filter_catmullrom",
+        "filter_lanczos",
+        "filter_mitchell",
         "hide_emitters",
         "include_path_default_alias",
         "instances_cube_direct",
@@ -157,6 +230,7 @@ fn every_scene_has_a_reference() {
         "mitsuba06_indoor",
         "no_fov",
         "orthographic",
+        "principal_point_clip",
         "projector",
         "spot",
         "spot_textured",

@@ -137,6 +137,61 @@ fn split_renders_merge_into_the_one_piece_render() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A filter with negative lobes (lanczos, 3 lobes) splats every sample into the pixels up to
+/// three away: a crop's render also draws the samples around it, and sample ranges merge by
+/// their weight sums. The whole-range crop is the one-piece render's pixels bit for bit (means
+/// and variances); the merged means are the one-piece means to float rounding; the merged
+/// variance (that of the merged mean, from the parts' variances) agrees over the image.
+#[test]
+fn split_renders_merge_with_a_negative_lobed_filter() {
+    let dir = temp_dir("lanczos");
+    let lanczos =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/mitsuba/filter_lanczos.xml");
+    let common = ["--size", "20x14", "--spp", "21", "--sampler", "independent"];
+    let slices = [
+        ("0,0,13,9", "0..21"),
+        ("13,0,7,9", "0..3"),
+        ("13,0,7,9", "3..11"),
+        ("13,0,7,9", "11..21"),
+        ("0,9,20,5", "0..8"),
+        ("0,9,20,5", "8..21"),
+    ];
+    let (full, merged) = split_and_merge(&dir, &lanczos, &common, &slices);
+    assert_eq!(merged.meta, full.meta);
+    // Splat weights are not counts (the merge weighs by them).
+    assert!(full
+        .weight
+        .iter()
+        .zip(&full.count)
+        .any(|(&w, &n)| w != n as f32));
+    for y in 0..9 {
+        for x in 0..13 {
+            let i = y * 20 + x;
+            assert_eq!(merged.mean[i], full.mean[i], "pixel {x},{y}");
+            assert_eq!(merged.variance[i], full.variance[i], "pixel {x},{y}");
+        }
+    }
+    let (mut worst, mut merged_var, mut one_var) = (0.0f64, 0.0f64, 0.0f64);
+    for (i, (a, b)) in full.mean.iter().zip(&merged.mean).enumerate() {
+        // Relative to the pixel's scale: signed weights can cancel within a channel.
+        let scale = a.abs().max_element().max(1e-3) as f64;
+        worst = worst.max((*a - *b).abs().max_element() as f64 / scale);
+        merged_var += merged.variance[i].element_sum() as f64;
+        one_var += full.variance[i].element_sum() as f64;
+    }
+    eprintln!(
+        "lanczos: merged vs one-piece means {worst:e}, variance ratio {}",
+        merged_var / one_var
+    );
+    assert!(worst < 1e-4, "{worst}");
+    assert!(
+        (0.8..1.25).contains(&(merged_var / one_var)),
+        "{}",
+        merged_var / one_var
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn part_exrs_record_scene_settings_and_slice() {
     let dir = temp_dir("meta");

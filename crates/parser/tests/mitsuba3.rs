@@ -825,3 +825,42 @@ fn principled_errors_point_at_the_problem() {
         }
     }
 }
+
+/// Sensor options: the principal point offset, clip planes and filter parameters are read with
+/// Mitsuba's names; thinlens has no principal point in Mitsuba (one warning, at the sensor, and
+/// the offset is dropped).
+#[test]
+fn principal_point_clip_planes_and_filter_parameters() {
+    let s = parse_ok(
+        r#"<scene version="3.0.0"><sensor type="perspective">
+  <float name="principal_point_offset_x" value="0.12"/><float name="principal_point_offset_y" value="-0.08"/>
+  <float name="near_clip" value="3.1"/><float name="far_clip" value="7.5"/>
+  <film type="hdrfilm"><rfilter type="mitchell"><float name="B" value="0.3"/><float name="C" value="0.35"/></rfilter></film>
+</sensor></scene>"#,
+    );
+    assert_eq!(
+        s.camera.principal_point_offset,
+        glam::Vec2::new(0.12, -0.08)
+    );
+    assert_eq!((s.camera.near_clip, s.camera.far_clip), (3.1, 7.5));
+    assert_eq!(s.film.filter, PixelFilter::Mitchell { b: 0.3, c: 0.35 });
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let xml = r#"<scene version="3.0.0"><sensor type="thinlens">
+  <float name="aperture_radius" value="0.1"/><float name="focus_distance" value="4"/>
+  <float name="principal_point_offset_x" value="0.2"/>
+  <film type="hdrfilm"><rfilter type="catmullrom"/></film>
+</sensor></scene>"#;
+    let s = parse_ok(xml);
+    assert_eq!(s.camera.principal_point_offset, glam::Vec2::ZERO);
+    assert_eq!(s.film.filter, PixelFilter::CatmullRom);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    assert_eq!(
+        (w.location.line, w.location.column),
+        pos_of(xml, "<sensor type")
+    );
+    assert!(
+        w.message.contains("principal_point_offset is ignored"),
+        "{w}"
+    );
+}

@@ -34,6 +34,8 @@ fn unescape(value: &str) -> String {
 
 /// Samples counted per pixel, as floats (exact below 2^24).
 const COUNT: &str = "count";
+/// Sum of the sample weights per pixel (absent in parts written before it: then `count`).
+const WEIGHT: &str = "weight";
 
 fn text(s: &str) -> Text {
     // EXR text is bytes; keep UTF-8 (paths) as it is.
@@ -54,6 +56,10 @@ fn image(part: &Part, encoding: Encoding) -> Image<Layer<AnyChannels<FlatSamples
     channels.push(AnyChannel::new(
         COUNT,
         FlatSamples::F32(part.count.iter().map(|&n| n as f32).collect()),
+    ));
+    channels.push(AnyChannel::new(
+        WEIGHT,
+        FlatSamples::F32(part.weight.clone()),
     ));
     let mut attributes = LayerAttributes::default();
     // One text attribute holding every field, one `name=value` line each (newlines and
@@ -161,10 +167,20 @@ pub fn read_part_bytes(bytes: &[u8], name: &str) -> std::result::Result<Part, St
                 .ok_or_else(|| err(format!("a sample count of {n} in the 'count' channel")))
         })
         .collect::<std::result::Result<Vec<u32>, String>>()?;
+    let weight = match channel(WEIGHT) {
+        Ok(w) => {
+            if let Some(bad) = w.iter().find(|v| !v.is_finite()) {
+                return Err(err(format!("a weight of {bad} in the 'weight' channel")));
+            }
+            w
+        }
+        Err(_) => count.iter().map(|&n| n as f32).collect(),
+    };
     Ok(Part {
         meta,
         mean: gather(0),
         variance: gather(3),
         count,
+        weight,
     })
 }

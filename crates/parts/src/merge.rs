@@ -1,4 +1,5 @@
-//! Merging parts: crops go side by side, sample ranges combine by their sample counts.
+//! Merging parts: crops go side by side, sample ranges combine by their sample counts (by their
+//! weight sums for splatted filters).
 
 use crate::part::Part;
 use glam::Vec3;
@@ -9,7 +10,11 @@ use std::collections::BTreeMap;
 /// sample ranges must not overlap and must cover `0..spp`; the windows must not overlap and must
 /// cover the film. The mean is the sample-count-weighted mean of the parts' means, and the
 /// variance comes from Chan et al.'s parallel formula (M2 = M2_a + M2_b + delta^2 n_a n_b / n),
-/// both in f64: the one-piece render's values to float rounding.
+/// both in f64: the one-piece render's values to float rounding. Pixels of splatted filters
+/// (a weight sum other than the count) merge by weight sums: the mean is sum(W_k m_k) / sum W_k,
+/// the one-piece render's to float rounding, and the variance that of this mean,
+/// sum(W_k^2 var_k) / (sum W_k)^2 (parts are independent; it differs from the one-piece
+/// render's estimate only by the noise of estimating a variance).
 pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
     let Some((first_name, first)) = parts.first() else {
         return Err("no parts to merge".into());
@@ -36,6 +41,7 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
         if part.mean.len() != (w * h) as usize
             || part.variance.len() != part.mean.len()
             || part.count.len() != part.mean.len()
+            || part.weight.len() != part.mean.len()
         {
             return Err(format!("{name}: pixel count does not match its crop"));
         }
@@ -114,8 +120,38 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
     let mut mean = vec![Vec3::ZERO; owner.len()];
     let mut variance = vec![Vec3::ZERO; owner.len()];
     let mut count = vec![0u32; owner.len()];
+    let mut weight = vec![0f32; owner.len()];
     for (&(x, y, w, h), members) in &by_crop {
         for i in 0..(w * h) as usize {
+            let (px, py) = (x + i as u32 % w, y + i as u32 / w);
+            let o = ((py - oy) * ow + (px - ox)) as usize;
+            let unit_weights = members.iter().all(|&k| {
+                let part = &parts[k].1;
+                part.weight[i] == part.count[i] as f32
+            });
+            if !unit_weights {
+                let (mut n, mut wsum, mut s, mut v) = (0u64, 0.0f64, [0.0f64; 3], [0.0f64; 3]);
+                for &k in members {
+                    let part = &parts[k].1;
+                    if part.count[i] == 0 {
+                        continue;
+                    }
+                    let wk = part.weight[i] as f64;
+                    n += part.count[i] as u64;
+                    wsum += wk;
+                    for c in 0..3 {
+                        s[c] += wk * part.mean[i][c] as f64;
+                        v[c] += wk * wk * part.variance[i][c] as f64;
+                    }
+                }
+                if wsum != 0.0 {
+                    mean[o] = Vec3::from_array(s.map(|t| (t / wsum) as f32));
+                    variance[o] = Vec3::from_array(v.map(|t| (t / (wsum * wsum)) as f32));
+                }
+                count[o] = n.min(u32::MAX as u64) as u32;
+                weight[o] = wsum as f32;
+                continue;
+            }
             let (mut n, mut m, mut m2) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
             for &k in members {
                 let part = &parts[k].1;
@@ -134,10 +170,9 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
                 }
                 n = total;
             }
-            let (px, py) = (x + i as u32 % w, y + i as u32 / w);
-            let o = ((py - oy) * ow + (px - ox)) as usize;
             mean[o] = Vec3::from_array(m.map(|v| v as f32));
             count[o] = n as u32;
+            weight[o] = n as f32;
             variance[o] = if n > 1.0 {
                 Vec3::from_array(m2.map(|v| (v / (n * (n - 1.0))) as f32))
             } else {
@@ -154,6 +189,7 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
         mean,
         variance,
         count,
+        weight,
     })
 }
 
@@ -179,6 +215,7 @@ mod tests {
             mean: vec![Vec3::splat(value); n],
             variance: vec![Vec3::ZERO; n],
             count: vec![samples.1 - samples.0; n],
+            weight: vec![(samples.1 - samples.0) as f32; n],
         }
     }
 
@@ -207,6 +244,22 @@ mod tests {
         assert_eq!(m.mean[3], Vec3::splat(5.0));
         assert!((m.variance[4].x - 7.5 / 56.0).abs() < 1e-7);
         assert_eq!(m.variance[2], Vec3::ZERO);
+    }
+
+    /// Splatted pixels (weight sums other than the counts) merge by weight: means 1 and 3 with
+    /// weights 2.5 and 1.5 give 1.75; variances 0.1 and 0.2 give (6.25 0.1 + 2.25 0.2) / 16.
+    #[test]
+    fn weighted_pixels_merge_by_weight_sums() {
+        let mut a = part((0, 0, 4, 2), (0, 4), 1.0);
+        let mut b = part((0, 0, 4, 2), (4, 8), 3.0);
+        a.weight = vec![2.5; 8];
+        b.weight = vec![1.5; 8];
+        a.variance = vec![Vec3::splat(0.1); 8];
+        b.variance = vec![Vec3::splat(0.2); 8];
+        let m = merge(&named(vec![a, b])).unwrap();
+        assert!((m.mean[5].x - 1.75).abs() < 1e-6, "{:?}", m.mean[5]);
+        assert!((m.variance[5].y - (6.25 * 0.1 + 2.25 * 0.2) / 16.0).abs() < 1e-7);
+        assert_eq!((m.count[5], m.weight[5]), (8, 4.0));
     }
 
     #[test]
@@ -272,6 +325,7 @@ mod tests {
         let mut p = part((1, 0, 3, 2), (2, 7), 0.1);
         p.mean[4] = Vec3::new(1e-7, 3.5, 1e9);
         p.variance[1] = Vec3::new(0.25, 1e-12, 7.0);
+        p.weight[2] = -0.375;
         p.meta.scene = "/tmp/scènes/a b\\c\nd=e.xml".into();
         let bytes = crate::write_part_bytes(&p).unwrap();
         let q = crate::read_part_bytes(&bytes, "mem").unwrap();
@@ -279,6 +333,7 @@ mod tests {
         assert_eq!(q.mean, p.mean);
         assert_eq!(q.variance, p.variance);
         assert_eq!(q.count, p.count);
+        assert_eq!(q.weight, p.weight);
         let err = crate::read_part_bytes(b"not an exr", "junk.exr").unwrap_err();
         assert!(err.starts_with("junk.exr: not a readable EXR"), "{err}");
     }

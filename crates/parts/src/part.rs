@@ -14,6 +14,9 @@ pub struct Part {
     /// Samples that counted in each pixel (a filter offset can leave the film): the merge's
     /// per-pixel weights.
     pub count: Vec<u32>,
+    /// Sum of the sample weights in each pixel: `count` for importance-sampled filters (weight
+    /// one each), the splats' filter weights for splatted ones (mitchell, catmullrom, lanczos).
+    pub weight: Vec<f32>,
 }
 
 impl Part {
@@ -26,6 +29,7 @@ impl Part {
             mean: out.image.pixels.clone(),
             variance: out.variance.pixels.clone(),
             count: out.counts.clone(),
+            weight: out.weights.clone(),
         }
     }
 

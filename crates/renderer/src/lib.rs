@@ -16,6 +16,7 @@
 mod accel;
 mod bsdfs;
 mod cameras;
+mod film;
 mod integrator;
 mod lights;
 mod ray;

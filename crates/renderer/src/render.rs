@@ -6,10 +6,12 @@
 
 use crate::accel::ClosestHit;
 use crate::cameras::CameraSample;
+use crate::film::{Film, TileFilm};
 use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount};
 use crate::ray::Ray;
 use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
+use crate::shapes::SurfaceHit;
 use glam::{Vec2, Vec3A};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -43,8 +45,11 @@ pub struct RenderOutput {
     pub variance: Image,
     pub spp: u32,
     /// Samples that counted in each pixel, row by row: those whose filter offset stayed inside
-    /// the film (all `spp` of them with a box filter). Exact merging of sample ranges weighs by it.
+    /// the film (all `spp` of them with a box filter), or the splats of non-zero weight it got.
     pub counts: Vec<u32>,
+    /// Each pixel's sum of sample weights: `counts` for importance-sampled filters, the sum of
+    /// the splats' filter weights for splatted ones. Merging sample ranges weighs by it.
+    pub weights: Vec<f32>,
     /// Samples whose value was NaN or infinite; they were dropped (counted as zero).
     pub nonfinite_samples: u64,
     pub elapsed: Duration,
@@ -56,9 +61,6 @@ pub struct RenderOutput {
 
 /// The most camera rays a packet holds (the widest any layout traces).
 const MAX_PACKET: usize = 16;
-
-/// A tile's origin and its pixels' (mean, variance of the mean, samples counted), row by row.
-type RenderedTile = ((u32, u32), Vec<(Vec3A, Vec3A, u32)>);
 
 /// One piece of a render: a window of the film and a range of every pixel's samples. Pixel and
 /// sample indices stay those of the whole film and of `0..spp`, so pieces rendered apart (other
@@ -137,15 +139,11 @@ pub fn render_slice(
             "the window {cw}x{ch} at ({cx}, {cy}) is not inside the film's crop window {ww}x{wh} at ({wx}, {wy})"
         ));
     }
-    let (cx, cy, cw, ch) = slice.crop;
     let samples = slice.samples.clone();
-    let ts = settings.tile_size.max(1);
-    let tiles: Vec<(u32, u32)> = (0..ch.div_ceil(ts))
-        .flat_map(|ty| (0..cw.div_ceil(ts)).map(move |tx| (cx + tx * ts, cy + ty * ts)))
-        .collect();
+    let mut film = Film::new(settings.filter, scene.sample_window(), slice.crop);
+    let tiles = film.tiles(settings.tile_size);
     let total = tiles.len() as u64;
     let done = AtomicU64::new(0);
-    let nonfinite = AtomicU64::new(0);
     let closest_rays = AtomicU64::new(0);
     let shadow_rays = AtomicU64::new(0);
     let first_tile_ns = AtomicU64::new(u64::MAX);
@@ -158,13 +156,10 @@ pub fn render_slice(
         env_strategy: settings.env_strategy,
     };
 
-    let rendered: Vec<RenderedTile> = tiles
+    let rendered: Vec<TileFilm> = tiles
         .par_iter()
-        .map(|&(x0, y0)| {
-            let x1 = (x0 + ts).min(cx + cw);
-            let y1 = (y0 + ts).min(cy + ch);
-            let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-            let mut bad = 0u64;
+        .map(|&(x0, y0, x1, y1)| {
+            let mut tile = film.tile((x0, y0, x1, y1));
             let mut rays = RayCount::default();
             // One Sobol sampler per tile: its table of points is reused from pixel to pixel.
             let mut sobol = (settings.sampler == SamplerKind::Sobol)
@@ -172,7 +167,7 @@ pub fn render_slice(
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
-                    let (mean, var_of_mean, dropped, counted) = match settings.sampler {
+                    match settings.sampler {
                         SamplerKind::Independent => render_pixel(
                             scene,
                             (x, y),
@@ -181,6 +176,7 @@ pub fn render_slice(
                             path,
                             &mut PcgSampler::new(settings.seed, pixel_index),
                             &mut rays,
+                            &mut tile,
                         ),
                         SamplerKind::Sobol => {
                             // Tables cover the samples up to the range's end (one past its last).
@@ -194,44 +190,40 @@ pub fn render_slice(
                                 path,
                                 sampler,
                                 &mut rays,
+                                &mut tile,
                             )
                         }
-                    };
-                    bad += dropped;
-                    out.push((mean, var_of_mean, counted));
+                    }
                 }
             }
-            nonfinite.fetch_add(bad, Ordering::Relaxed);
             closest_rays.fetch_add(rays.closest, Ordering::Relaxed);
             shadow_rays.fetch_add(rays.shadow, Ordering::Relaxed);
             first_tile_ns.fetch_min(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             progress(d, total);
-            ((x0, y0), out)
+            tile
         })
         .collect();
 
-    let mut image = Image::filled(cw, ch, glam::Vec3::ZERO);
-    let mut variance = Image::filled(cw, ch, glam::Vec3::ZERO);
-    let mut counts = vec![0; (cw * ch) as usize];
-    for ((x0, y0), pixels) in rendered {
-        let x1 = (x0 + ts).min(cx + cw);
-        let tile_w = (x1 - x0) as usize;
-        for (i, (m, v, n)) in pixels.into_iter().enumerate() {
-            let x = (x0 - cx) as usize + i % tile_w;
-            let y = (y0 - cy) as usize + i / tile_w;
-            image.pixels[y * cw as usize + x] = m.into();
-            variance.pixels[y * cw as usize + x] = v.into();
-            counts[y * cw as usize + x] = n;
-        }
+    // In the order of `tiles`: a pixel's splats add up in the same order whatever the window.
+    for tile in rendered {
+        film.add_tile(tile);
     }
+    let nonfinite = film.nonfinite();
+    let pixels = film.finish();
+    let (_, _, cw, ch) = slice.crop;
+    let image = Image::new(cw, ch, pixels.iter().map(|p| p.mean.into()).collect());
+    let variance = Image::new(cw, ch, pixels.iter().map(|p| p.variance.into()).collect());
+    let counts = pixels.iter().map(|p| p.count).collect();
+    let weights = pixels.iter().map(|p| p.weight).collect();
     let elapsed = start.elapsed();
     Ok(RenderOutput {
         image,
         variance,
         spp: samples.end - samples.start,
         counts,
-        nonfinite_samples: nonfinite.into_inner(),
+        weights,
+        nonfinite_samples: nonfinite,
         elapsed,
         rays: RayCount {
             closest: closest_rays.into_inner(),
@@ -241,9 +233,8 @@ pub fn render_slice(
     })
 }
 
-/// Renders one pixel's samples `samples` (global indices); returns their mean, the variance of the
-/// mean (from the sample variance; an overestimate for correlated low-discrepancy samples), the
-/// count of dropped non-finite samples and the count of samples that counted (inside the film).
+/// Renders one pixel's samples `samples` (global indices) into the tile's film.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn render_pixel<S: Sampler>(
     scene: &RenderScene,
@@ -253,12 +244,8 @@ fn render_pixel<S: Sampler>(
     path: PathSettings,
     sampler: &mut S,
     rays: &mut RayCount,
-) -> (Vec3A, Vec3A, u64, u32) {
-    // Welford's running mean and variance per channel.
-    let mut mean = Vec3A::ZERO;
-    let mut m2 = Vec3A::ZERO;
-    let mut bad = 0;
-    let filter = settings.filter;
+    film: &mut TileFilm,
+) {
     let camera = scene.camera();
     // One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel centre
     // (the ray through the film's and the lens's centres).
@@ -272,37 +259,22 @@ fn render_pixel<S: Sampler>(
         .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
     // The camera's sampler draws: the film position, then its lens (if it has one).
     let camera_requests = 1 + camera.lens_requests();
-    // Mitsuba places samples inside the film (its crop window) only (hdrfilm's sample_border is
-    // false) and divides each pixel's splats by their filter weights: a filter offset that leaves
-    // the window therefore does not count (the pixel's mean is over the samples that stay inside).
-    let (wx, wy, ww, wh) = scene.sample_window();
-    let window_min = Vec2::new(wx as f32, wy as f32);
-    let window_max = window_min + Vec2::new(ww as f32, wh as f32);
-    let camera_ray = |sampler: &mut S| {
-        let offset = sample_filter(filter, sampler.next_2d());
-        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+    let filter = film.filter();
+    // Samples whose film position leaves the film do not count (see `TileFilm::film_position`)
+    // and are not traced.
+    let camera_ray = |sampler: &mut S, film: &TileFilm| {
+        let offset = filter.offset(sampler.next_2d());
+        let (position, inside) = film.film_position((x, y), offset);
         let lens = if camera.lens_requests() > 0 {
             sampler.next_2d()
         } else {
             Vec2::ZERO
         };
-        let inside = film.cmpge(window_min).all() && film.cmplt(window_max).all();
-        let (o, d) = camera.generate_ray(&CameraSample { film, lens });
-        (o, d, inside)
-    };
-    let mut counted = 0u32;
-    let mut add = |l: Vec3A| {
-        let l = if l.is_finite() {
-            l
-        } else {
-            bad += 1;
-            Vec3A::ZERO
-        };
-        counted += 1;
-        let n = counted as f32;
-        let delta = l - mean;
-        mean += delta / n;
-        m2 += delta * (l - mean);
+        let (o, d) = camera.generate_ray(&CameraSample {
+            film: position,
+            lens,
+        });
+        (o, d, offset, inside)
     };
     // Camera rays go in packets, traced together, for every group of `lanes` global sample
     // indices (k lanes .. (k+1) lanes) that lies whole in the range: each packet's rays are drawn
@@ -318,6 +290,7 @@ fn render_pixel<S: Sampler>(
     };
     let mut origin = Vec3A::ZERO;
     let mut dirs = [Vec3A::ZERO; MAX_PACKET];
+    let mut offsets = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut packed = false;
@@ -330,16 +303,12 @@ fn render_pixel<S: Sampler>(
                     .checked_add(group)
                     .is_some_and(|end| end <= samples.end)
         };
-        let (o, d, first_hit, inside) = if in_packet {
+        let (o, d, first_hit, offset, inside) = if in_packet {
             let lane = (s % group) as usize;
             if lane == 0 {
-                for (k, (dir, inside)) in dirs[..lanes]
-                    .iter_mut()
-                    .zip(&mut insides[..lanes])
-                    .enumerate()
-                {
+                for k in 0..lanes {
                     sampler.start_sample(s + k as u32);
-                    (origin, *dir, *inside) = camera_ray(sampler);
+                    (origin, dirs[k], offsets[k], insides[k]) = camera_ray(sampler, film);
                 }
                 packed = scene
                     .accel()
@@ -353,53 +322,47 @@ fn render_pixel<S: Sampler>(
             };
             let first_hit =
                 packed.then(|| hits[lane].map(|hit: ClosestHit| scene.surface(&ray, &hit)));
-            (origin, dirs[lane], first_hit, insides[lane])
+            (origin, dirs[lane], first_hit, offsets[lane], insides[lane])
         } else {
             sampler.start_sample(s);
-            let (o, d, inside) = camera_ray(sampler);
-            (o, d, None, inside)
+            let (o, d, offset, inside) = camera_ray(sampler, film);
+            (o, d, None, offset, inside)
         };
         if inside {
-            add(radiance(scene, o, d, cone, path, sampler, rays, first_hit));
-        }
-    }
-    let var_of_mean = if counted > 1 {
-        m2 / ((counted - 1) as f32 * counted as f32)
-    } else {
-        Vec3A::ZERO
-    };
-    (mean, var_of_mean, bad, counted)
-}
-
-/// Offset from the pixel centre, drawn from the pixel filter (filter importance sampling: every
-/// sample then counts with weight one in its own pixel, which converges to the same filtered image
-/// as Mitsuba's weighted splatting).
-#[inline]
-fn sample_filter(filter: PixelFilter, u: Vec2) -> Vec2 {
-    match filter {
-        PixelFilter::Box => u - Vec2::splat(0.5),
-        // Filters with negative lobes need weighted splatting (not implemented yet): drawn as a
-        // box for now; the command line says so.
-        PixelFilter::Mitchell { .. } | PixelFilter::CatmullRom | PixelFilter::Lanczos { .. } => {
-            u - Vec2::splat(0.5)
-        }
-        PixelFilter::Tent { radius } => Vec2::new(sample_tent(u.x), sample_tent(u.y)) * radius,
-        PixelFilter::Gaussian { stddev } => {
-            // Box-Muller, truncated at Mitsuba's radius of 4 standard deviations.
-            let r = (-2.0 * (1.0 - u.x).max(1e-12).ln()).sqrt().min(4.0);
-            let phi = 2.0 * std::f32::consts::PI * u.y;
-            Vec2::new(phi.cos(), phi.sin()) * (r * stddev)
+            let first_hit = Some(clipped_first_hit(scene, o, d, first_hit));
+            let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
+            film.add_sample((x, y), offset, l);
         }
     }
 }
 
-/// Inverse CDF of the unit tent on [-1, 1].
+/// The camera ray's first hit between the camera's clip planes ([`crate::Camera::clip_range`]):
+/// Mitsuba starts perspective and thin lens rays on the near plane and ends them on the far one.
+/// `traced` is the closest hit from the ray's origin if it was traced already (in a packet); a
+/// hit nearer than the near plane is traced again from there.
 #[inline]
-fn sample_tent(u: f32) -> f32 {
-    if u < 0.5 {
-        (2.0 * u).sqrt() - 1.0
-    } else {
-        1.0 - (2.0 - 2.0 * u).sqrt()
+fn clipped_first_hit(
+    scene: &RenderScene,
+    origin: Vec3A,
+    dir: Vec3A,
+    traced: Option<Option<SurfaceHit>>,
+) -> Option<SurfaceHit> {
+    let (near, far) = scene.camera().clip_range(dir);
+    let hit = traced.unwrap_or_else(|| {
+        scene.intersect(&Ray {
+            origin,
+            dir,
+            tmax: far,
+        })
+    });
+    match hit {
+        Some(h) if h.t < near => scene.intersect(&Ray {
+            origin: origin + dir * near,
+            dir,
+            tmax: far - near,
+        }),
+        Some(h) if h.t > far => None,
+        hit => hit,
     }
 }
 
@@ -407,36 +370,7 @@ fn sample_tent(u: f32) -> f32 {
 mod tests {
     use super::*;
     use crate::cameras::{Camera, ThinLensCamera};
-    use crate::sampler::PcgSampler;
     use std::path::Path;
-
-    #[test]
-    fn tent_samples_match_the_tent() {
-        let mut s = PcgSampler::new(1, 1);
-        let mut bins = [0u32; 8];
-        let n = 80_000;
-        for _ in 0..n {
-            let x = sample_tent(s.next_1d());
-            assert!((-1.0..=1.0).contains(&x));
-            bins[((x + 1.0) * 4.0).min(7.999) as usize] += 1;
-        }
-        // Expected mass of bin [a, b] under the tent: integral of 1 - |x|.
-        let cdf = |x: f64| {
-            if x < 0.0 {
-                0.5 * (1.0 + x).powi(2)
-            } else {
-                1.0 - 0.5 * (1.0 - x).powi(2)
-            }
-        };
-        let chi2: f64 = (0..8)
-            .map(|i| {
-                let (a, b) = (-1.0 + i as f64 * 0.25, -1.0 + (i + 1) as f64 * 0.25);
-                let e = (cdf(b) - cdf(a)) * n as f64;
-                (bins[i] as f64 - e).powi(2) / e
-            })
-            .sum();
-        assert!(chi2 < 24.3, "chi2 = {chi2}"); // 7 dof, 0.999 quantile
-    }
 
     /// A small scene with meshes, a sphere and an area light (24x20).
     fn packet_scene() -> RenderScene {
@@ -519,20 +453,23 @@ mod tests {
         let scene = packet_scene();
         // A gaussian filter's offsets can leave the film at its border: those samples do not
         // count, so border pixels hold fewer, and the merge weighs each pixel by its count.
+        // Lanczos splats across pixels with signed weights: the merge weighs by weight sums.
         for (sampler, filter) in [
             (SamplerKind::Sobol, PixelFilter::Box),
             (SamplerKind::Independent, PixelFilter::Box),
             (SamplerKind::Sobol, PixelFilter::Gaussian { stddev: 0.5 }),
+            (SamplerKind::Independent, PixelFilter::Lanczos { lobes: 3 }),
         ] {
             let set = RenderSettings {
                 filter,
                 ..settings(20, sampler, true)
             };
+            let splats = matches!(filter, PixelFilter::Lanczos { .. });
             let full = render(&scene, &set, &|_, _| {});
             if filter != PixelFilter::Box {
                 assert!(
-                    full.counts.iter().any(|&n| n < 20),
-                    "some samples leave the film"
+                    full.counts.iter().any(|&n| n != 20),
+                    "some samples leave the film, or splat into neighbours"
                 );
             }
             // Crops: a window's pixels are the full render's pixels.
@@ -541,15 +478,26 @@ mod tests {
                 samples: 0..20,
             };
             let part = render_slice(&scene, &set, &crop, &|_, _| {}).unwrap();
-            let window = Image::new(
-                11,
-                9,
-                (3..12)
-                    .flat_map(|y| (5..16).map(move |x| (x, y)))
-                    .map(|(x, y)| full.image.get(x, y))
-                    .collect(),
+            let window = |img: &Image| {
+                Image::new(
+                    11,
+                    9,
+                    (3..12)
+                        .flat_map(|y| (5..16).map(move |x| (x, y)))
+                        .map(|(x, y)| img.get(x, y))
+                        .collect(),
+                )
+            };
+            assert_bits_eq(
+                &part.image,
+                &window(&full.image),
+                &format!("{sampler:?} crop"),
             );
-            assert_bits_eq(&part.image, &window, &format!("{sampler:?} crop"));
+            assert_bits_eq(
+                &part.variance,
+                &window(&full.variance),
+                &format!("{sampler:?} crop variance"),
+            );
             // Sample ranges.
             let parts: Vec<RenderOutput> = [0..5, 5..13, 13..20]
                 .into_iter()
@@ -562,7 +510,32 @@ mod tests {
                 })
                 .collect();
             let mut worst = 0.0f64;
+            let (mut merged_var, mut one_var) = (0.0f64, 0.0f64);
             for i in 0..full.image.pixels.len() {
+                let rel = |merged: f64, one: f32| {
+                    let one = one as f64;
+                    (merged - one).abs() / merged.abs().max(one.abs()).max(1e-30)
+                };
+                if splats {
+                    // By weight sums; the variance of the merged mean.
+                    let w: f64 = parts.iter().map(|p| p.weights[i] as f64).sum();
+                    for c in 0..3 {
+                        let s: f64 = parts
+                            .iter()
+                            .map(|p| p.weights[i] as f64 * p.image.pixels[i][c] as f64)
+                            .sum();
+                        let v: f64 = parts
+                            .iter()
+                            .map(|p| (p.weights[i] as f64).powi(2) * p.variance.pixels[i][c] as f64)
+                            .sum();
+                        // Means: relative to the pixel's scale (signed weights can cancel).
+                        let scale = full.image.pixels[i].abs().max_element().max(1e-3) as f64;
+                        worst = worst.max((s / w - full.image.pixels[i][c] as f64).abs() / scale);
+                        merged_var += v / (w * w);
+                        one_var += full.variance.pixels[i][c] as f64;
+                    }
+                    continue;
+                }
                 let (mut n, mut mean, mut m2) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
                 for p in &parts {
                     let nb = p.counts[i] as f64;
@@ -581,20 +554,23 @@ mod tests {
                 }
                 for c in 0..3 {
                     let var = m2[c] / (n * (n - 1.0));
-                    for (merged, one) in [
-                        (mean[c], full.image.pixels[i][c]),
-                        (var, full.variance.pixels[i][c]),
-                    ] {
-                        let one = one as f64;
-                        let rel = (merged - one).abs() / merged.abs().max(one.abs()).max(1e-30);
-                        worst = worst.max(rel);
-                    }
+                    worst = worst.max(rel(mean[c], full.image.pixels[i][c]));
+                    worst = worst.max(rel(var, full.variance.pixels[i][c]));
                 }
             }
             assert!(
                 worst < 1e-5,
-                "{sampler:?}: merged ranges differ by {worst:e}"
+                "{sampler:?} {filter:?}: merged ranges differ by {worst:e}"
             );
+            // Splatted: the merged variance estimates the same variance from other sums: over the
+            // image, they agree to 10%.
+            if splats {
+                let ratio = merged_var / one_var;
+                assert!(
+                    (0.9..1.1).contains(&ratio),
+                    "{filter:?}: variance ratio {ratio}"
+                );
+            }
             // A range that cuts groups renders the same with and without packets.
             let slice = RenderSlice {
                 crop: (0, 0, 24, 20),
@@ -694,14 +670,17 @@ mod tests {
                     env_strategy: EnvStrategy::default(),
                 };
                 let mut rays = RayCount::default();
+                let set = settings(12, SamplerKind::Sobol, packets);
+                let film = Film::new(set.filter, (0, 0, 24, 20), (12, 10, 1, 1));
                 render_pixel(
                     &scene,
                     (12, 10),
-                    &settings(12, SamplerKind::Sobol, packets),
+                    &set,
                     0..12,
                     path,
                     &mut recorder,
                     &mut rays,
+                    &mut film.tile((12, 10, 13, 11)),
                 );
                 let mut next = vec![0u32; 12];
                 for &(sample, dimension) in &recorder.draws {

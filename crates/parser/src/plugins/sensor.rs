@@ -338,12 +338,12 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
 /// | perspective, thinlens | `fov` | float | Mitsuba: from `focal_length`; torrey: 45 |
 /// | perspective, thinlens | `focal_length` (`focalLength`) | string like `50mm` | `50mm` (Mitsuba dialect); fov along the diagonal of 36 x 24 mm film: 2 atan(43.27 / (2 f)) |
 /// | perspective, thinlens | `fov_axis` (`fovAxis`) | string: x, y, diagonal, smaller, larger | x (with `fov`) |
-/// | perspective, thinlens | `principal_point_offset_x`, `_y` | float | 0 |
+/// | perspective | `principal_point_offset_x`, `_y` | float | 0; the film position's fractions (x/w, y/h) are shifted by it before they become directions (thinlens: ignored, with a warning, as Mitsuba has none) |
 /// | thinlens | `aperture_radius` (`apertureRadius`) | float | required |
 /// | thinlens | `focus_distance` (`focusDistance`) | float | required (perspective: accepted, ignored) |
 /// | orthographic | `to_world` scales the view: x in [-1, 1], y in [-1/aspect, 1/aspect] before it | | |
 /// | all | `to_world` (`toWorld`) | transform | identity |
-/// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000 |
+/// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000; camera rays see geometry between these depths along the view axis (perspective, thinlens: t = clip / cos to the axis, as Mitsuba starts rays on the near plane; orthographic: rays start on the near plane and end far - near later) |
 /// | all | nested `<film>`, `<sampler>` | | see film and sampler |
 pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Film, Sampler)> {
     let ty = plugin_type(ctx, elem)?;
@@ -417,6 +417,13 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
             props.float(ctx, &["principal_point_offset_x"], 0.0)?,
             props.float(ctx, &["principal_point_offset_y"], 0.0)?,
         );
+        if ty == "thinlens" && camera.principal_point_offset != Vec2::ZERO {
+            ctx.warn(
+                elem.pos,
+                "sensor 'thinlens': principal_point_offset is ignored (Mitsuba's thinlens has none)",
+            );
+            camera.principal_point_offset = Vec2::ZERO;
+        }
     }
     camera.kind = match ty {
         "thinlens" => {

@@ -82,6 +82,19 @@ impl Camera {
         }
     }
 
+    /// Distances along a camera ray of direction `dir` (from [`Camera::generate_ray`]) between
+    /// which it sees geometry: Mitsuba's near and far clip planes for the perspective and thin
+    /// lens cameras (whose rays start on the near plane and end on the far one); for the
+    /// orthographic camera, whose rays start on the near plane, `far_clip - near_clip`.
+    #[inline]
+    pub fn clip_range(&self, dir: Vec3A) -> (f32, f32) {
+        match self {
+            Camera::Perspective(c) => c.clip_range(dir),
+            Camera::ThinLens(c) => c.pinhole.clip_range(dir),
+            Camera::Orthographic(c) => c.clip_range(),
+        }
+    }
+
     /// The primary ray for `sample`: its origin and normalised world direction.
     #[inline]
     pub fn generate_ray(&self, sample: &CameraSample) -> (Vec3A, Vec3A) {

@@ -14,6 +14,8 @@ pub struct OrthographicCamera {
     /// Camera-space half extents of the view: 1 and 1/aspect.
     half: Vec2,
     near_clip: f32,
+    /// Mitsuba's `far_clip`: rays end `far_clip - near_clip` after their start.
+    far_clip: f32,
     width: u32,
     height: u32,
 }
@@ -26,9 +28,22 @@ impl OrthographicCamera {
             dir: to_world.transform_vector3a(Vec3A::Z).normalize(),
             half: Vec2::new(1.0, 1.0 / aspect),
             near_clip,
+            far_clip: f32::INFINITY,
             width,
             height,
         }
+    }
+
+    /// The camera with Mitsuba's `far_clip`.
+    pub fn with_far_clip(mut self, far: f32) -> Self {
+        self.far_clip = far;
+        self
+    }
+
+    /// Distances along a ray between which it sees geometry: from its start on the near plane
+    /// to `far_clip - near_clip` after it, as Mitsuba's `maxt`.
+    pub fn clip_range(&self) -> (f32, f32) {
+        (0.0, self.far_clip - self.near_clip)
     }
 
     pub fn width(&self) -> u32 {

@@ -16,6 +16,15 @@ pub struct PerspectiveCamera {
     height: u32,
     /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
     pixel_spread: f32,
+    /// Mitsuba's `principal_point_offset_x/_y`: the film position's fractions of the film are
+    /// shifted by it before they become directions (the image centre moves by this fraction).
+    principal_point: Vec2,
+    /// The camera's forward axis (camera z) in world space, unit length.
+    axis: Vec3A,
+    /// Mitsuba's `near_clip` and `far_clip`: depths along the axis between which camera rays
+    /// see geometry.
+    near_clip: f32,
+    far_clip: f32,
 }
 
 impl PerspectiveCamera {
@@ -51,12 +60,38 @@ impl PerspectiveCamera {
             width,
             height,
             pixel_spread: (2.0 * tan_half.y / h).atan(),
+            principal_point: Vec2::ZERO,
+            axis: to_world.transform_vector3a(Vec3A::Z).normalize(),
+            near_clip: 0.0,
+            far_clip: f32::INFINITY,
         }
     }
 
     /// tan of half the horizontal field of view (the image plane's half width at z = 1).
     pub fn tan_half_x(&self) -> f32 {
         self.tan_half.x
+    }
+
+    /// The camera with Mitsuba's `principal_point_offset_x/_y` (fractions of the film).
+    pub fn with_principal_point(mut self, offset: Vec2) -> Self {
+        self.principal_point = offset;
+        self
+    }
+
+    /// The camera with Mitsuba's `near_clip` and `far_clip`.
+    pub fn with_clip(mut self, near: f32, far: f32) -> Self {
+        self.near_clip = near;
+        self.far_clip = far;
+        self
+    }
+
+    /// Distances along a ray of world direction `dir` (unit length, leaving the camera's
+    /// origin or aperture) between which it sees geometry: Mitsuba starts the ray at depth
+    /// `near_clip` along the camera's axis (t = near / cos) and ends it at depth `far_clip`.
+    #[inline]
+    pub fn clip_range(&self, dir: Vec3A) -> (f32, f32) {
+        let inv_z = 1.0 / dir.dot(self.axis);
+        (self.near_clip * inv_z, self.far_clip * inv_z)
     }
 
     pub fn width(&self) -> u32 {
@@ -76,8 +111,8 @@ impl PerspectiveCamera {
     /// normalised), shared with [`super::ThinLensCamera`].
     #[inline(always)]
     pub(crate) fn local_direction(&self, film: Vec2) -> Vec3A {
-        let sx = film.x / self.width as f32;
-        let sy = film.y / self.height as f32;
+        let sx = film.x / self.width as f32 + self.principal_point.x;
+        let sy = film.y / self.height as f32 + self.principal_point.y;
         Vec3A::new(
             (1.0 - 2.0 * sx) * self.tan_half.x,
             (1.0 - 2.0 * sy) * self.tan_half.y,
@@ -109,8 +144,8 @@ impl PerspectiveCamera {
         let x = local.x / local.z / self.tan_half.x;
         let y = local.y / local.z / self.tan_half.y;
         Some(Vec2::new(
-            (1.0 - x) * 0.5 * self.width as f32,
-            (1.0 - y) * 0.5 * self.height as f32,
+            ((1.0 - x) * 0.5 - self.principal_point.x) * self.width as f32,
+            ((1.0 - y) * 0.5 - self.principal_point.y) * self.height as f32,
         ))
     }
 }
@@ -179,6 +214,29 @@ mod tests {
         let cam = PerspectiveCamera::new(m, 90.0, FovAxis::Diagonal, 300, 400);
         let (_, d) = cam.generate_ray(Vec2::new(0.0, 0.0));
         assert!((d.z - (45f32).to_radians().cos()).abs() < 1e-5);
+    }
+
+    /// Mitsuba's principal point offset: the film position (x/w + ox, y/h + oy) gives the ray,
+    /// so an offset of (0.25, -0.1) moves the ray through the image centre to the one that went
+    /// through film fraction (0.75, 0.4); the clip range is near and far over the cosine to the
+    /// axis.
+    #[test]
+    fn principal_point_and_clip_range() {
+        let m = look_at(Vec3A::ZERO, Vec3A::Z, Vec3A::Y);
+        let plain = PerspectiveCamera::new(m, 50.0, FovAxis::X, 64, 48);
+        let shifted = plain
+            .clone()
+            .with_principal_point(Vec2::new(0.25, -0.1))
+            .with_clip(0.5, 20.0);
+        let (_, a) = shifted.generate_ray(Vec2::new(32.0, 24.0));
+        let (_, b) = plain.generate_ray(Vec2::new(48.0, 19.2));
+        assert!((a - b).length() < 1e-6, "{a} vs {b}");
+        let p = shifted.project(a).unwrap();
+        assert!((p - Vec2::new(32.0, 24.0)).length() < 1e-3, "{p}");
+        let (near, far) = shifted.clip_range(a);
+        let cos = a.dot(Vec3A::Z);
+        assert!((near - 0.5 / cos).abs() < 1e-5 && (far - 20.0 / cos).abs() < 1e-3);
+        assert_eq!(plain.clip_range(a), (0.0, f32::INFINITY));
     }
 
     #[test]

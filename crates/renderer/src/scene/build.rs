@@ -342,7 +342,8 @@ fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, Bui
             c.fov_degrees
         )));
     }
-    let pinhole = PerspectiveCamera::new(c.to_world, c.fov_degrees, c.fov_axis, width, height);
+    let pinhole = PerspectiveCamera::new(c.to_world, c.fov_degrees, c.fov_axis, width, height)
+        .with_clip(c.near_clip, c.far_clip);
     Ok(match c.kind {
         desc::CameraKind::ThinLens {
             aperture_radius,
@@ -352,13 +353,14 @@ fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, Bui
             aperture_radius,
             focus_distance,
         )),
-        desc::CameraKind::Orthographic => Camera::Orthographic(OrthographicCamera::new(
-            c.to_world,
-            c.near_clip,
-            width,
-            height,
-        )),
-        desc::CameraKind::Perspective => Camera::Perspective(pinhole),
+        desc::CameraKind::Orthographic => Camera::Orthographic(
+            OrthographicCamera::new(c.to_world, c.near_clip, width, height)
+                .with_far_clip(c.far_clip),
+        ),
+        // Mitsuba's thinlens has no principal point offset; its perspective camera does.
+        desc::CameraKind::Perspective => {
+            Camera::Perspective(pinhole.with_principal_point(c.principal_point_offset))
+        }
     })
 }
 

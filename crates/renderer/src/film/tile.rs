@@ -1,0 +1,129 @@
+//! The film of one tile: where a tile's samples are accumulated, with one entry point,
+//! [`TileFilm::add_sample`].
+
+use super::filter::Filter;
+use super::pixel::{PixelMean, SplatSum};
+use glam::{Vec2, Vec3A};
+
+/// The most pixels a splat spans along x: 2 radius + 1 for lanczos' largest `lobes` (64).
+const MAX_SPLAT_WIDTH: usize = 130;
+
+/// A window of film pixels that one tile's samples go to: the tile itself for importance-sampled
+/// filters; for splatted filters the tile grown by the filter's border (and clipped to the
+/// rendered window), since splats reach the neighbouring pixels.
+#[derive(Clone, Debug)]
+pub struct TileFilm {
+    filter: Filter,
+    /// The part of the film that samples may land in (the film, or its crop window): its
+    /// corners, in film pixels.
+    min: Vec2,
+    max: Vec2,
+    /// The accumulated window `(x, y, width, height)` in film pixels.
+    pub(crate) window: (u32, u32, u32, u32),
+    pub(crate) means: Vec<PixelMean>,
+    pub(crate) splats: Vec<SplatSum>,
+    /// Samples whose value was NaN or infinite (added as zero).
+    pub(crate) nonfinite: u64,
+}
+
+impl TileFilm {
+    /// `bounds` `(x, y, width, height)`: where samples may land (see [`super::Film::new`]).
+    pub(crate) fn new(
+        filter: Filter,
+        bounds: (u32, u32, u32, u32),
+        window: (u32, u32, u32, u32),
+    ) -> Self {
+        let pixels = window.2 as usize * window.3 as usize;
+        let (means, splats) = if filter.splats() {
+            (Vec::new(), vec![SplatSum::default(); pixels])
+        } else {
+            (vec![PixelMean::default(); pixels], Vec::new())
+        };
+        Self {
+            filter,
+            min: Vec2::new(bounds.0 as f32, bounds.1 as f32),
+            max: Vec2::new(
+                (bounds.0 + bounds.2) as f32,
+                (bounds.1 + bounds.3) as f32,
+            ),
+            window,
+            means,
+            splats,
+            nonfinite: 0,
+        }
+    }
+
+    /// The filter that places and weighs this tile's samples.
+    pub fn filter(&self) -> Filter {
+        self.filter
+    }
+
+    /// The film position of a sample `offset` from the centre of `pixel`, and whether it lies on
+    /// the film (inside its crop window, if it has one). Mitsuba places samples there only
+    /// (hdrfilm's `sample_border` is false): an importance-sampled offset that leaves it does not
+    /// count (the pixel's estimate is over the part of the filter inside, as Mitsuba's weight
+    /// division gives).
+    #[inline]
+    pub fn film_position(&self, (x, y): (u32, u32), offset: Vec2) -> (Vec2, bool) {
+        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+        let inside = film.cmpge(self.min).all() && film.cmplt(self.max).all();
+        (film, inside)
+    }
+
+    /// Adds the radiance `value` of a sample drawn `offset` (from [`Filter::offset`]) from the
+    /// centre of `pixel` (which must lie in the tile). Importance-sampled filters add it with
+    /// weight one to `pixel` if it lies on the film; splatted filters add it to every pixel of the
+    /// window whose centre is within the filter's radius, weighted by the filter. A NaN or
+    /// infinite value is counted and added as zero.
+    #[inline]
+    pub fn add_sample(&mut self, pixel: (u32, u32), offset: Vec2, value: Vec3A) {
+        let (film, inside) = self.film_position(pixel, offset);
+        if !inside {
+            return;
+        }
+        let value = if value.is_finite() {
+            value
+        } else {
+            self.nonfinite += 1;
+            Vec3A::ZERO
+        };
+        let (wx, wy, ww, wh) = self.window;
+        if !self.filter.splats() {
+            let i = (pixel.1 - wy) as usize * ww as usize + (pixel.0 - wx) as usize;
+            self.means[i].add(value);
+            return;
+        }
+        // Pixels whose centres (i + 0.5) lie within the radius of the sample, as Mitsuba's
+        // ImageBlock::put picks them, clipped to the window.
+        let r = self.filter.radius();
+        let lo = (film - Vec2::splat(0.5 + r))
+            .ceil()
+            .max(Vec2::new(wx as f32, wy as f32));
+        let hi = (film + Vec2::splat(r - 0.5))
+            .floor()
+            .min(Vec2::new((wx + ww - 1) as f32, (wy + wh - 1) as f32));
+        if lo.x > hi.x || lo.y > hi.y {
+            return;
+        }
+        let (x0, x1, y0, y1) = (lo.x as u32, hi.x as u32, lo.y as u32, hi.y as u32);
+        // The profile along x, once per column (lanczos' 64 lobes at most reach 129 pixels).
+        let mut wxs = [0.0f32; MAX_SPLAT_WIDTH];
+        for (w, px) in wxs.iter_mut().zip(x0..=x1) {
+            *w = self.filter.eval(px as f32 + 0.5 - film.x);
+        }
+        for py in y0..=y1 {
+            let fy = self.filter.eval(py as f32 + 0.5 - film.y);
+            if fy == 0.0 {
+                continue;
+            }
+            let row = (py - wy) as usize * ww as usize + (x0 - wx) as usize;
+            let pixels = &mut self.splats[row..=row + (x1 - x0) as usize];
+            for (pixel, &fx) in pixels.iter_mut().zip(&wxs) {
+                let w = fx * fy;
+                if w != 0.0 {
+                    pixel.add(w, value);
+                }
+            }
+        }
+    }
+}
