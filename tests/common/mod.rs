@@ -84,6 +84,7 @@ pub fn render_scene_with(
         sampler: torrey_renderer::SamplerKind::Independent,
         mipmapping,
         packets: true,
+        path_loop: Default::default(),
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
     Rendered {

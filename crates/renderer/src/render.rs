@@ -6,7 +6,8 @@
 
 use crate::accel::ClosestHit;
 use crate::cameras::CameraSample;
-use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount};
+use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
+use crate::integrator::{radiance, EnvStrategy, PathLoop, PathSettings, RayCount};
 use crate::ray::Ray;
 use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
@@ -34,6 +35,9 @@ pub struct RenderSettings {
     /// and cameras whose rays share an origin). Off, every ray is traced alone: the same hits,
     /// slower.
     pub packets: bool,
+    /// Run the path tracer one path at a time or as a wavefront of a pixel's samples: the same
+    /// images, bit for bit.
+    pub path_loop: PathLoop,
 }
 
 pub struct RenderOutput {
@@ -162,10 +166,39 @@ pub fn render_slice(
             // One Sobol sampler per tile: its table of points is reused from pixel to pixel.
             let mut sobol = (settings.sampler == SamplerKind::Sobol)
                 .then(|| SobolSampler::tabled(settings.seed, 0, samples.end));
+            let mut pcg_wavefront = WavefrontBuffers::<PcgSampler>::default();
+            let mut sobol_wavefront = WavefrontBuffers::<SobolSampler>::default();
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
+                    let wavefront = settings.path_loop == PathLoop::Wavefront;
                     let (mean, var_of_mean, dropped, counted) = match settings.sampler {
+                        SamplerKind::Independent if wavefront => render_pixel_wavefront(
+                            scene,
+                            (x, y),
+                            settings,
+                            samples.clone(),
+                            path,
+                            &mut PcgSampler::new(settings.seed, pixel_index),
+                            true,
+                            &mut rays,
+                            &mut pcg_wavefront,
+                        ),
+                        SamplerKind::Sobol if wavefront => {
+                            let sampler = sobol.as_mut().expect("made for the Sobol sampler");
+                            sampler.restart(settings.seed, pixel_index, samples.end);
+                            render_pixel_wavefront(
+                                scene,
+                                (x, y),
+                                settings,
+                                samples.clone(),
+                                path,
+                                sampler,
+                                false,
+                                &mut rays,
+                                &mut sobol_wavefront,
+                            )
+                        }
                         SamplerKind::Independent => render_pixel(
                             scene,
                             (x, y),
@@ -247,10 +280,6 @@ fn render_pixel<S: Sampler>(
     sampler: &mut S,
     rays: &mut RayCount,
 ) -> (Vec3A, Vec3A, u64, u32) {
-    // Welford's running mean and variance per channel.
-    let mut mean = Vec3A::ZERO;
-    let mut m2 = Vec3A::ZERO;
-    let mut bad = 0;
     let filter = settings.filter;
     let camera = scene.camera();
     // One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel centre
@@ -281,20 +310,7 @@ fn render_pixel<S: Sampler>(
         let (o, d) = camera.generate_ray(&CameraSample { film, lens });
         (o, d, inside)
     };
-    let mut counted = 0u32;
-    let mut add = |l: Vec3A| {
-        let l = if l.is_finite() {
-            l
-        } else {
-            bad += 1;
-            Vec3A::ZERO
-        };
-        counted += 1;
-        let n = counted as f32;
-        let delta = l - mean;
-        mean += delta / n;
-        m2 += delta * (l - mean);
-    };
+    let mut pixel = PixelAccumulator::default();
     // Camera rays go in packets, traced together, for every group of `lanes` global sample
     // indices (k lanes .. (k+1) lanes) that lies whole in the range: each packet's rays are drawn
     // first, then their paths are followed one by one from the hits. Samplers resume a sample's
@@ -313,16 +329,8 @@ fn render_pixel<S: Sampler>(
     let mut hits = [None; MAX_PACKET];
     let mut packed = false;
     for s in samples.clone() {
-        let group = lanes as u32;
-        let in_packet = group > 0 && {
-            let group_start = s - s % group;
-            group_start >= samples.start
-                && group_start
-                    .checked_add(group)
-                    .is_some_and(|end| end <= samples.end)
-        };
-        let (o, d, first_hit, inside) = if in_packet {
-            let lane = (s % group) as usize;
+        let (o, d, first_hit, inside) = if in_packet(s, lanes, &samples) {
+            let lane = (s % lanes as u32) as usize;
             if lane == 0 {
                 for (k, (dir, inside)) in dirs[..lanes]
                     .iter_mut()
@@ -351,15 +359,250 @@ fn render_pixel<S: Sampler>(
             (o, d, None, inside)
         };
         if inside {
-            add(radiance(scene, o, d, cone, path, sampler, rays, first_hit));
+            pixel.add(radiance(scene, o, d, cone, path, sampler, rays, first_hit));
         }
     }
-    let var_of_mean = if counted > 1 {
-        m2 / ((counted - 1) as f32 * counted as f32)
-    } else {
-        Vec3A::ZERO
+    pixel.finish()
+}
+
+/// One pixel's samples as they arrive: every sample's radiance goes into the film through
+/// [`PixelAccumulator::add`], whichever loop computed it. Welford's running mean and variance per
+/// channel; non-finite samples count as zero and are counted.
+#[derive(Default)]
+struct PixelAccumulator {
+    mean: Vec3A,
+    m2: Vec3A,
+    bad: u64,
+    counted: u32,
+}
+
+impl PixelAccumulator {
+    #[inline]
+    fn add(&mut self, l: Vec3A) {
+        let l = if l.is_finite() {
+            l
+        } else {
+            self.bad += 1;
+            Vec3A::ZERO
+        };
+        self.counted += 1;
+        let n = self.counted as f32;
+        let delta = l - self.mean;
+        self.mean += delta / n;
+        self.m2 += delta * (l - self.mean);
+    }
+
+    /// (mean, variance of the mean, dropped non-finite samples, samples counted).
+    fn finish(self) -> (Vec3A, Vec3A, u64, u32) {
+        let var_of_mean = if self.counted > 1 {
+            self.m2 / ((self.counted - 1) as f32 * self.counted as f32)
+        } else {
+            Vec3A::ZERO
+        };
+        (self.mean, var_of_mean, self.bad, self.counted)
+    }
+}
+
+/// Whether global sample `s` lies in a packet group of `lanes` samples that is whole inside
+/// `samples` (0 lanes: no packets).
+#[inline]
+fn in_packet(s: u32, lanes: usize, samples: &Range<u32>) -> bool {
+    let group = lanes as u32;
+    group > 0 && {
+        let group_start = s - s % group;
+        group_start >= samples.start
+            && group_start
+                .checked_add(group)
+                .is_some_and(|end| end <= samples.end)
+    }
+}
+
+/// Paths per wavefront batch: a block of the Sobol sampler's table (its columns stay valid while
+/// the batch's paths resume one another), a multiple of every packet width.
+const WAVEFRONT_BATCH: u32 = 64;
+
+/// [`render_pixel`] with the path tracer run as a wavefront ([`Wavefront`]): the pixel's samples
+/// go in batches of up to [`WAVEFRONT_BATCH`] (aligned to multiples of it), each batch's camera
+/// rays drawn and traced (in packets where `render_pixel` uses them), then its paths advanced a
+/// bounce at a time. The samples' numbers, rays and radiance are those of `render_pixel`, and
+/// they reach the film in the same order, so the results are bit-identical. `per_path`: give each
+/// path its own copy of `sampler` (independent streams) instead of resuming the shared one.
+#[allow(clippy::too_many_arguments)]
+fn render_pixel_wavefront<S: Sampler + Clone>(
+    scene: &RenderScene,
+    (x, y): (u32, u32),
+    settings: &RenderSettings,
+    samples: Range<u32>,
+    path: PathSettings,
+    sampler: &mut S,
+    per_path: bool,
+    rays: &mut RayCount,
+    wavefront: &mut WavefrontBuffers<S>,
+) -> (Vec3A, Vec3A, u64, u32) {
+    let filter = settings.filter;
+    let camera = scene.camera();
+    let centre = camera
+        .generate_ray(&CameraSample {
+            film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+            lens: Vec2::splat(0.5),
+        })
+        .1;
+    let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
+        .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
+    let camera_requests = 1 + camera.lens_requests();
+    let size = Vec2::new(camera.width() as f32, camera.height() as f32);
+    let camera_ray = |sampler: &mut S| {
+        let offset = sample_filter(filter, sampler.next_2d());
+        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+        let lens = if camera.lens_requests() > 0 {
+            sampler.next_2d()
+        } else {
+            Vec2::ZERO
+        };
+        let inside = film.cmpge(Vec2::ZERO).all() && film.cmplt(size).all();
+        let (o, d) = camera.generate_ray(&CameraSample { film, lens });
+        (o, d, inside)
     };
-    (mean, var_of_mean, bad, counted)
+    let lanes = if settings.packets && camera.rays_share_origin() {
+        scene.accel().packet_width().min(MAX_PACKET)
+    } else {
+        0
+    };
+    let mut pixel = PixelAccumulator::default();
+    let WavefrontBuffers {
+        loop_,
+        cameras,
+        samplers,
+        radiance,
+    } = wavefront;
+    let mut dirs = [Vec3A::ZERO; MAX_PACKET];
+    let mut hits = [None; MAX_PACKET];
+    let mut start = samples.start;
+    while start < samples.end {
+        let end = (start - start % WAVEFRONT_BATCH + WAVEFRONT_BATCH).min(samples.end);
+        cameras.clear();
+        samplers.clear();
+        let mut s = start;
+        while s < end {
+            if in_packet(s, lanes, &samples) {
+                // A whole packet group (groups never straddle batches: lanes divide the batch).
+                let mut origin = Vec3A::ZERO;
+                let mut insides = [true; MAX_PACKET];
+                let first = cameras.len();
+                for k in 0..lanes {
+                    let index = s + k as u32;
+                    let lane_sampler = if per_path {
+                        let mut own = sampler.clone();
+                        own.start_sample(index);
+                        samplers.push(own);
+                        samplers.last_mut().expect("just pushed")
+                    } else {
+                        sampler.start_sample(index);
+                        &mut *sampler
+                    };
+                    (origin, dirs[k], insides[k]) = camera_ray(lane_sampler);
+                }
+                let packed =
+                    scene
+                        .accel()
+                        .intersect_packet(origin, &dirs[..lanes], &mut hits[..lanes]);
+                for k in 0..lanes {
+                    let ray = Ray {
+                        origin,
+                        dir: dirs[k],
+                        tmax: f32::INFINITY,
+                    };
+                    cameras.push(CameraPath {
+                        sample: s + k as u32,
+                        origin,
+                        dir: dirs[k],
+                        cone,
+                        first_hit: packed
+                            .then(|| hits[k].map(|hit: ClosestHit| scene.surface(&ray, &hit))),
+                    });
+                }
+                // Samples outside the film are dropped (with their samplers, kept in step).
+                let mut k = 0;
+                let mut kept = first;
+                while k < lanes {
+                    if insides[k] {
+                        cameras[kept] = cameras[first + k];
+                        if per_path {
+                            samplers.swap(kept, first + k);
+                        }
+                        kept += 1;
+                    }
+                    k += 1;
+                }
+                cameras.truncate(kept);
+                if per_path {
+                    samplers.truncate(kept);
+                }
+                s += lanes as u32;
+            } else {
+                let lane_sampler = if per_path {
+                    let mut own = sampler.clone();
+                    own.start_sample(s);
+                    samplers.push(own);
+                    samplers.last_mut().expect("just pushed")
+                } else {
+                    sampler.start_sample(s);
+                    &mut *sampler
+                };
+                let (o, d, inside) = camera_ray(lane_sampler);
+                if inside {
+                    cameras.push(CameraPath {
+                        sample: s,
+                        origin: o,
+                        dir: d,
+                        cone,
+                        first_hit: None,
+                    });
+                } else if per_path {
+                    samplers.pop();
+                }
+                s += 1;
+            }
+        }
+        let samplers = if per_path {
+            PathSamplers::PerPath(&mut samplers[..])
+        } else {
+            PathSamplers::Shared(&mut *sampler)
+        };
+        loop_.radiance(
+            scene,
+            cameras,
+            camera_requests,
+            path,
+            samplers,
+            rays,
+            radiance,
+        );
+        for &l in radiance.iter() {
+            pixel.add(l);
+        }
+        start = end;
+    }
+    pixel.finish()
+}
+
+/// One worker's wavefront loop and its batch buffers, reused from pixel to pixel.
+struct WavefrontBuffers<S> {
+    loop_: Wavefront,
+    cameras: Vec<CameraPath>,
+    samplers: Vec<S>,
+    radiance: Vec<Vec3A>,
+}
+
+impl<S> Default for WavefrontBuffers<S> {
+    fn default() -> Self {
+        Self {
+            loop_: Wavefront::default(),
+            cameras: Vec::new(),
+            samplers: Vec::new(),
+            radiance: Vec::new(),
+        }
+    }
 }
 
 /// Offset from the pixel centre, drawn from the pixel filter (filter importance sampling: every
@@ -471,6 +714,7 @@ mod tests {
             env_strategy: EnvStrategy::default(),
             sampler,
             packets,
+            path_loop: PathLoop::Scalar,
         }
     }
 

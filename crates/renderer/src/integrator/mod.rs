@@ -1,9 +1,21 @@
 //! Integrators: from a camera ray to the radiance arriving along it. One file per integrator;
-//! today Mitsuba's `path` ([`path::radiance`]).
+//! today Mitsuba's `path` ([`path::radiance`]), run one path at a time or as a wavefront of
+//! paths ([`wavefront::Wavefront`]), the same estimator.
 
 pub mod path;
+pub mod wavefront;
 
 pub use path::radiance;
+
+/// How the render loop runs the path tracer: one path to its end after another (`Scalar`), or a
+/// batch of paths (one pixel's samples) a bounce at a time (`Wavefront`). Both compute the same
+/// estimator with the same sampler dimensions, so the images agree bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PathLoop {
+    #[default]
+    Scalar,
+    Wavefront,
+}
 
 #[derive(Clone, Copy, Debug)]
 pub struct PathSettings {
