@@ -401,6 +401,47 @@ impl EnvMap {
         (radiance, self.pdf_uv(uv, sin_theta))
     }
 
+    /// [`Self::eval_pdf`] of many escaped rays at once, bit for bit: `out[k]` is
+    /// `self.eval_pdf(dirs[k], spreads[k])`. The directions are turned into uv and sin(theta)
+    /// [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the CPU was found
+    /// to have), each lane's density cell is prefetched, then the texels are read lane by lane.
+    /// `out` is cleared first.
+    pub fn eval_pdf_batch(
+        &self,
+        dirs: &[Vec3],
+        spreads: &[f32],
+        simd: BatchSimd,
+        out: &mut Vec<(Vec3, f32)>,
+    ) {
+        out.clear();
+        if self.scale == 0.0 {
+            out.resize(dirs.len(), (Vec3::ZERO, 0.0));
+            return;
+        }
+        for (dirs, spreads) in dirs.chunks(BATCH_LANES).zip(spreads.chunks(BATCH_LANES)) {
+            let mut lanes = UvLanes::default();
+            for (k, d) in dirs.iter().enumerate() {
+                let local = self.to_local * *d;
+                (lanes.x[k], lanes.y[k], lanes.z[k]) = (local.x, local.y, local.z);
+            }
+            lanes.to_uv_sin(simd);
+            for k in 0..dirs.len() {
+                let column = ((lanes.x[k] * self.size.x) as u32).min(self.width as u32 - 1);
+                let row = ((lanes.y[k] * self.size.y) as u32).min(self.height as u32 - 1);
+                prefetch(
+                    self.texels
+                        .as_ptr()
+                        .wrapping_add(row as usize * self.width + column as usize),
+                );
+            }
+            for (k, &spread) in spreads.iter().enumerate() {
+                let uv = Vec2::new(lanes.x[k], lanes.y[k]);
+                let radiance = self.lookup(uv, self.footprint(spread)) * self.scale;
+                out.push((radiance, self.pdf_uv(uv, lanes.z[k])));
+            }
+        }
+    }
+
     /// Starts loading the memory [`Self::sample`] will read for `u`: the row is chosen here (its
     /// table is small and cached), the column's alias slot and its own texel are prefetched.
     /// The integrator calls this before tracing the ray whose hit the sample lights, so that these
@@ -485,6 +526,78 @@ impl EnvMap {
         let column = ((uv.x * self.size.x) as u32).min(self.width as u32 - 1) as usize;
         let row = ((uv.y * self.size.y) as u32).min(self.height as u32 - 1) as usize;
         self.texels[row * self.width + column].w / (2.0 * PI * PI * sin_theta)
+    }
+}
+
+/// Directions per SIMD step of [`EnvMap::eval_pdf_batch`] (one AVX-512 register, two AVX2 ones).
+pub const BATCH_LANES: usize = 16;
+
+/// The instruction set [`EnvMap::eval_pdf_batch`] runs its lanes with; the caller detects it
+/// (the renderer's `Simd`, which `TORREY_SIMD` caps). Every level gives the same bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BatchSimd {
+    /// Baseline x86-64 (SSE2), or any other architecture.
+    Portable,
+    /// AVX2 and FMA (FMA is never used for these sums: the results stay those of `eval_pdf`).
+    Avx2,
+    /// AVX-512 F.
+    Avx512,
+}
+
+/// [`BATCH_LANES`] local directions in structure-of-arrays form, turned in place into
+/// (u, v, sin theta).
+#[derive(Default)]
+struct UvLanes {
+    x: [f32; BATCH_LANES],
+    y: [f32; BATCH_LANES],
+    z: [f32; BATCH_LANES],
+}
+
+impl UvLanes {
+    /// `EnvMap::local_dir_to_uv_sin` on every lane (unused lanes hold zero directions, which
+    /// read as the zenith and are ignored).
+    #[inline(always)]
+    fn to_uv_sin_body(&mut self) {
+        for k in 0..BATCH_LANES {
+            let (uv, sin_theta) =
+                EnvMap::local_dir_to_uv_sin(Vec3::new(self.x[k], self.y[k], self.z[k]));
+            (self.x[k], self.y[k], self.z[k]) = (uv.x, uv.y, sin_theta);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn to_uv_sin_avx2(&mut self) {
+        self.to_uv_sin_body()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    fn to_uv_sin_avx512(&mut self) {
+        self.to_uv_sin_body()
+    }
+
+    fn to_uv_sin_portable(&mut self) {
+        self.to_uv_sin_body()
+    }
+
+    #[inline]
+    fn to_uv_sin(&mut self, simd: BatchSimd) {
+        match simd {
+            #[cfg(target_arch = "x86_64")]
+            BatchSimd::Avx512 if is_x86_feature_detected!("avx512f") => {
+                // SAFETY: the CPU has AVX-512 F (checked).
+                unsafe { self.to_uv_sin_avx512() }
+            }
+            #[cfg(target_arch = "x86_64")]
+            BatchSimd::Avx2 | BatchSimd::Avx512
+                if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") =>
+            {
+                // SAFETY: the CPU has AVX2 and FMA (checked).
+                unsafe { self.to_uv_sin_avx2() }
+            }
+            _ => self.to_uv_sin_portable(),
+        }
     }
 }
 

@@ -255,7 +255,7 @@ pub fn radiance(
 /// weighted against light sampling by MIS; `prev_bsdf_pdf` is the pdf of the BSDF sample that
 /// chose `dir` (None after a delta bounce or for camera rays: weight 1). `spread` filters
 /// environment maps (0: finest level).
-pub(super) fn infinite_radiance(
+fn infinite_radiance(
     scene: &RenderScene,
     throughput: Vec3A,
     dir: Vec3A,

@@ -13,16 +13,17 @@
 //! the batch buys is independent work between dependent chains (one path's traversal overlaps
 //! the next path's set-up) and one place per stage where lanes can be vectorised.
 
-use super::path::infinite_radiance;
 use super::{EnvStrategy, PathSettings, RayCount};
-use crate::lights::LightDraw;
+use crate::accel::Simd;
+use crate::lights::{Light, LightDraw};
 use crate::ray::{offset_origin, Ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
-use glam::{Vec2, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
+use torrey_light::BatchSimd;
 use torrey_texture::{Footprint, RayCone};
 
 /// A camera ray that starts a path of the batch.
@@ -90,6 +91,11 @@ pub struct Wavefront {
     escaped: Vec<u32>,
     surfaced: Vec<u32>,
     shadow: Vec<ShadowRay>,
+    // The escaped paths' environment lookups.
+    env_sums: Vec<Vec3A>,
+    env_dirs: Vec<Vec3>,
+    env_spreads: Vec<f32>,
+    env_values: Vec<(Vec3, f32)>,
 }
 
 impl Wavefront {
@@ -203,26 +209,12 @@ impl Wavefront {
                 self.hits[i as usize] = hit;
             }
 
-            // Stage 3: escaped rays see the lights at infinity; their paths end.
-            for &i in &self.escaped {
-                let path = &mut self.paths[i as usize];
-                let emitters_visible = path.depth > 0 || !scene.hide_emitters;
-                if !emitters_visible {
-                    continue;
-                }
-                path.result += infinite_radiance(
-                    scene,
-                    path.throughput,
-                    path.ray.dir,
-                    if path.specular_chain && settings.mipmapping {
-                        path.cone.spread
-                    } else {
-                        0.0
-                    },
-                    (!path.prev_delta).then_some(path.prev_bsdf_pdf),
-                    light_select_pdf,
-                    settings.env_strategy,
-                );
+            // Stage 3: escaped rays see the lights at infinity; their paths end. Environment maps
+            // are looked up for all of them at once (directions to uv in SIMD lanes).
+            self.escaped
+                .retain(|&i| self.paths[i as usize].depth > 0 || !scene.hide_emitters);
+            if !self.escaped.is_empty() {
+                self.escaped_radiance(scene, settings, light_select_pdf);
             }
 
             // Stage 4: surfaces: emission, the BSDF sample, the light connection (queued as a
@@ -255,6 +247,90 @@ impl Wavefront {
             }
         }
         out.extend(self.paths.iter().map(|p| p.result));
+    }
+}
+
+impl Wavefront {
+    /// Adds to every escaped path (`self.escaped`) the radiance of the lights at infinity along
+    /// its ray: what `path::infinite_radiance` gives each, summed over the lights in the same order.
+    fn escaped_radiance(
+        &mut self,
+        scene: &RenderScene,
+        settings: PathSettings,
+        light_select_pdf: f32,
+    ) {
+        self.env_sums.clear();
+        self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+        for &li in &scene.infinite_lights {
+            let light = &scene.lights[li as usize];
+            if let Light::Env(env) = light {
+                self.env_dirs.clear();
+                self.env_spreads.clear();
+                for &i in &self.escaped {
+                    let path = &self.paths[i as usize];
+                    self.env_dirs.push(path.ray.dir.into());
+                    self.env_spreads
+                        .push(if path.specular_chain && settings.mipmapping {
+                            path.cone.spread
+                        } else {
+                            0.0
+                        });
+                }
+                env.map.eval_pdf_batch(
+                    &self.env_dirs,
+                    &self.env_spreads,
+                    batch_simd(),
+                    &mut self.env_values,
+                );
+                for (j, &i) in self.escaped.iter().enumerate() {
+                    let path = &self.paths[i as usize];
+                    let (le, pdf) = self.env_values[j];
+                    let le = Vec3A::from(le);
+                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                        None => le,
+                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => {
+                            continue
+                        }
+                        Some(bsdf_pdf) => {
+                            le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
+                        }
+                    };
+                }
+            } else {
+                for (j, &i) in self.escaped.iter().enumerate() {
+                    let path = &self.paths[i as usize];
+                    let spread = if path.specular_chain && settings.mipmapping {
+                        path.cone.spread
+                    } else {
+                        0.0
+                    };
+                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                        None => light.radiance_infinite(path.ray.dir, spread),
+                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => {
+                            continue
+                        }
+                        Some(bsdf_pdf) => {
+                            let (le, pdf) = light.eval_infinite(path.ray.dir, spread);
+                            le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
+                        }
+                    };
+                }
+            }
+        }
+        for (j, &i) in self.escaped.iter().enumerate() {
+            let path = &mut self.paths[i as usize];
+            path.result += path.throughput * self.env_sums[j];
+        }
+    }
+}
+
+/// The instruction set of the batched environment lookups: the traversal's ([`Simd::detect`],
+/// which `TORREY_SIMD` caps).
+fn batch_simd() -> BatchSimd {
+    match Simd::detect() {
+        Simd::Portable => BatchSimd::Portable,
+        Simd::Avx2 => BatchSimd::Avx2,
+        Simd::Avx512 => BatchSimd::Avx512,
     }
 }
 
