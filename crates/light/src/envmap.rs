@@ -837,6 +837,41 @@ mod tests {
         }
     }
 
+    /// The batched lookup gives `eval_pdf`'s bits at every SIMD level this CPU has, for batch
+    /// lengths that fill, and do not fill, the lanes, and for zero, NaN, polar and -0 directions.
+    #[test]
+    fn eval_pdf_batch_matches_eval_pdf_bit_for_bit() {
+        let mut rng = Rng::new(29);
+        for to_world in [Mat3::IDENTITY, rotation()] {
+            let env = EnvMap::new(test_image(32, 16), 1.5, to_world);
+            let mut dirs: Vec<Vec3> = (0..997)
+                .map(|_| formula_dir(rng.vec2()) * (0.5 + 2.0 * rng.f32()))
+                .collect();
+            dirs.extend([
+                Vec3::Y,
+                -Vec3::Y,
+                Vec3::ZERO,
+                Vec3::NAN,
+                Vec3::new(-0.0, 0.0, -1.0),
+                Vec3::new(0.0, -0.0, 1.0),
+                Vec3::new(1e-30, 1.0, -1e-30),
+            ]);
+            let spreads: Vec<f32> = (0..dirs.len()).map(|k| [0.0, 0.02, 0.5][k % 3]).collect();
+            let mut out = Vec::new();
+            for simd in [BatchSimd::Portable, BatchSimd::Avx2, BatchSimd::Avx512] {
+                for len in [dirs.len(), 16, 5, 1] {
+                    env.eval_pdf_batch(&dirs[..len], &spreads[..len], simd, &mut out);
+                    assert_eq!(out.len(), len);
+                    for (k, &(l, p)) in out.iter().enumerate() {
+                        let (el, ep) = env.eval_pdf(dirs[k], spreads[k]);
+                        assert_eq!(l.to_array().map(f32::to_bits), el.to_array().map(f32::to_bits));
+                        assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn uv_dir_round_trip() {
         let mut rng = Rng::new(20);
