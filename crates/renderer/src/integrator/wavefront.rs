@@ -23,6 +23,7 @@ use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
 use glam::{Vec2, Vec3, Vec3A};
+use std::sync::OnceLock;
 use torrey_light::BatchSimd;
 use torrey_texture::{Footprint, RayCone};
 
@@ -263,7 +264,7 @@ impl Wavefront {
         self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
         for &li in &scene.infinite_lights {
             let light = &scene.lights[li as usize];
-            if let Light::Env(env) = light {
+            if let (Light::Env(env), true) = (light, batched_env()) {
                 self.env_dirs.clear();
                 self.env_spreads.clear();
                 for &i in &self.escaped {
@@ -322,6 +323,16 @@ impl Wavefront {
             path.result += path.throughput * self.env_sums[j];
         }
     }
+}
+
+/// Whether escaped rays look environment maps up in batches (the default); the environment
+/// variable `TORREY_WAVEFRONT_ENV=scalar` makes them call the one-ray lookup per path instead
+/// (the same bits; for measuring what the batch gains).
+fn batched_env() -> bool {
+    static BATCHED: OnceLock<bool> = OnceLock::new();
+    *BATCHED.get_or_init(|| {
+        !std::env::var("TORREY_WAVEFRONT_ENV").is_ok_and(|v| v.eq_ignore_ascii_case("scalar"))
+    })
 }
 
 /// The instruction set of the batched environment lookups: the traversal's ([`Simd::detect`],
