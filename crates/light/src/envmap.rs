@@ -250,6 +250,12 @@ impl EnvMap {
     /// sin(theta) is 0.
     #[inline]
     fn local_dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
+        Self::local_dir_to_uv_sin_inline(d)
+    }
+
+    /// [`Self::local_dir_to_uv_sin`], always inlined (the SIMD lanes of `eval_pdf_batch`).
+    #[inline(always)]
+    fn local_dir_to_uv_sin_inline(d: Vec3) -> (Vec2, f32) {
         // Both atan2s are scale-invariant, so the direction is not normalised first: that would
         // put a square root and a division in front of everything else on the lookup's critical
         // path. Only sin(theta), which the pdf needs, is taken of the normalised direction.
@@ -262,7 +268,7 @@ impl EnvMap {
         };
         let r = r2.sqrt();
         let sin_theta = (r2 / l2).sqrt();
-        let mut u = fastmath::atan2(d.x, -d.z) * (0.5 / PI);
+        let mut u = fastmath::atan2_inline(d.x, -d.z) * (0.5 / PI);
         if u < 0.0 {
             u += 1.0;
         }
@@ -270,7 +276,7 @@ impl EnvMap {
             u = 0.0;
         }
         // atan2 rather than acos(d.y): acos loses half the digits near the poles.
-        let v = (fastmath::atan2(r, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
+        let v = (fastmath::atan2_inline(r, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
         (Vec2::new(u, v), sin_theta)
     }
 
@@ -560,7 +566,7 @@ impl UvLanes {
     fn to_uv_sin_body(&mut self) {
         for k in 0..BATCH_LANES {
             let (uv, sin_theta) =
-                EnvMap::local_dir_to_uv_sin(Vec3::new(self.x[k], self.y[k], self.z[k]));
+                EnvMap::local_dir_to_uv_sin_inline(Vec3::new(self.x[k], self.y[k], self.z[k]));
             (self.x[k], self.y[k], self.z[k]) = (uv.x, uv.y, sin_theta);
         }
     }

@@ -65,7 +65,8 @@ struct PathState {
     specular_chain: bool,
     eta: f32,
     depth: u32,
-    first_hit: Option<Option<SurfaceHit>>,
+    /// The camera ray's hit is already in `Wavefront::hits` (traced in a packet).
+    traced: bool,
     // This bounce's draws.
     u_dir: Vec2,
     u_lobe: f32,
@@ -147,7 +148,7 @@ impl Wavefront {
             specular_chain: true,
             eta: 1.0,
             depth: 0,
-            first_hit: c.first_hit,
+            traced: c.first_hit.is_some(),
             u_dir: Vec2::ZERO,
             u_lobe: 0.0,
             u_rr: 0.0,
@@ -156,7 +157,8 @@ impl Wavefront {
         self.live.clear();
         self.live.extend(0..cameras.len() as u32);
         self.hits.clear();
-        self.hits.resize(cameras.len(), None);
+        self.hits
+            .extend(cameras.iter().map(|c| c.first_hit.flatten()));
 
         while !self.live.is_empty() {
             // Stage 1: this bounce's numbers and the light draw, for every live path.
@@ -190,9 +192,11 @@ impl Wavefront {
             for &i in &self.live {
                 let path = &mut self.paths[i as usize];
                 let last_segment = path.depth + 1 >= max_depth;
-                let hit = if let Some(hit) = path.first_hit.take() {
+                let hit = if path.traced {
+                    path.traced = false;
                     rays.closest += 1;
-                    hit
+                    // SAFETY: `hits` has one entry per path.
+                    unsafe { *self.hits.get_unchecked(i as usize) }
                 } else if last_segment && !scene.has_area_lights {
                     rays.shadow += 1;
                     if !scene.visible(path.ray.origin, path.ray.dir, path.ray.tmax) {
