@@ -88,10 +88,10 @@ struct RenderArgs {
     /// 8-wide nodes). The same hits; this is for comparing their speed.
     #[arg(long)]
     no_packets: bool,
-    /// How the path tracer runs: `scalar` (one path to its end after another) or `wavefront` (a
-    /// pixel's samples advanced a bounce at a time, in batches). The same images, bit for bit;
-    /// this is for comparing their speed.
-    #[arg(long, value_enum, default_value_t = PathLoopArg::Scalar)]
+    /// How the path tracer runs: `scalar` (one path to its end after another), `wavefront` (a
+    /// pixel's samples advanced a bounce at a time, in batches) or `auto` (the wavefront for
+    /// scenes with an environment map, where it is faster). The same images, bit for bit.
+    #[arg(long, value_enum, default_value_t = PathLoopArg::Auto)]
     integrator_loop: PathLoopArg,
     /// Render only this film window, X,Y,WIDTH,HEIGHT in pixels of the full film (a part for
     /// `torrey merge`; the EXR records the crop).
@@ -122,6 +122,7 @@ enum DialectArg {
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum PathLoopArg {
+    Auto,
     Scalar,
     Wavefront,
 }
@@ -263,6 +264,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         mipmapping: !args.no_mipmap,
         packets: !args.no_packets,
         path_loop: match args.integrator_loop {
+            PathLoopArg::Auto => torrey_renderer::PathLoop::Auto,
             PathLoopArg::Scalar => torrey_renderer::PathLoop::Scalar,
             PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
         },

@@ -870,7 +870,10 @@ mod tests {
                     assert_eq!(out.len(), len);
                     for (k, &(l, p)) in out.iter().enumerate() {
                         let (el, ep) = env.eval_pdf(dirs[k], spreads[k]);
-                        assert_eq!(l.to_array().map(f32::to_bits), el.to_array().map(f32::to_bits));
+                        assert_eq!(
+                            l.to_array().map(f32::to_bits),
+                            el.to_array().map(f32::to_bits)
+                        );
                         assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
                     }
                 }

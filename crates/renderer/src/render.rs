@@ -8,6 +8,7 @@ use crate::accel::ClosestHit;
 use crate::cameras::CameraSample;
 use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
 use crate::integrator::{radiance, EnvStrategy, PathLoop, PathSettings, RayCount};
+use crate::lights::Light;
 use crate::ray::Ray;
 use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
@@ -35,8 +36,8 @@ pub struct RenderSettings {
     /// and cameras whose rays share an origin). Off, every ray is traced alone: the same hits,
     /// slower.
     pub packets: bool,
-    /// Run the path tracer one path at a time or as a wavefront of a pixel's samples: the same
-    /// images, bit for bit.
+    /// Run the path tracer one path at a time or as a wavefront of a pixel's samples (`Auto`:
+    /// the wavefront where an environment map lights the scene): the same images, bit for bit.
     pub path_loop: PathLoop,
 }
 
@@ -155,6 +156,12 @@ pub fn render_slice(
         env_strategy: settings.env_strategy,
     };
 
+    let wavefront = match settings.path_loop {
+        PathLoop::Scalar => false,
+        PathLoop::Wavefront => true,
+        PathLoop::Auto => scene.lights.iter().any(|l| matches!(l, Light::Env(_))),
+    };
+
     let rendered: Vec<RenderedTile> = tiles
         .par_iter()
         .map(|&(x0, y0)| {
@@ -171,7 +178,6 @@ pub fn render_slice(
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
-                    let wavefront = settings.path_loop == PathLoop::Wavefront;
                     let (mean, var_of_mean, dropped, counted) = match settings.sampler {
                         SamplerKind::Independent if wavefront => render_pixel_wavefront(
                             scene,
@@ -903,7 +909,10 @@ mod tests {
                 let a = render_slice(&scene, &scalar, &slice, &|_, _| {}).unwrap();
                 let b = render_slice(&scene, &wave, &slice, &|_, _| {}).unwrap();
                 let what = format!("{name} {sampler:?} {filter:?} packets {packets} {slice:?}");
-                assert!(a.image.pixels.iter().any(|p| p.max_element() > 0.0), "{what}");
+                assert!(
+                    a.image.pixels.iter().any(|p| p.max_element() > 0.0),
+                    "{what}"
+                );
                 assert_eq!(a.rays.closest, b.rays.closest, "{what}");
                 assert_eq!(a.rays.shadow, b.rays.shadow, "{what}");
                 assert_eq!(a.counts, b.counts, "{what}");

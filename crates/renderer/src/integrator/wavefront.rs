@@ -293,12 +293,8 @@ impl Wavefront {
                     let le = Vec3A::from(le);
                     self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
                         None => le,
-                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => {
-                            continue
-                        }
-                        Some(bsdf_pdf) => {
-                            le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
-                        }
+                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
+                        Some(bsdf_pdf) => le * power_heuristic(bsdf_pdf, pdf * light_select_pdf),
                     };
                 }
             } else {
@@ -311,9 +307,7 @@ impl Wavefront {
                     };
                     self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
                         None => light.radiance_infinite(path.ray.dir, spread),
-                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => {
-                            continue
-                        }
+                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
                         Some(bsdf_pdf) => {
                             let (le, pdf) = light.eval_infinite(path.ray.dir, spread);
                             le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
@@ -375,8 +369,8 @@ fn shade(
                 let w = if path.prev_delta {
                     1.0
                 } else {
-                    let pdf = light.pdf_area_hit(path.prev_p, ray.dir, hit.t, hit.ng)
-                        * light_select_pdf;
+                    let pdf =
+                        light.pdf_area_hit(path.prev_p, ray.dir, hit.t, hit.ng) * light_select_pdf;
                     power_heuristic(path.prev_bsdf_pdf, pdf)
                 };
                 path.result += path.throughput * radiance * w;
@@ -409,8 +403,7 @@ fn shade(
     let bsdf_sample = bsdf.sample(wo_local, path.u_dir, path.u_lobe);
 
     let mut shadow = None;
-    if let (true, Some((light_index, draw))) =
-        (bsdf.flags(wo_local).has_smooth(), path.light_draw)
+    if let (true, Some((light_index, draw))) = (bsdf.flags(wo_local).has_smooth(), path.light_draw)
     {
         let light = &scene.lights[light_index];
         let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
