@@ -430,7 +430,7 @@ impl EnvMap {
                 let local = self.to_local * *d;
                 (lanes.x[k], lanes.y[k], lanes.z[k]) = (local.x, local.y, local.z);
             }
-            lanes.to_uv_sin(simd);
+            lanes.convert_to_uv_sin(simd);
             for k in 0..dirs.len() {
                 let column = ((lanes.x[k] * self.size.x) as u32).min(self.width as u32 - 1);
                 let row = ((lanes.y[k] * self.size.y) as u32).min(self.height as u32 - 1);
@@ -563,7 +563,7 @@ impl UvLanes {
     /// `EnvMap::local_dir_to_uv_sin` on every lane (unused lanes hold zero directions, which
     /// read as the zenith and are ignored).
     #[inline(always)]
-    fn to_uv_sin_body(&mut self) {
+    fn uv_sin_body(&mut self) {
         for k in 0..BATCH_LANES {
             let (uv, sin_theta) =
                 EnvMap::local_dir_to_uv_sin_inline(Vec3::new(self.x[k], self.y[k], self.z[k]));
@@ -573,36 +573,36 @@ impl UvLanes {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn to_uv_sin_avx2(&mut self) {
-        self.to_uv_sin_body()
+    fn uv_sin_avx2(&mut self) {
+        self.uv_sin_body()
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx2,fma")]
-    fn to_uv_sin_avx512(&mut self) {
-        self.to_uv_sin_body()
+    fn uv_sin_avx512(&mut self) {
+        self.uv_sin_body()
     }
 
-    fn to_uv_sin_portable(&mut self) {
-        self.to_uv_sin_body()
+    fn uv_sin_portable(&mut self) {
+        self.uv_sin_body()
     }
 
     #[inline]
-    fn to_uv_sin(&mut self, simd: BatchSimd) {
+    fn convert_to_uv_sin(&mut self, simd: BatchSimd) {
         match simd {
             #[cfg(target_arch = "x86_64")]
             BatchSimd::Avx512 if is_x86_feature_detected!("avx512f") => {
                 // SAFETY: the CPU has AVX-512 F (checked).
-                unsafe { self.to_uv_sin_avx512() }
+                unsafe { self.uv_sin_avx512() }
             }
             #[cfg(target_arch = "x86_64")]
             BatchSimd::Avx2 | BatchSimd::Avx512
                 if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") =>
             {
                 // SAFETY: the CPU has AVX2 and FMA (checked).
-                unsafe { self.to_uv_sin_avx2() }
+                unsafe { self.uv_sin_avx2() }
             }
-            _ => self.to_uv_sin_portable(),
+            _ => self.uv_sin_portable(),
         }
     }
 }
