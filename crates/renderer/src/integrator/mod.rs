@@ -11,8 +11,8 @@ pub use path::radiance;
 /// batch of paths (one pixel's samples) a bounce at a time (`Wavefront`). Both compute the same
 /// estimator with the same sampler dimensions, so the images agree bit for bit; they differ in
 /// speed (docs/performance.md). `Auto` takes the wavefront for scenes lit by an environment map
-/// (its batched lookups: envmap_sky 8-20% faster) and the scalar loop otherwise (the wavefront's
-/// bookkeeping costs cbox and the living room 4-11%).
+/// (its batched lookups: envmap_sky 14-22% faster) and the scalar loop otherwise (the
+/// wavefront's bookkeeping costs the other benchmark scenes 2-11%).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PathLoop {
     #[default]
