@@ -88,6 +88,11 @@ struct RenderArgs {
     /// 8-wide nodes). The same hits; this is for comparing their speed.
     #[arg(long)]
     no_packets: bool,
+    /// How the path tracer runs: `scalar` (one path to its end after another), `wavefront` (a
+    /// pixel's samples advanced a bounce at a time, in batches) or `auto` (the wavefront for
+    /// scenes with an environment map, where it is faster). The same images, bit for bit.
+    #[arg(long, value_enum, default_value_t = PathLoopArg::Auto)]
+    integrator_loop: PathLoopArg,
     /// Render only this film window, X,Y,WIDTH,HEIGHT in pixels of the full film (a part for
     /// `torrey merge`; the EXR records the crop).
     #[arg(long, value_parser = slicing::parse_crop)]
@@ -113,6 +118,13 @@ enum BvhWidthArg {
 enum DialectArg {
     Torrey,
     Mitsuba,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum PathLoopArg {
+    Auto,
+    Scalar,
+    Wavefront,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -226,6 +238,11 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         },
         mipmapping: !args.no_mipmap,
         packets: !args.no_packets,
+        path_loop: match args.integrator_loop {
+            PathLoopArg::Auto => torrey_renderer::PathLoop::Auto,
+            PathLoopArg::Scalar => torrey_renderer::PathLoop::Scalar,
+            PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
+        },
     };
     let output = output_path(
         args.output.as_deref(),

@@ -35,6 +35,7 @@ fn render(
         env_strategy: strategy,
         sampler: torrey_renderer::SamplerKind::Independent,
         packets: true,
+        path_loop: Default::default(),
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
     assert_eq!(out.nonfinite_samples, 0);

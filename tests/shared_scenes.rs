@@ -71,6 +71,7 @@ fn every_shared_torrey_scene_renders() {
             sampler: torrey_renderer::SamplerKind::Independent,
             mipmapping: true,
             packets: true,
+            path_loop: Default::default(),
         };
         let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
         assert_eq!(out.nonfinite_samples, 0, "{name}: NaN or infinite samples");

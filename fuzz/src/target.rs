@@ -191,6 +191,11 @@ impl Harness {
                     },
                     mipmapping: variant % 4 != 1,
                     packets: variant % 5 != 2,
+                    path_loop: if variant % 3 == 1 {
+                        torrey_renderer::PathLoop::Wavefront
+                    } else {
+                        torrey_renderer::PathLoop::Scalar
+                    },
                 };
                 let out = torrey_renderer::render(&built, &settings, &|_, _| {});
                 if out.image.pixels.iter().any(|p| !p.is_finite()) {

@@ -296,6 +296,7 @@ fn render(
         sampler,
         mipmapping: true,
         packets: true,
+        path_loop: Default::default(),
     };
     // The film's crop parameters apply to the film they were written for.
     let film_crop = desc.film.crop.filter(|_| size.is_none()).map(|c| c.rect());

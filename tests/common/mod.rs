@@ -94,6 +94,7 @@ pub fn render_scene_with(
         sampler: torrey_renderer::SamplerKind::Independent,
         mipmapping,
         packets: true,
+        path_loop: Default::default(),
     };
     let out = match crop {
         Some(c) => {

@@ -270,6 +270,12 @@ impl EnvMap {
     /// sin(theta) is 0.
     #[inline]
     fn local_dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
+        Self::local_dir_to_uv_sin_inline(d)
+    }
+
+    /// [`Self::local_dir_to_uv_sin`], always inlined (the SIMD lanes of `eval_pdf_batch`).
+    #[inline(always)]
+    fn local_dir_to_uv_sin_inline(d: Vec3) -> (Vec2, f32) {
         // Both atan2s are scale-invariant, so the direction is not normalised first: that would
         // put a square root and a division in front of everything else on the lookup's critical
         // path. Only sin(theta), which the pdf needs, is taken of the normalised direction.
@@ -282,7 +288,7 @@ impl EnvMap {
         };
         let r = r2.sqrt();
         let sin_theta = (r2 / l2).sqrt();
-        let mut u = fastmath::atan2(d.x, -d.z) * (0.5 / PI);
+        let mut u = fastmath::atan2_inline(d.x, -d.z) * (0.5 / PI);
         if u < 0.0 {
             u += 1.0;
         }
@@ -290,7 +296,7 @@ impl EnvMap {
             u = 0.0;
         }
         // atan2 rather than acos(d.y): acos loses half the digits near the poles.
-        let v = (fastmath::atan2(r, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
+        let v = (fastmath::atan2_inline(r, d.y) * (1.0 / PI)).clamp(0.0, 1.0);
         (Vec2::new(u, v), sin_theta)
     }
 
@@ -434,6 +440,13 @@ impl EnvMap {
             return (Vec3::ZERO, 0.0);
         }
         let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
+        self.eval_pdf_uv(uv, sin_theta, spread)
+    }
+
+    /// [`Self::eval_pdf`] of the direction with local `uv` and `sin_theta` (a map whose scale is
+    /// not 0): the part `eval_pdf_batch` shares with it.
+    #[inline]
+    fn eval_pdf_uv(&self, uv: Vec2, sin_theta: f32, spread: f32) -> (Vec3, f32) {
         let footprint = self.footprint(spread);
         if footprint <= 0.0 && self.samplable {
             // Radiance and density from the same four texel records.
@@ -454,6 +467,49 @@ impl EnvMap {
             0.0
         } else {
             p_uv / (2.0 * PI * PI * sin_theta)
+        }
+    }
+
+    /// [`Self::eval_pdf`] of many escaped rays at once, bit for bit: `out[k]` is
+    /// `self.eval_pdf(dirs[k], spreads[k])`. The directions are turned into uv and sin(theta)
+    /// [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the CPU was found
+    /// to have), each lane's texel record is prefetched, then the texels are read lane by lane.
+    /// `out` is cleared first.
+    pub fn eval_pdf_batch(
+        &self,
+        dirs: &[Vec3],
+        spreads: &[f32],
+        simd: BatchSimd,
+        out: &mut Vec<(Vec3, f32)>,
+    ) {
+        out.clear();
+        if self.scale == 0.0 {
+            out.resize(dirs.len(), (Vec3::ZERO, 0.0));
+            return;
+        }
+        for (dirs, spreads) in dirs.chunks(BATCH_LANES).zip(spreads.chunks(BATCH_LANES)) {
+            let mut lanes = UvLanes::default();
+            for (k, d) in dirs.iter().enumerate() {
+                let local = self.to_local * *d;
+                (lanes.x[k], lanes.y[k], lanes.z[k]) = (local.x, local.y, local.z);
+            }
+            lanes.convert_to_uv_sin(simd);
+            for k in 0..dirs.len() {
+                // A hint only: the top-left texel record of the bilinear lookup (the row remap of
+                // `bilinear_finest_with_density`).
+                let column = ((lanes.x[k] * self.size.x) as u32).min(self.width as u32 - 1);
+                let row = ((row_v(lanes.y[k], self.size.y) * self.size.y) as u32)
+                    .min(self.height as u32 - 1);
+                prefetch(
+                    self.texels
+                        .as_ptr()
+                        .wrapping_add(row as usize * self.width + column as usize),
+                );
+            }
+            for (k, &spread) in spreads.iter().enumerate() {
+                let uv = Vec2::new(lanes.x[k], lanes.y[k]);
+                out.push(self.eval_pdf_uv(uv, lanes.z[k], spread));
+            }
         }
     }
 
@@ -540,6 +596,78 @@ impl EnvMap {
             return 0.0;
         }
         Self::solid_angle_pdf(self.bilinear_finest_with_density(uv).w, sin_theta)
+    }
+}
+
+/// Directions per SIMD step of [`EnvMap::eval_pdf_batch`] (one AVX-512 register, two AVX2 ones).
+pub const BATCH_LANES: usize = 16;
+
+/// The instruction set [`EnvMap::eval_pdf_batch`] runs its lanes with; the caller detects it
+/// (the renderer's `Simd`, which `TORREY_SIMD` caps). Every level gives the same bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BatchSimd {
+    /// Baseline x86-64 (SSE2), or any other architecture.
+    Portable,
+    /// AVX2 and FMA (FMA is never used for these sums: the results stay those of `eval_pdf`).
+    Avx2,
+    /// AVX-512 F.
+    Avx512,
+}
+
+/// [`BATCH_LANES`] local directions in structure-of-arrays form, turned in place into
+/// (u, v, sin theta).
+#[derive(Default)]
+struct UvLanes {
+    x: [f32; BATCH_LANES],
+    y: [f32; BATCH_LANES],
+    z: [f32; BATCH_LANES],
+}
+
+impl UvLanes {
+    /// `EnvMap::local_dir_to_uv_sin` on every lane (unused lanes hold zero directions, which
+    /// read as the zenith and are ignored).
+    #[inline(always)]
+    fn uv_sin_body(&mut self) {
+        for k in 0..BATCH_LANES {
+            let (uv, sin_theta) =
+                EnvMap::local_dir_to_uv_sin_inline(Vec3::new(self.x[k], self.y[k], self.z[k]));
+            (self.x[k], self.y[k], self.z[k]) = (uv.x, uv.y, sin_theta);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn uv_sin_avx2(&mut self) {
+        self.uv_sin_body()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    fn uv_sin_avx512(&mut self) {
+        self.uv_sin_body()
+    }
+
+    fn uv_sin_portable(&mut self) {
+        self.uv_sin_body()
+    }
+
+    #[inline]
+    fn convert_to_uv_sin(&mut self, simd: BatchSimd) {
+        match simd {
+            #[cfg(target_arch = "x86_64")]
+            BatchSimd::Avx512 if is_x86_feature_detected!("avx512f") => {
+                // SAFETY: the CPU has AVX-512 F (checked).
+                unsafe { self.uv_sin_avx512() }
+            }
+            #[cfg(target_arch = "x86_64")]
+            BatchSimd::Avx2 | BatchSimd::Avx512
+                if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") =>
+            {
+                // SAFETY: the CPU has AVX2 and FMA (checked).
+                unsafe { self.uv_sin_avx2() }
+            }
+            _ => self.uv_sin_portable(),
+        }
     }
 }
 
@@ -808,6 +936,44 @@ mod tests {
                     let (l, p) = env.eval_pdf(d, spread);
                     assert_eq!(l, env.eval(d, spread), "{d}");
                     assert_eq!(p.to_bits(), env.pdf(d).to_bits(), "{d}");
+                }
+            }
+        }
+    }
+
+    /// The batched lookup gives `eval_pdf`'s bits at every SIMD level this CPU has, for batch
+    /// lengths that fill, and do not fill, the lanes, and for zero, NaN, polar and -0 directions.
+    #[test]
+    fn eval_pdf_batch_matches_eval_pdf_bit_for_bit() {
+        let mut rng = Rng::new(29);
+        for to_world in [Mat3::IDENTITY, rotation()] {
+            let env = EnvMap::new(test_image(32, 16), 1.5, to_world);
+            let mut dirs: Vec<Vec3> = (0..997)
+                .map(|_| formula_dir(rng.vec2()) * (0.5 + 2.0 * rng.f32()))
+                .collect();
+            dirs.extend([
+                Vec3::Y,
+                -Vec3::Y,
+                Vec3::ZERO,
+                Vec3::NAN,
+                Vec3::new(-0.0, 0.0, -1.0),
+                Vec3::new(0.0, -0.0, 1.0),
+                Vec3::new(1e-30, 1.0, -1e-30),
+            ]);
+            let spreads: Vec<f32> = (0..dirs.len()).map(|k| [0.0, 0.02, 0.5][k % 3]).collect();
+            let mut out = Vec::new();
+            for simd in [BatchSimd::Portable, BatchSimd::Avx2, BatchSimd::Avx512] {
+                for len in [dirs.len(), 16, 5, 1] {
+                    env.eval_pdf_batch(&dirs[..len], &spreads[..len], simd, &mut out);
+                    assert_eq!(out.len(), len);
+                    for (k, &(l, p)) in out.iter().enumerate() {
+                        let (el, ep) = env.eval_pdf(dirs[k], spreads[k]);
+                        assert_eq!(
+                            l.to_array().map(f32::to_bits),
+                            el.to_array().map(f32::to_bits)
+                        );
+                        assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
+                    }
                 }
             }
         }

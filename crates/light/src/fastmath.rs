@@ -28,6 +28,12 @@ fn atan_unit(s: f32) -> f32 {
 /// infinite gives NaN (std gives a multiple of pi/4); the callers only pass finite components.
 #[inline]
 pub fn atan2(y: f32, x: f32) -> f32 {
+    atan2_inline(y, x)
+}
+
+/// [`atan2`], always inlined: for loops over SIMD lanes, which a call would keep scalar.
+#[inline(always)]
+pub(crate) fn atan2_inline(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
     let (lo, hi) = if ay > ax { (ax, ay) } else { (ay, ax) };
     // 0 / 0 reads as 0 (the angle of a zero vector, as std); otherwise lo / hi is in [0, 1]

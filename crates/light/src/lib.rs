@@ -12,4 +12,4 @@ pub mod fastmath;
 pub mod unit;
 
 pub use alias::AliasTable;
-pub use envmap::{luminance, EnvMap, EnvSample};
+pub use envmap::{luminance, BatchSimd, EnvMap, EnvSample, BATCH_LANES};

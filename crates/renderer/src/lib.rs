@@ -29,7 +29,7 @@ mod textures;
 
 pub use accel::{Accel, BvhWidth, ClosestHit, PrimGeom, Simd};
 pub use cameras::{Camera, CameraSample};
-pub use integrator::EnvStrategy;
+pub use integrator::{EnvStrategy, PathLoop};
 pub use ray::{offset_origin, Ray};
 pub use render::{render, render_slice, RenderOutput, RenderSettings, RenderSlice};
 pub use sampler::SamplerKind;

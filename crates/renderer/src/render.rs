@@ -7,7 +7,9 @@
 use crate::accel::ClosestHit;
 use crate::cameras::CameraSample;
 use crate::film::{Film, TileFilm};
-use crate::integrator::{radiance, EnvStrategy, PathSettings, RayCount};
+use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
+use crate::integrator::{radiance, EnvStrategy, PathLoop, PathSettings, RayCount};
+use crate::lights::Light;
 use crate::ray::Ray;
 use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
 use crate::scene::RenderScene;
@@ -36,6 +38,9 @@ pub struct RenderSettings {
     /// and cameras whose rays share an origin). Off, every ray is traced alone: the same hits,
     /// slower.
     pub packets: bool,
+    /// Run the path tracer one path at a time or as a wavefront of a pixel's samples (`Auto`:
+    /// the wavefront where an environment map lights the scene): the same images, bit for bit.
+    pub path_loop: PathLoop,
 }
 
 pub struct RenderOutput {
@@ -156,6 +161,12 @@ pub fn render_slice(
         env_strategy: settings.env_strategy,
     };
 
+    let wavefront = match settings.path_loop {
+        PathLoop::Scalar => false,
+        PathLoop::Wavefront => true,
+        PathLoop::Auto => scene.lights.iter().any(|l| matches!(l, Light::Env(_))),
+    };
+
     let rendered: Vec<TileFilm> = tiles
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
@@ -164,10 +175,40 @@ pub fn render_slice(
             // One Sobol sampler per tile: its table of points is reused from pixel to pixel.
             let mut sobol = (settings.sampler == SamplerKind::Sobol)
                 .then(|| SobolSampler::tabled(settings.seed, 0, samples.end));
+            let mut pcg_wavefront = WavefrontBuffers::<PcgSampler>::default();
+            let mut sobol_wavefront = WavefrontBuffers::<SobolSampler>::default();
             for y in y0..y1 {
                 for x in x0..x1 {
                     let pixel_index = y as u64 * width as u64 + x as u64;
                     match settings.sampler {
+                        SamplerKind::Independent if wavefront => render_pixel_wavefront(
+                            scene,
+                            (x, y),
+                            settings,
+                            samples.clone(),
+                            path,
+                            &mut PcgSampler::new(settings.seed, pixel_index),
+                            true,
+                            &mut rays,
+                            &mut pcg_wavefront,
+                            &mut tile,
+                        ),
+                        SamplerKind::Sobol if wavefront => {
+                            let sampler = sobol.as_mut().expect("made for the Sobol sampler");
+                            sampler.restart(settings.seed, pixel_index, samples.end);
+                            render_pixel_wavefront(
+                                scene,
+                                (x, y),
+                                settings,
+                                samples.clone(),
+                                path,
+                                sampler,
+                                false,
+                                &mut rays,
+                                &mut sobol_wavefront,
+                                &mut tile,
+                            )
+                        }
                         SamplerKind::Independent => render_pixel(
                             scene,
                             (x, y),
@@ -295,16 +336,8 @@ fn render_pixel<S: Sampler>(
     let mut hits = [None; MAX_PACKET];
     let mut packed = false;
     for s in samples.clone() {
-        let group = lanes as u32;
-        let in_packet = group > 0 && {
-            let group_start = s - s % group;
-            group_start >= samples.start
-                && group_start
-                    .checked_add(group)
-                    .is_some_and(|end| end <= samples.end)
-        };
-        let (o, d, first_hit, offset, inside) = if in_packet {
-            let lane = (s % group) as usize;
+        let (o, d, first_hit, offset, inside) = if in_packet(s, lanes, &samples) {
+            let lane = (s % lanes as u32) as usize;
             if lane == 0 {
                 for k in 0..lanes {
                     sampler.start_sample(s + k as u32);
@@ -332,6 +365,206 @@ fn render_pixel<S: Sampler>(
             let first_hit = Some(clipped_first_hit(scene, o, d, first_hit));
             let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
             film.add_sample((x, y), offset, l);
+        }
+    }
+}
+
+/// Whether global sample `s` lies in a packet group of `lanes` samples that is whole inside
+/// `samples` (0 lanes: no packets).
+#[inline]
+fn in_packet(s: u32, lanes: usize, samples: &Range<u32>) -> bool {
+    let group = lanes as u32;
+    group > 0 && {
+        let group_start = s - s % group;
+        group_start >= samples.start
+            && group_start
+                .checked_add(group)
+                .is_some_and(|end| end <= samples.end)
+    }
+}
+
+/// Paths per wavefront batch: a block of the Sobol sampler's table (its columns stay valid while
+/// the batch's paths resume one another), a multiple of every packet width.
+const WAVEFRONT_BATCH: u32 = 64;
+
+/// [`render_pixel`] with the path tracer run as a wavefront ([`Wavefront`]): the pixel's samples
+/// go in batches of up to [`WAVEFRONT_BATCH`] (aligned to multiples of it), each batch's camera
+/// rays drawn and traced (in packets where `render_pixel` uses them, then clipped), then its
+/// paths advanced a bounce at a time. The samples' numbers, rays and radiance are those of
+/// `render_pixel`, and they reach the film through [`TileFilm::add_sample`] in the same order, so
+/// the results are bit-identical (splatted filters included). `per_path`: give each path its own
+/// copy of `sampler` (independent streams) instead of resuming the shared one.
+#[allow(clippy::too_many_arguments)]
+fn render_pixel_wavefront<S: Sampler + Clone>(
+    scene: &RenderScene,
+    (x, y): (u32, u32),
+    settings: &RenderSettings,
+    samples: Range<u32>,
+    path: PathSettings,
+    sampler: &mut S,
+    per_path: bool,
+    rays: &mut RayCount,
+    wavefront: &mut WavefrontBuffers<S>,
+    film: &mut TileFilm,
+) {
+    let camera = scene.camera();
+    let centre = camera
+        .generate_ray(&CameraSample {
+            film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+            lens: Vec2::splat(0.5),
+        })
+        .1;
+    let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
+        .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
+    let camera_requests = 1 + camera.lens_requests();
+    let filter = film.filter();
+    let camera_ray = |sampler: &mut S, film: &TileFilm| {
+        let offset = filter.offset(sampler.next_2d());
+        let (position, inside) = film.film_position((x, y), offset);
+        let lens = if camera.lens_requests() > 0 {
+            sampler.next_2d()
+        } else {
+            Vec2::ZERO
+        };
+        let (o, d) = camera.generate_ray(&CameraSample {
+            film: position,
+            lens,
+        });
+        (o, d, offset, inside)
+    };
+    let lanes = if settings.packets && camera.rays_share_origin() {
+        scene.packet_width().min(MAX_PACKET)
+    } else {
+        0
+    };
+    let WavefrontBuffers {
+        loop_,
+        cameras,
+        samplers,
+        radiance,
+    } = wavefront;
+    let mut dirs = [Vec3A::ZERO; MAX_PACKET];
+    let mut offsets = [Vec2::ZERO; MAX_PACKET];
+    let mut insides = [true; MAX_PACKET];
+    let mut hits = [None; MAX_PACKET];
+    let mut start = samples.start;
+    while start < samples.end {
+        let end = (start - start % WAVEFRONT_BATCH + WAVEFRONT_BATCH).min(samples.end);
+        cameras.clear();
+        samplers.clear();
+        let mut s = start;
+        while s < end {
+            if in_packet(s, lanes, &samples) {
+                // A whole packet group (groups never straddle batches: lanes divide the batch).
+                let mut origin = Vec3A::ZERO;
+                for k in 0..lanes {
+                    let index = s + k as u32;
+                    let lane_sampler = if per_path {
+                        let mut own = sampler.clone();
+                        own.start_sample(index);
+                        samplers.push(own);
+                        samplers.last_mut().expect("just pushed")
+                    } else {
+                        sampler.start_sample(index);
+                        &mut *sampler
+                    };
+                    (origin, dirs[k], offsets[k], insides[k]) = camera_ray(lane_sampler, film);
+                }
+                let packed =
+                    scene
+                        .accel()
+                        .intersect_packet(origin, &dirs[..lanes], &mut hits[..lanes]);
+                // Samples outside the film are dropped (with their samplers, kept in step).
+                let first = cameras.len();
+                for k in 0..lanes {
+                    if !insides[k] {
+                        continue;
+                    }
+                    let ray = Ray {
+                        origin,
+                        dir: dirs[k],
+                        tmax: f32::INFINITY,
+                    };
+                    let traced =
+                        packed.then(|| hits[k].map(|hit: ClosestHit| scene.surface(&ray, &hit)));
+                    if per_path {
+                        samplers.swap(cameras.len(), first + k);
+                    }
+                    cameras.push(CameraPath {
+                        sample: s + k as u32,
+                        origin,
+                        dir: dirs[k],
+                        offset: offsets[k],
+                        cone,
+                        first_hit: clipped_first_hit(scene, origin, dirs[k], traced),
+                    });
+                }
+                if per_path {
+                    samplers.truncate(cameras.len());
+                }
+                s += lanes as u32;
+            } else {
+                let lane_sampler = if per_path {
+                    let mut own = sampler.clone();
+                    own.start_sample(s);
+                    samplers.push(own);
+                    samplers.last_mut().expect("just pushed")
+                } else {
+                    sampler.start_sample(s);
+                    &mut *sampler
+                };
+                let (o, d, offset, inside) = camera_ray(lane_sampler, film);
+                if inside {
+                    cameras.push(CameraPath {
+                        sample: s,
+                        origin: o,
+                        dir: d,
+                        offset,
+                        cone,
+                        first_hit: clipped_first_hit(scene, o, d, None),
+                    });
+                } else if per_path {
+                    samplers.pop();
+                }
+                s += 1;
+            }
+        }
+        let samplers = if per_path {
+            PathSamplers::PerPath(&mut samplers[..])
+        } else {
+            PathSamplers::Shared(&mut *sampler)
+        };
+        loop_.radiance(
+            scene,
+            cameras,
+            camera_requests,
+            path,
+            samplers,
+            rays,
+            radiance,
+        );
+        for (camera, &l) in cameras.iter().zip(radiance.iter()) {
+            film.add_sample((x, y), camera.offset, l);
+        }
+        start = end;
+    }
+}
+
+/// One worker's wavefront loop and its batch buffers, reused from pixel to pixel.
+struct WavefrontBuffers<S> {
+    loop_: Wavefront,
+    cameras: Vec<CameraPath>,
+    samplers: Vec<S>,
+    radiance: Vec<Vec3A>,
+}
+
+impl<S> Default for WavefrontBuffers<S> {
+    fn default() -> Self {
+        Self {
+            loop_: Wavefront::default(),
+            cameras: Vec::new(),
+            samplers: Vec::new(),
+            radiance: Vec::new(),
         }
     }
 }
@@ -414,6 +647,7 @@ mod tests {
             env_strategy: EnvStrategy::default(),
             sampler,
             packets,
+            path_loop: PathLoop::Scalar,
         }
     }
 
@@ -583,6 +817,166 @@ mod tests {
             };
             let single = render_slice(&scene, &unpacked, &slice, &|_, _| {}).unwrap();
             assert_bits_eq(&packed.image, &single.image, &format!("{sampler:?} 3..19"));
+        }
+    }
+
+    /// The wavefront loop renders the scalar loop's image bit for bit (the same numbers, rays,
+    /// MIS weights and Russian roulette, summed in the same order): both samplers, with packets
+    /// and without, a gaussian filter whose offsets leave the film at the border, splatted
+    /// filters (lanczos, mitchell) whose samples reach neighbouring pixels, a crop and a sample
+    /// range that cuts packet groups and crosses a batch boundary (60..70 of 70 spp), and a film
+    /// with a crop window (its bounds: samples leaving it do not count); meshes, a sphere and an
+    /// area light here, an environment map with a sun, a mirror and a microfacet sphere in
+    /// `envmap_sky.xml`.
+    #[test]
+    fn wavefront_renders_the_image_of_the_scalar_loop() {
+        let sky = {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/envmap_sky.xml");
+            let desc = torrey_parser::load_scene(&path, &[]).unwrap();
+            RenderScene::build(&desc, 24, 20).unwrap()
+        };
+        let windowed = {
+            let mut scene = packet_scene();
+            scene.sample_window = (4, 3, 14, 12);
+            scene
+        };
+        let window = Some(RenderSlice {
+            crop: (4, 3, 14, 12),
+            samples: 0..12,
+        });
+        for (name, scene) in [
+            ("packets", packet_scene()),
+            ("envmap_sky", sky),
+            ("film crop window", windowed),
+        ] {
+            let cases: Vec<(SamplerKind, PixelFilter, bool, u32, Option<RenderSlice>)> =
+                if name == "film crop window" {
+                    vec![
+                        (
+                            SamplerKind::Sobol,
+                            PixelFilter::Box,
+                            true,
+                            12,
+                            window.clone(),
+                        ),
+                        (
+                            SamplerKind::Independent,
+                            PixelFilter::Gaussian { stddev: 0.5 },
+                            true,
+                            12,
+                            window.clone(),
+                        ),
+                        (
+                            SamplerKind::Sobol,
+                            PixelFilter::Lanczos { lobes: 3 },
+                            true,
+                            12,
+                            window.clone(),
+                        ),
+                        (
+                            SamplerKind::Independent,
+                            PixelFilter::Lanczos { lobes: 3 },
+                            false,
+                            12,
+                            Some(RenderSlice {
+                                crop: (6, 5, 7, 6),
+                                samples: 3..12,
+                            }),
+                        ),
+                    ]
+                } else {
+                    vec![
+                        (SamplerKind::Sobol, PixelFilter::Box, true, 12, None),
+                        (SamplerKind::Independent, PixelFilter::Box, true, 12, None),
+                        (SamplerKind::Sobol, PixelFilter::Box, false, 12, None),
+                        (
+                            SamplerKind::Independent,
+                            PixelFilter::Gaussian { stddev: 0.5 },
+                            true,
+                            9,
+                            None,
+                        ),
+                        (
+                            SamplerKind::Sobol,
+                            PixelFilter::Lanczos { lobes: 3 },
+                            true,
+                            12,
+                            None,
+                        ),
+                        (
+                            SamplerKind::Independent,
+                            PixelFilter::Mitchell {
+                                b: 1.0 / 3.0,
+                                c: 1.0 / 3.0,
+                            },
+                            false,
+                            70,
+                            Some(RenderSlice {
+                                crop: (2, 4, 10, 8),
+                                samples: 60..70,
+                            }),
+                        ),
+                        (SamplerKind::Sobol, PixelFilter::Box, true, 12, None),
+                        (SamplerKind::Independent, PixelFilter::Box, true, 12, None),
+                        (SamplerKind::Sobol, PixelFilter::Box, false, 12, None),
+                        (
+                            SamplerKind::Independent,
+                            PixelFilter::Gaussian { stddev: 0.5 },
+                            true,
+                            9,
+                            None,
+                        ),
+                        (
+                            SamplerKind::Sobol,
+                            PixelFilter::Gaussian { stddev: 0.5 },
+                            true,
+                            70,
+                            Some(RenderSlice {
+                                crop: (3, 2, 9, 7),
+                                samples: 60..70,
+                            }),
+                        ),
+                        (
+                            SamplerKind::Independent,
+                            PixelFilter::Box,
+                            true,
+                            70,
+                            Some(RenderSlice {
+                                crop: (17, 9, 6, 5),
+                                samples: 5..67,
+                            }),
+                        ),
+                    ]
+                };
+            for (sampler, filter, packets, spp, slice) in cases {
+                let scalar = RenderSettings {
+                    filter,
+                    ..settings(spp, sampler, packets)
+                };
+                let wave = RenderSettings {
+                    path_loop: PathLoop::Wavefront,
+                    ..scalar.clone()
+                };
+                let slice = slice.unwrap_or(RenderSlice::full(24, 20, spp));
+                let a = render_slice(&scene, &scalar, &slice, &|_, _| {}).unwrap();
+                let b = render_slice(&scene, &wave, &slice, &|_, _| {}).unwrap();
+                let what = format!("{name} {sampler:?} {filter:?} packets {packets} {slice:?}");
+                assert!(
+                    a.image.pixels.iter().any(|p| p.max_element() > 0.0),
+                    "{what}"
+                );
+                assert_eq!(a.rays.closest, b.rays.closest, "{what}");
+                assert_eq!(a.rays.shadow, b.rays.shadow, "{what}");
+                assert_eq!(a.counts, b.counts, "{what}");
+                assert_eq!(
+                    a.weights.iter().map(|w| w.to_bits()).collect::<Vec<_>>(),
+                    b.weights.iter().map(|w| w.to_bits()).collect::<Vec<_>>(),
+                    "{what}"
+                );
+                assert_eq!(a.nonfinite_samples, b.nonfinite_samples, "{what}");
+                assert_bits_eq(&a.image, &b.image, &what);
+                assert_bits_eq(&a.variance, &b.variance, &what);
+            }
         }
     }
 

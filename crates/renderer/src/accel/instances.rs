@@ -590,6 +590,7 @@ mod tests {
             env_strategy: crate::integrator::EnvStrategy::default(),
             sampler: crate::sampler::SamplerKind::Sobol,
             packets: true,
+            path_loop: crate::integrator::PathLoop::Auto,
         };
         let out = crate::render::render(&scene, &settings, &|_, _| {});
         assert_eq!(out.nonfinite_samples, 0);

@@ -257,7 +257,7 @@ pub fn radiance(
 /// ground around a sphere lamp by up to half (the sphere lamp of
 /// tests/scenes/mitsuba/area_reflective.xml).
 #[inline(always)]
-fn shadow_ray(p: Vec3A, ng: Vec3A, ls: &LightSample) -> (Vec3A, Vec3A, f32) {
+pub(super) fn shadow_ray(p: Vec3A, ng: Vec3A, ls: &LightSample) -> (Vec3A, Vec3A, f32) {
     let origin = offset_origin(p, ng, ls.wi);
     if !ls.dist.is_finite() {
         return (origin, ls.wi, f32::INFINITY);

@@ -13,6 +13,7 @@ use super::{to_unit, Sampler};
 /// without knowing which kinds of requests came before. The per-sample reseed (two hashes) and the
 /// second step of `next_1d` cost less than the inlining of the hand-written PCG32 saves: a cbox
 /// render took 3% fewer instructions than with one `pcg_rand` stream per pixel (callgrind).
+#[derive(Clone)]
 pub struct PcgSampler {
     rng: Pcg32,
     /// Hash of (render seed, pixel): the root of this pixel's per-sample streams.
@@ -64,6 +65,7 @@ impl Sampler for PcgSampler {
 
 /// PCG32 (O'Neill's XSH-RR output on a 64-bit LCG), kept here so that a sampler's per-sample
 /// reseed is two words, without the allocation `pcg_rand`'s seeder makes.
+#[derive(Clone)]
 struct Pcg32 {
     state: u64,
     increment: u64,

@@ -26,6 +26,7 @@ const FILL_STEP: u32 = 4;
 
 /// One pixel's sample `index` of a shuffled, scrambled Sobol sequence; call `start_sample`
 /// before each sample. Dimensions are consumed in order by `next_1d` / `next_2d`.
+#[derive(Clone)]
 pub struct SobolSampler {
     pixel_seed: u32,
     /// The sample index, and with its bits reversed (the input of every dimension's shuffle).
@@ -38,6 +39,7 @@ pub struct SobolSampler {
 }
 
 /// Points of a block of samples, computed a request (column) at a time.
+#[derive(Clone)]
 struct Table {
     /// The block's first sample index and its sample count.
     base: u32,

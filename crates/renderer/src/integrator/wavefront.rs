@@ -1,0 +1,471 @@
+//! The path tracer of [`super::path`] run as a wavefront: a batch of paths advances one bounce
+//! at a time through stages (the bounce's sampler draws for every live path, their closest hits,
+//! escaped rays' environment lookups, surface shading with the BSDF and light samples, the
+//! shadow rays, then compaction of the paths still alive), instead of following one path to its
+//! end before starting the next.
+//!
+//! The estimator is the scalar loop's, operation for operation: the same sampler dimensions per
+//! bounce (four requests, drawn whatever the branches), the same MIS weights and Russian roulette
+//! rule, and each path's radiance summed in the same order. With the same sampler state the two
+//! loops give bit-identical radiance per sample (tests in `render.rs`).
+//!
+//! Each stage loops over the live paths calling the scalar BSDF and light code per path; what
+//! the batch buys is independent work between dependent chains (one path's traversal overlaps
+//! the next path's set-up) and one place per stage where lanes can be vectorised.
+
+use super::path::shadow_ray;
+use super::{EnvStrategy, PathSettings, RayCount};
+use crate::accel::Simd;
+use crate::lights::{Light, LightDraw};
+use crate::ray::{offset_origin, Ray};
+use crate::sampler::Sampler;
+use crate::sampling::power_heuristic;
+use crate::scene::RenderScene;
+use crate::shapes::SurfaceHit;
+use crate::textures::TextureQuery;
+use glam::{Vec2, Vec3, Vec3A};
+use std::sync::OnceLock;
+use torrey_light::BatchSimd;
+use torrey_texture::{Footprint, RayCone};
+
+/// A camera ray that starts a path of the batch.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraPath {
+    /// The sample's global index (for a sampler shared by the batch's paths).
+    pub sample: u32,
+    pub origin: Vec3A,
+    pub dir: Vec3A,
+    /// The sample's offset from the pixel centre (for the film; the loop does not read it).
+    pub offset: Vec2,
+    pub cone: RayCone,
+    /// The camera ray's closest hit between the camera's clip planes (traced by the caller, as
+    /// the scalar loop's camera rays are).
+    pub first_hit: Option<SurfaceHit>,
+}
+
+/// Where the batch's paths draw their numbers.
+pub enum PathSamplers<'a, S: Sampler> {
+    /// One sampler for all paths; each draw resumes the path's sample at its dimension
+    /// (low-discrepancy samplers, whose resume is a table lookup).
+    Shared(&'a mut S),
+    /// One sampler per path, already positioned after the camera's draws (independent streams,
+    /// whose resume would replay the stream).
+    PerPath(&'a mut [S]),
+}
+
+/// One path's state between stages.
+#[derive(Clone, Copy)]
+struct PathState {
+    sample: u32,
+    /// Sampler requests drawn so far by this sample.
+    requests: u32,
+    ray: Ray,
+    cone: RayCone,
+    throughput: Vec3A,
+    result: Vec3A,
+    prev_bsdf_pdf: f32,
+    prev_delta: bool,
+    prev_p: Vec3A,
+    specular_chain: bool,
+    eta: f32,
+    depth: u32,
+    /// The camera ray's hit is already in `Wavefront::hits` (traced by the caller).
+    traced: bool,
+    // This bounce's draws.
+    u_dir: Vec2,
+    u_lobe: f32,
+    u_rr: f32,
+    light_draw: Option<(usize, LightDraw)>,
+}
+
+/// A shadow ray of next-event estimation and what it adds to its path when unoccluded.
+#[derive(Clone, Copy)]
+struct ShadowRay {
+    path: u32,
+    origin: Vec3A,
+    dir: Vec3A,
+    tmax: f32,
+    contribution: Vec3A,
+}
+
+/// Reusable buffers of the wavefront loop (one per worker thread).
+#[derive(Default)]
+pub struct Wavefront {
+    paths: Vec<PathState>,
+    live: Vec<u32>,
+    hits: Vec<Option<SurfaceHit>>,
+    escaped: Vec<u32>,
+    surfaced: Vec<u32>,
+    shadow: Vec<ShadowRay>,
+    // The escaped paths' environment lookups.
+    env_sums: Vec<Vec3A>,
+    env_dirs: Vec<Vec3>,
+    env_spreads: Vec<f32>,
+    env_values: Vec<(Vec3, f32)>,
+}
+
+impl Wavefront {
+    /// Radiance along each camera ray of `cameras`, written to `out` (same order). `requests` is
+    /// the count of sampler requests the camera rays took (where each path's draws resume).
+    #[allow(clippy::too_many_arguments)]
+    pub fn radiance<S: Sampler>(
+        &mut self,
+        scene: &RenderScene,
+        cameras: &[CameraPath],
+        requests: u32,
+        settings: PathSettings,
+        mut samplers: PathSamplers<'_, S>,
+        rays: &mut RayCount,
+        out: &mut Vec<Vec3A>,
+    ) {
+        out.clear();
+        let max_depth = if settings.max_depth < 0 {
+            u32::MAX
+        } else {
+            settings.max_depth as u32
+        };
+        if max_depth == 0 {
+            out.resize(cameras.len(), Vec3A::ZERO);
+            return;
+        }
+        let light_count = scene.lights.len();
+        let light_select_pdf = if light_count > 0 {
+            1.0 / light_count as f32
+        } else {
+            0.0
+        };
+        self.paths.clear();
+        self.paths.extend(cameras.iter().map(|c| PathState {
+            sample: c.sample,
+            requests,
+            ray: Ray {
+                origin: c.origin,
+                dir: c.dir,
+                tmax: f32::INFINITY,
+            },
+            cone: c.cone,
+            throughput: Vec3A::ONE,
+            result: Vec3A::ZERO,
+            prev_bsdf_pdf: 0.0,
+            prev_delta: true,
+            prev_p: c.origin,
+            specular_chain: true,
+            eta: 1.0,
+            depth: 0,
+            traced: true,
+            u_dir: Vec2::ZERO,
+            u_lobe: 0.0,
+            u_rr: 0.0,
+            light_draw: None,
+        }));
+        self.live.clear();
+        self.live.extend(0..cameras.len() as u32);
+        self.hits.clear();
+        self.hits.extend(cameras.iter().map(|c| c.first_hit));
+
+        while !self.live.is_empty() {
+            // Stage 1: this bounce's numbers and the light draw, for every live path.
+            for &i in &self.live {
+                let path = &mut self.paths[i as usize];
+                let sampler: &mut S = match &mut samplers {
+                    PathSamplers::Shared(s) => {
+                        s.resume_sample(path.sample, path.requests);
+                        s
+                    }
+                    PathSamplers::PerPath(s) => &mut s[i as usize],
+                };
+                let light_rr = sampler.next_2d();
+                let u_pos = sampler.next_2d();
+                path.u_dir = sampler.next_2d();
+                path.u_lobe = sampler.next_1d();
+                path.requests += 4;
+                path.u_rr = light_rr.y;
+                let last_segment = path.depth + 1 >= max_depth;
+                path.light_draw = (!last_segment && light_count > 0).then(|| {
+                    let index =
+                        ((light_rr.x * light_count as f32) as u32 as usize).min(light_count - 1);
+                    (index, scene.lights[index].draw(u_pos))
+                });
+            }
+
+            // Stage 2: closest hits (any-hit on the last segment when no shape emits). Paths
+            // whose last segment is blocked end here.
+            self.escaped.clear();
+            self.surfaced.clear();
+            for &i in &self.live {
+                let path = &mut self.paths[i as usize];
+                let last_segment = path.depth + 1 >= max_depth;
+                let hit = if path.traced {
+                    path.traced = false;
+                    rays.closest += 1;
+                    // SAFETY: `hits` has one entry per path.
+                    unsafe { *self.hits.get_unchecked(i as usize) }
+                } else if last_segment && !scene.has_area_lights {
+                    rays.shadow += 1;
+                    if !scene.visible(path.ray.origin, path.ray.dir, path.ray.tmax) {
+                        continue;
+                    }
+                    None
+                } else {
+                    rays.closest += 1;
+                    scene.intersect(&path.ray)
+                };
+                match hit {
+                    None => self.escaped.push(i),
+                    Some(_) => self.surfaced.push(i),
+                }
+                self.hits[i as usize] = hit;
+            }
+
+            // Stage 3: escaped rays see the lights at infinity; their paths end. Environment maps
+            // are looked up for all of them at once (directions to uv in SIMD lanes).
+            self.escaped
+                .retain(|&i| self.paths[i as usize].depth > 0 || !scene.hide_emitters);
+            if !self.escaped.is_empty() {
+                self.escaped_radiance(scene, settings, light_select_pdf);
+            }
+
+            // Stage 4: surfaces: emission, the BSDF sample, the light connection (queued as a
+            // shadow ray) and the path's continuation.
+            self.shadow.clear();
+            self.live.clear();
+            for &i in &self.surfaced {
+                let path = &mut self.paths[i as usize];
+                let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
+                if let Some(shadow) = shade(
+                    scene,
+                    path,
+                    hit,
+                    settings,
+                    max_depth,
+                    light_select_pdf,
+                    i,
+                    &mut self.live,
+                ) {
+                    self.shadow.push(shadow);
+                }
+            }
+
+            // Stage 5: shadow rays.
+            for ray in &self.shadow {
+                rays.shadow += 1;
+                if scene.visible(ray.origin, ray.dir, ray.tmax) {
+                    self.paths[ray.path as usize].result += ray.contribution;
+                }
+            }
+        }
+        out.extend(self.paths.iter().map(|p| p.result));
+    }
+}
+
+impl Wavefront {
+    /// Adds to every escaped path (`self.escaped`) the radiance of the lights at infinity along
+    /// its ray: what `path::infinite_radiance` gives each, summed over the lights in the same order.
+    fn escaped_radiance(
+        &mut self,
+        scene: &RenderScene,
+        settings: PathSettings,
+        light_select_pdf: f32,
+    ) {
+        self.env_sums.clear();
+        self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+        for &li in &scene.infinite_lights {
+            let light = &scene.lights[li as usize];
+            if let (Light::Env(env), true) = (light, batched_env()) {
+                self.env_dirs.clear();
+                self.env_spreads.clear();
+                for &i in &self.escaped {
+                    let path = &self.paths[i as usize];
+                    self.env_dirs.push(path.ray.dir.into());
+                    self.env_spreads
+                        .push(if path.specular_chain && settings.mipmapping {
+                            path.cone.spread
+                        } else {
+                            0.0
+                        });
+                }
+                env.map.eval_pdf_batch(
+                    &self.env_dirs,
+                    &self.env_spreads,
+                    batch_simd(),
+                    &mut self.env_values,
+                );
+                for (j, &i) in self.escaped.iter().enumerate() {
+                    let path = &self.paths[i as usize];
+                    let (le, pdf) = self.env_values[j];
+                    let le = Vec3A::from(le);
+                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                        None => le,
+                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
+                        Some(bsdf_pdf) => le * power_heuristic(bsdf_pdf, pdf * light_select_pdf),
+                    };
+                }
+            } else {
+                for (j, &i) in self.escaped.iter().enumerate() {
+                    let path = &self.paths[i as usize];
+                    let spread = if path.specular_chain && settings.mipmapping {
+                        path.cone.spread
+                    } else {
+                        0.0
+                    };
+                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                        None => light.radiance_infinite(path.ray.dir, spread),
+                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
+                        Some(bsdf_pdf) => {
+                            let (le, pdf) = light.eval_infinite(path.ray.dir, spread);
+                            le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
+                        }
+                    };
+                }
+            }
+        }
+        for (j, &i) in self.escaped.iter().enumerate() {
+            let path = &mut self.paths[i as usize];
+            path.result += path.throughput * self.env_sums[j];
+        }
+    }
+}
+
+/// Whether escaped rays look environment maps up in batches (the default); the environment
+/// variable `TORREY_WAVEFRONT_ENV=scalar` makes them call the one-ray lookup per path instead
+/// (the same bits; for measuring what the batch gains).
+fn batched_env() -> bool {
+    static BATCHED: OnceLock<bool> = OnceLock::new();
+    *BATCHED.get_or_init(|| {
+        !std::env::var("TORREY_WAVEFRONT_ENV").is_ok_and(|v| v.eq_ignore_ascii_case("scalar"))
+    })
+}
+
+/// The instruction set of the batched environment lookups: the traversal's ([`Simd::detect`],
+/// which `TORREY_SIMD` caps).
+fn batch_simd() -> BatchSimd {
+    match Simd::detect() {
+        Simd::Portable => BatchSimd::Portable,
+        Simd::Avx2 => BatchSimd::Avx2,
+        Simd::Avx512 => BatchSimd::Avx512,
+    }
+}
+
+/// One surface interaction of `path` at `hit`: adds emission, returns the shadow ray of the light
+/// sample (if any) and pushes the path onto `live` when it continues.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn shade(
+    scene: &RenderScene,
+    path: &mut PathState,
+    hit: &SurfaceHit,
+    settings: PathSettings,
+    max_depth: u32,
+    light_select_pdf: f32,
+    index: u32,
+    live: &mut Vec<u32>,
+) -> Option<ShadowRay> {
+    let ray = path.ray;
+    let wo = -ray.dir;
+    let shape = &scene.shapes[hit.shape as usize];
+    let emitters_visible = path.depth > 0 || !scene.hide_emitters;
+    if let (Some(li), true) = (shape.area_light, emitters_visible) {
+        if hit.ng.dot(wo) > 0.0 {
+            let light = &scene.lights[li as usize];
+            if let crate::lights::Light::Area(area) = light {
+                let radiance = area.radiance_at(&scene.textures, hit.uv);
+                let w = if path.prev_delta {
+                    1.0
+                } else {
+                    let pdf = light.pdf_area_hit(path.prev_p, ray.dir, hit.t, hit.ng, hit.uv)
+                        * light_select_pdf;
+                    power_heuristic(path.prev_bsdf_pdf, pdf)
+                };
+                path.result += path.throughput * radiance * w;
+            }
+        }
+    }
+    if path.depth + 1 >= max_depth {
+        return None;
+    }
+
+    path.cone = path.cone.at_distance(hit.t);
+    let material = &scene.materials[shape.material as usize];
+    let footprint = if settings.mipmapping && material.is_textured() {
+        path.cone.footprint(
+            ray.dir.into(),
+            hit.ng.into(),
+            hit.dpdu.into(),
+            hit.dpdv.into(),
+        )
+    } else {
+        Footprint::POINT
+    };
+    let (frame, perturbation) = material.shading_frame(&scene.textures, hit, wo, footprint);
+    let wo_local = frame.to_local(wo);
+    let bsdf = material.bsdf(
+        &TextureQuery {
+            textures: &scene.textures,
+            uv: hit.uv,
+            footprint,
+        },
+        perturbation,
+    );
+    let bsdf_sample = bsdf.sample(wo_local, path.u_dir, path.u_lobe);
+
+    let mut shadow = None;
+    if let (true, Some((light_index, draw))) = (bsdf.flags(wo_local).has_smooth(), path.light_draw)
+    {
+        let light = &scene.lights[light_index];
+        let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
+        if let Some(ls) = light.connect(draw, hit.p, uniform_env, &scene.textures) {
+            let wi_local = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo_local, wi_local);
+            if f.max_element() > 0.0 && ls.pdf > 0.0 {
+                let (origin, dir, tmax) = shadow_ray(hit.p, hit.ng, &ls);
+                let light_pdf = ls.pdf * light_select_pdf;
+                let w = if ls.is_delta
+                    || (light.is_infinite() && settings.env_strategy != EnvStrategy::ImportanceMis)
+                {
+                    1.0
+                } else {
+                    power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
+                };
+                shadow = Some(ShadowRay {
+                    path: index,
+                    origin,
+                    dir,
+                    tmax,
+                    contribution: path.throughput * f * ls.radiance * (w / light_pdf),
+                });
+            }
+        }
+    }
+
+    let Some(bs) = bsdf_sample else {
+        return shadow;
+    };
+    if bs.weight.max_element().is_nan() || bs.weight.max_element() <= 0.0 {
+        return shadow;
+    }
+    path.throughput *= bs.weight;
+    let wi = frame.to_world(bs.wi);
+    if !bs.is_delta() {
+        path.cone.spread += bsdf.roughness(wo_local) * settings.footprint_scale;
+        path.specular_chain = false;
+    }
+    path.eta *= bs.eta;
+    path.prev_bsdf_pdf = bs.pdf;
+    path.prev_delta = bs.is_delta();
+    path.prev_p = hit.p;
+    path.ray = Ray {
+        origin: offset_origin(hit.p, hit.ng, wi),
+        dir: wi,
+        tmax: f32::INFINITY,
+    };
+    path.depth += 1;
+    if path.depth as i32 >= settings.rr_depth {
+        let q = (path.throughput.max_element() * path.eta * path.eta).min(0.95);
+        if path.u_rr >= q {
+            return shadow;
+        }
+        path.throughput /= q;
+    }
+    live.push(index);
+    shadow
+}
