@@ -389,6 +389,15 @@ pub enum Geometry {
     },
     /// Mitsuba rectangle: [-1,1]^2 in the z = 0 plane, normal +z, uv = ((x+1)/2, (y+1)/2).
     Rectangle,
+    /// Mitsuba disk: the unit disk in the z = 0 plane, normal +z, uv = (radius, angle / 2π).
+    Disk,
+    /// Mitsuba cylinder: the open tube of `radius` from `p0` to `p1` (object space, then
+    /// `to_world`), uv = (angle / 2π, height fraction).
+    Cylinder {
+        p0: Vec3,
+        p1: Vec3,
+        radius: f32,
+    },
 }
 
 /// A triangle mesh in object space. Texture coordinates are already in Mitsuba's convention

@@ -1,4 +1,5 @@
-//! Shape plugins: `obj`, `ply`, `serialized`, `sphere`, `rectangle`.
+//! Shape plugins: `obj`, `ply`, `serialized`, `sphere`, `rectangle`, `cube`, `disk`, `cylinder`,
+//! `shapegroup`, `instance`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -18,12 +19,11 @@ pub(crate) const KNOWN: &[&str] = &[
     "sphere",
     "rectangle",
     "cube",
+    "disk",
+    "cylinder",
     "shapegroup",
     "instance",
 ];
-
-/// Mitsuba 3 shapes the renderer cannot draw yet: a clear error at their place.
-const NOT_YET: &[&str] = &["disk", "cylinder"];
 
 /// Mitsuba's `cube`: [-1, 1]^3 as 12 triangles, each face with its own 4 vertices, flat
 /// normals and uvs (0,1), (1,1), (1,0), (0,0) at its corners, in Mitsuba's vertex order
@@ -260,11 +260,16 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
             let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
             c + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
         }
-        Geometry::Rectangle => farthest(
+        Geometry::Rectangle | Geometry::Disk => farthest(
             &mut [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
                 .into_iter()
                 .map(|(x, y)| glam::DVec3::new(x, y, 0.0)),
         ),
+        Geometry::Cylinder { p0, p1, radius } => {
+            let ends = farthest(&mut [p0.as_dvec3(), p1.as_dvec3()].into_iter());
+            let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
+            ends + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
+        }
     };
     (reach.is_nan() || reach > WORLD_EXTENT).then(|| {
         format!(
@@ -287,18 +292,10 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
 /// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
 /// | sphere | `center` | point | 0 |
 /// | sphere | `radius` | float | 1 (must be positive) |
+/// | cylinder | `p0`, `p1` | point | (0, 0, 0), (0, 0, 1) (must differ) |
+/// | cylinder | `radius` | float | 1 (must be positive) |
 pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     let ty = plugin_type(ctx, elem)?;
-    if NOT_YET.contains(&ty) {
-        let pos = elem.attr("type").map_or(elem.pos, |a| a.value_pos);
-        return Err(ctx.err(
-            pos,
-            format!(
-                "shape '{ty}' is not supported yet (supported: {})",
-                KNOWN.join(", ")
-            ),
-        ));
-    }
     if !KNOWN.contains(&ty) {
         return Err(unknown_type(ctx, elem, "shape", KNOWN));
     }
@@ -326,6 +323,27 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             Geometry::Sphere { center, radius }
         }
         "rectangle" => Geometry::Rectangle,
+        "disk" => Geometry::Disk,
+        "cylinder" => {
+            let p0 = props.point(ctx, &["p0"])?.unwrap_or(Vec3::ZERO);
+            let p1_pos = elem
+                .children
+                .iter()
+                .find(|c| c.attr_value("name") == Some("p1"))
+                .map_or(elem.pos, |c| c.pos);
+            let p1 = props.point(ctx, &["p1"])?.unwrap_or(Vec3::Z);
+            let radius = match props.opt_float_pos(ctx, &["radius"])? {
+                None => 1.0,
+                Some((r, pos)) if r <= 0.0 => {
+                    return Err(ctx.err(pos, format!("cylinder radius must be positive, found {r}")))
+                }
+                Some((r, _)) => r,
+            };
+            if p0 == p1 {
+                return Err(ctx.err(p1_pos, "cylinder p0 and p1 must differ"));
+            }
+            Geometry::Cylinder { p0, p1, radius }
+        }
         "cube" => Geometry::Mesh(cube_mesh()),
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };

@@ -1,8 +1,10 @@
 //! A diffuse area emitter on a shape (Mitsuba's `area`): constant radiance, one-sided (along the
-//! possibly flipped normal only). Meshes are sampled uniformly by area, spheres by the solid
-//! angle they subtend; each shape's file holds its sampling and pdf.
+//! possibly flipped normal only). Meshes, disks and cylinders are sampled uniformly by area,
+//! spheres by the solid angle they subtend; each shape's file holds its sampling and pdf.
 
 use super::{LightDraw, LightSample};
+use crate::shapes::cylinder::Cylinder;
+use crate::shapes::disk::Disk;
 use crate::shapes::mesh::MeshEmitter;
 use crate::shapes::sphere::Sphere;
 use glam::{Vec2, Vec3A};
@@ -11,6 +13,8 @@ use glam::{Vec2, Vec3A};
 pub enum AreaEmitter {
     Mesh(MeshEmitter),
     Sphere(Sphere),
+    Disk(Disk),
+    Cylinder(Cylinder),
 }
 
 /// An emitting shape.
@@ -31,16 +35,35 @@ impl AreaLight {
                 let n = if self.flip_normals { -normal } else { normal };
                 LightDraw::MeshPoint { q, n }
             }
+            AreaEmitter::Disk(disk) => {
+                let (q, normal) = disk.sample_point(u);
+                let n = if self.flip_normals { -normal } else { normal };
+                LightDraw::MeshPoint { q, n }
+            }
+            AreaEmitter::Cylinder(cylinder) => {
+                let (q, normal) = cylinder.sample_point(u);
+                let n = if self.flip_normals { -normal } else { normal };
+                LightDraw::MeshPoint { q, n }
+            }
             AreaEmitter::Sphere(_) => LightDraw::Deferred(u),
         }
     }
 
-    /// The connection from `p` to point `q` (normal `n`) drawn on an emitting mesh.
+    /// The surface area of a shape sampled uniformly by area (not of a sphere).
+    #[inline(always)]
+    fn area(&self) -> f32 {
+        match &self.emitter {
+            AreaEmitter::Mesh(mesh) => mesh.total_area(),
+            AreaEmitter::Disk(disk) => disk.area,
+            AreaEmitter::Cylinder(cylinder) => cylinder.area,
+            AreaEmitter::Sphere(_) => unreachable!("spheres are sampled by solid angle"),
+        }
+    }
+
+    /// The connection from `p` to point `q` (normal `n`) drawn on an emitting mesh, disk or
+    /// cylinder.
     #[inline(always)]
     pub fn connect_point(&self, q: Vec3A, n: Vec3A, p: Vec3A) -> Option<LightSample> {
-        let AreaEmitter::Mesh(mesh) = &self.emitter else {
-            unreachable!("mesh points come from mesh lights");
-        };
         let d = q - p;
         let dist2 = d.length_squared();
         let dist = dist2.sqrt();
@@ -56,7 +79,7 @@ impl AreaLight {
             wi,
             dist,
             radiance: self.radiance,
-            pdf: dist2 / (cos_light * mesh.total_area()),
+            pdf: dist2 / (cos_light * self.area()),
             is_delta: false,
         })
     }
@@ -95,15 +118,15 @@ impl AreaLight {
     #[inline]
     pub fn pdf_hit(&self, p: Vec3A, wi: Vec3A, dist: f32, n_light: Vec3A) -> f32 {
         match &self.emitter {
-            AreaEmitter::Mesh(mesh) => {
+            AreaEmitter::Sphere(sphere) => sphere.solid_angle_pdf(p, wi),
+            _ => {
                 let cos = n_light.dot(wi).abs();
                 if cos == 0.0 {
                     0.0
                 } else {
-                    dist * dist / (cos * mesh.total_area())
+                    dist * dist / (cos * self.area())
                 }
             }
-            AreaEmitter::Sphere(sphere) => sphere.solid_angle_pdf(p, wi),
         }
     }
 }

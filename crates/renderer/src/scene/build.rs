@@ -8,6 +8,8 @@ use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCame
 use crate::lights::{
     AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
 };
+use crate::shapes::cylinder::Cylinder;
+use crate::shapes::disk::Disk;
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
@@ -72,6 +74,7 @@ impl RenderScene {
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
         let mut dropped = 0usize;
+        let mut dropped_analytic = 0usize;
         for (shape_index, shape) in scene.shapes.iter().enumerate() {
             let shape_id = shape_index as u32;
             let first_prim = prims.len();
@@ -106,12 +109,50 @@ impl RenderScene {
                     }
                     ShapeKind::Sphere(sphere)
                 }
+                desc::Geometry::Disk => {
+                    match Disk::new(shape.to_world).filter(|d| d.prim_geom().is_finite()) {
+                        Some(disk) => {
+                            geoms.push(disk.prim_geom());
+                            prims.push(PrimInfo {
+                                ng: Vec3A::ZERO,
+                                indices: [0; 3],
+                                shape: shape_id,
+                            });
+                            ShapeKind::Disk(disk)
+                        }
+                        None => {
+                            dropped_analytic += 1;
+                            ShapeKind::Mesh(MeshShape::EMPTY)
+                        }
+                    }
+                }
+                desc::Geometry::Cylinder { p0, p1, radius } => {
+                    match Cylinder::new(*p0, *p1, *radius, shape.to_world)
+                        .filter(|c| c.prim_geom().is_finite())
+                    {
+                        Some(cylinder) => {
+                            geoms.push(cylinder.prim_geom());
+                            prims.push(PrimInfo {
+                                ng: Vec3A::ZERO,
+                                indices: [0; 3],
+                                shape: shape_id,
+                            });
+                            ShapeKind::Cylinder(cylinder)
+                        }
+                        None => {
+                            dropped_analytic += 1;
+                            ShapeKind::Mesh(MeshShape::EMPTY)
+                        }
+                    }
+                }
             };
             let shape_prims = &prims[first_prim..];
             let area_light = match shape.emitter {
                 Some(radiance) if radiance.max_element() > 0.0 && !shape_prims.is_empty() => {
                     let emitter = match kind {
                         ShapeKind::Sphere(sphere) => AreaEmitter::Sphere(sphere),
+                        ShapeKind::Disk(disk) => AreaEmitter::Disk(disk),
+                        ShapeKind::Cylinder(cylinder) => AreaEmitter::Cylinder(cylinder),
                         ShapeKind::Mesh(_) => {
                             AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
                         }
@@ -131,6 +172,12 @@ impl RenderScene {
                 area_light,
                 flip_normals: shape.flip_normals,
             });
+        }
+        if dropped_analytic > 0 {
+            warnings.push(format!(
+                "{dropped_analytic} disk(s) or cylinder(s) with a degenerate or non-finite \
+                 transform (a zero scale or radius, p0 = p1) were left out"
+            ));
         }
         if dropped > 0 {
             warnings.push(format!(

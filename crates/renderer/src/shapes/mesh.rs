@@ -31,6 +31,13 @@ pub struct MeshShape {
 }
 
 impl MeshShape {
+    /// A shape without primitives (one left out of the scene keeps its index).
+    pub const EMPTY: MeshShape = MeshShape {
+        has_normals: false,
+        flat_normals: false,
+        has_uvs: false,
+    };
+
     /// Transforms mesh `m` to world space and appends its vertices to `mesh` and its triangles
     /// to the BVH primitives `geoms` and their records `prims`. Degenerate (zero-area) triangles
     /// are dropped: they can never be hit and would only cost traversal time.
@@ -173,6 +180,7 @@ impl MeshShape {
             uv,
             dpdu,
             dpdv,
+            bary: Vec2::new(hit.b1, hit.b2),
             shape: prim.shape,
             prim: hit.prim,
         }
