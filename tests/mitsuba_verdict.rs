@@ -93,6 +93,7 @@ macro_rules! verdict_tests {
 verdict_tests!(
     area_diffuse,
     directional,
+    disk_cylinder,
     envmap_textured,
     hide_emitters,
     include_path_default_alias,
@@ -140,6 +141,7 @@ fn every_scene_has_a_reference() {
     let tested = [
         "area_diffuse",
         "directional",
+        "disk_cylinder",
         "envmap_textured",
         "hide_emitters",
         "include_path_default_alias",
