@@ -39,6 +39,10 @@ pub(crate) struct Ctx {
     /// Triangles and vertices of the meshes loaded so far, against `limits`.
     pub triangles: u64,
     pub vertices: u64,
+    /// Textures used by the bsdf being parsed (and those nested in it), innermost last.
+    pub texture_uses: Vec<Vec<crate::scene::TextureId>>,
+    /// The textures each parsed bsdf uses, to check `mesh_attribute`s against the shapes.
+    pub bsdf_textures: HashMap<crate::scene::BsdfId, Vec<crate::scene::TextureId>>,
 }
 
 impl Ctx {
@@ -50,6 +54,8 @@ impl Ctx {
             textures: Vec::new(),
             bsdfs: Vec::new(),
             shape_groups: Vec::new(),
+            texture_uses: Vec::new(),
+            bsdf_textures: HashMap::new(),
             files: Default::default(),
             ids: HashMap::new(),
             media_warned: false,

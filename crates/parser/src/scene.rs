@@ -217,6 +217,14 @@ pub enum TextureKind {
         color1: Vec3,
         to_uv: Affine2,
     },
+    /// Mitsuba's `mesh_attribute`: the attribute `name` (`vertex_...`, interpolated with the
+    /// hit's barycentrics, or `face_...`, constant per face) of the mesh it is evaluated on,
+    /// times `scale`. One channel is read as grey.
+    MeshAttribute {
+        name: String,
+        scale: f32,
+        location: SourceLocation,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -409,6 +417,24 @@ pub struct TriangleMesh {
     pub normals: Vec<Vec3>,
     pub uvs: Vec<Vec2>,
     pub indices: Vec<[u32; 3]>,
+    /// Named per-vertex and per-face attributes (from PLY files), for `mesh_attribute`.
+    pub attributes: Vec<MeshAttribute>,
+}
+
+/// A mesh attribute as Mitsuba names it: `vertex_<name>` (one tuple per vertex) or
+/// `face_<name>` (one per triangle; a polygon's triangles share its tuple).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttribute {
+    pub name: String,
+    /// 1 or 3 values per vertex or triangle.
+    pub channels: usize,
+    pub values: Vec<f32>,
+}
+
+impl MeshAttribute {
+    pub fn per_face(&self) -> bool {
+        self.name.starts_with("face_")
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -125,26 +125,31 @@ pub(crate) fn color_param(
     let Some(e) = props.take_any(names) else {
         return Ok(ColorParam::Constant(default));
     };
-    match e.tag.as_str() {
-        "texture" => Ok(ColorParam::Texture(parse_texture(ctx, e)?)),
-        "ref" => texture_ref(ctx, e).map(ColorParam::Texture),
-        _ => {
-            let c = props.color_of(ctx, e)?;
-            if c.max_element() > 1.0 {
-                // Renderable, but a surface reflecting more than it receives adds energy.
-                let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
-                ctx.warn_once(
-                    "reflectance above 1",
-                    pos,
-                    format!(
-                        "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",
-                        c.x, c.y, c.z, props.owner
-                    ),
-                );
-            }
-            Ok(ColorParam::Constant(c))
+    let texture = match e.tag.as_str() {
+        "texture" => Some(parse_texture(ctx, e)?),
+        "ref" => Some(texture_ref(ctx, e)?),
+        _ => None,
+    };
+    if let Some(t) = texture {
+        if let Some(uses) = ctx.texture_uses.last_mut() {
+            uses.push(t);
         }
+        return Ok(ColorParam::Texture(t));
     }
+    let c = props.color_of(ctx, e)?;
+    if c.max_element() > 1.0 {
+        // Renderable, but a surface reflecting more than it receives adds energy.
+        let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
+        ctx.warn_once(
+            "reflectance above 1",
+            pos,
+            format!(
+                "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",
+                c.x, c.y, c.z, props.owner
+            ),
+        );
+    }
+    Ok(ColorParam::Constant(c))
 }
 
 fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
@@ -680,9 +685,13 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
 
 /// Parses a `<bsdf>`, adds it to the scene and registers its id.
 pub(crate) fn parse_bsdf(ctx: &mut Ctx, elem: &Element) -> Result<BsdfId> {
-    let bsdf = parse_bsdf_value(ctx, elem)?;
+    ctx.texture_uses.push(Vec::new());
+    let bsdf = parse_bsdf_value(ctx, elem);
+    let uses = ctx.texture_uses.pop().unwrap_or_default();
+    let bsdf = bsdf?;
     ctx.bsdfs.push(bsdf);
     let index = ctx.bsdfs.len() - 1;
+    ctx.bsdf_textures.insert(index, uses);
     ctx.register_id(elem, IdTarget::Bsdf(index))?;
     Ok(index)
 }

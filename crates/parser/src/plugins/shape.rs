@@ -7,7 +7,9 @@ use crate::files::input_file;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::parse_bsdf;
 use crate::props::Props;
-use crate::scene::{Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TriangleMesh};
+use crate::scene::{
+    Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Shape, TextureKind, TriangleMesh,
+};
 use crate::xml::Element;
 use glam::{Mat4, Vec3};
 
@@ -278,6 +280,50 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
     })
 }
 
+/// Every `mesh_attribute` texture that bsdf `bsdf` uses must name an attribute `geometry` has
+/// (Mitsuba fails at render time otherwise; torrey at load, at the shape).
+fn check_mesh_attributes(
+    ctx: &Ctx,
+    elem: &Element,
+    owner: &str,
+    geometry: &Geometry,
+    bsdf: BsdfId,
+) -> Result<()> {
+    let Some(uses) = ctx.bsdf_textures.get(&bsdf) else {
+        return Ok(());
+    };
+    for &t in uses {
+        let TextureKind::MeshAttribute { name, location, .. } = &ctx.textures[t].kind else {
+            continue;
+        };
+        let found = match geometry {
+            Geometry::Mesh(m) => m.attributes.iter().any(|a| &a.name == name),
+            _ => false,
+        };
+        if !found {
+            let has = match geometry {
+                Geometry::Mesh(m) if !m.attributes.is_empty() => format!(
+                    "it has {}",
+                    m.attributes
+                        .iter()
+                        .map(|a| a.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                Geometry::Mesh(_) => "it has no attributes".to_string(),
+                _ => "only meshes have attributes".to_string(),
+            };
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "{owner} has no attribute '{name}' for the mesh_attribute texture at {location} ({has})"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Parses a `<shape>`; inline bsdfs are added to the scene.
 ///
 /// | shapes | name | type | default |
@@ -385,6 +431,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         },
         Some(e) => Some(parse_bsdf(ctx, e)?),
     };
+
+    if let Some(b) = bsdf {
+        check_mesh_attributes(ctx, elem, &props.owner, &geometry, b)?;
+    }
 
     let emitters = props.take_tag("emitter");
     if let Some(second) = emitters.get(1) {

@@ -174,6 +174,7 @@ pub fn radiance(
         let wo_local = frame.to_local(wo);
         let bsdf = material.bsdf(&TextureQuery {
             textures: &scene.textures,
+            at: scene.attribute_point(&hit),
             uv: hit.uv,
             footprint,
         });

@@ -8,6 +8,7 @@ use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCame
 use crate::lights::{
     AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EnvLight, Light, PointLight, SpotLight,
 };
+use crate::shapes::attributes::{AttributeData, MeshAttributes};
 use crate::shapes::cylinder::Cylinder;
 use crate::shapes::disk::Disk;
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
@@ -75,18 +76,60 @@ impl RenderScene {
         let mut lights = Vec::new();
         let mut dropped = 0usize;
         let mut dropped_analytic = 0usize;
+        // Attributes are kept only when a mesh_attribute texture may read them.
+        let attribute_names: Vec<&str> = scene
+            .textures
+            .iter()
+            .filter_map(|t| match &t.kind {
+                desc::TextureKind::MeshAttribute { name, .. } => Some(name.as_str()),
+                _ => None,
+            })
+            .collect();
+        let mut attributes = MeshAttributes::default();
         for (shape_index, shape) in scene.shapes.iter().enumerate() {
             let shape_id = shape_index as u32;
             let first_prim = prims.len();
             let kind = match &shape.geometry {
-                desc::Geometry::Mesh(m) => ShapeKind::Mesh(MeshShape::add(
-                    &mut mesh,
-                    &mut geoms,
-                    &mut prims,
-                    shape_id,
-                    m,
-                    shape.to_world,
-                )),
+                desc::Geometry::Mesh(m) => {
+                    let base = mesh.positions.len() as u32;
+                    let kind = MeshShape::add(
+                        &mut mesh,
+                        &mut geoms,
+                        &mut prims,
+                        shape_id,
+                        m,
+                        shape.to_world,
+                    );
+                    for a in &m.attributes {
+                        if !attribute_names.contains(&a.name.as_str()) {
+                            continue;
+                        }
+                        let per_face = a.per_face();
+                        let values = if per_face {
+                            // One tuple per kept triangle, in primitive order.
+                            m.indices
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, t)| mesh.keeps_triangle(t.map(|i| i + base)))
+                                .flat_map(|(f, _)| {
+                                    a.values[f * a.channels..(f + 1) * a.channels].iter()
+                                })
+                                .copied()
+                                .collect()
+                        } else {
+                            a.values.clone()
+                        };
+                        attributes.list.push(AttributeData {
+                            name: a.name.clone(),
+                            shape: shape_id,
+                            channels: a.channels as u32,
+                            per_face,
+                            offset: if per_face { first_prim as u32 } else { base },
+                            values,
+                        });
+                    }
+                    ShapeKind::Mesh(kind)
+                }
                 desc::Geometry::Rectangle => ShapeKind::Mesh(MeshShape::add(
                     &mut mesh,
                     &mut geoms,
@@ -237,6 +280,19 @@ impl RenderScene {
             lights.push(light);
         }
 
+        let mut textures = textures;
+        for (t, desc_texture) in textures.iter_mut().zip(&scene.textures) {
+            if let (
+                Texture::MeshAttribute { by_shape, .. },
+                desc::TextureKind::MeshAttribute { name, .. },
+            ) = (t, &desc_texture.kind)
+            {
+                *by_shape = (0..shapes.len() as u32)
+                    .map(|s| attributes.find(s, name).unwrap_or(u32::MAX))
+                    .collect();
+            }
+        }
+
         debug_assert!(geoms.iter().all(PrimGeom::is_finite));
         let accel = Accel::build(&geoms, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
@@ -248,6 +304,7 @@ impl RenderScene {
             shapes,
             materials,
             textures,
+            attributes,
             lights,
             infinite_lights,
             has_area_lights,
@@ -334,6 +391,11 @@ fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Textur
             color0: (*color0).into(),
             color1: (*color1).into(),
             to_uv: *to_uv,
+        },
+        // Its table of shapes is filled once the shapes are built.
+        desc::TextureKind::MeshAttribute { scale, .. } => Texture::MeshAttribute {
+            by_shape: Vec::new(),
+            scale: *scale,
         },
     })
 }

@@ -12,6 +12,7 @@ use crate::accel::{Accel, ClosestHit};
 use crate::cameras::Camera;
 use crate::lights::Light;
 use crate::ray::Ray;
+use crate::shapes::attributes::{AttributePoint, MeshAttributes};
 use crate::shapes::mesh::MeshData;
 use crate::shapes::{PrimInfo, Shape, SurfaceHit};
 use crate::textures::Texture;
@@ -27,6 +28,8 @@ pub struct RenderScene {
     pub(crate) shapes: Vec<Shape>,
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
+    /// Mesh attributes for `mesh_attribute` textures (empty when no texture reads them).
+    pub(crate) attributes: MeshAttributes,
     pub(crate) lights: Vec<Light>,
     /// Indices of lights at infinity (constant background, environment maps).
     pub(crate) infinite_lights: Vec<u32>,
@@ -75,6 +78,21 @@ impl RenderScene {
         // Anisotropic BSDFs need dp/du for their tangent frame.
         let needs_uv = material.is_textured() || material.anisotropic;
         shape.surface(&self.mesh, prim, ray, hit, needs_uv)
+    }
+
+    /// Where `mesh_attribute` textures are evaluated at `hit`; None when the scene has none.
+    #[inline(always)]
+    pub(crate) fn attribute_point(&self, hit: &SurfaceHit) -> Option<AttributePoint<'_>> {
+        if self.attributes.list.is_empty() {
+            return None;
+        }
+        Some(AttributePoint {
+            attributes: &self.attributes,
+            prims: &self.prims,
+            shape: hit.shape,
+            prim: hit.prim,
+            bary: hit.bary,
+        })
     }
 
     /// True when nothing blocks the segment from `origin` along `dir` up to `tmax`.

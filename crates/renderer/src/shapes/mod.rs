@@ -4,6 +4,7 @@
 //! variant with one-line arms below, its primitive in [`crate::accel::PrimGeom`] (or triangles),
 //! the parser mapping and the docs.
 
+pub mod attributes;
 pub mod cylinder;
 pub mod disk;
 pub mod mesh;
