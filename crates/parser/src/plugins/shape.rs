@@ -186,7 +186,9 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
     };
     let path = input_file(ctx, file, "mesh")?;
     let face_normals = props.boolean(ctx, &["face_normals"], false)?;
-    let flip_v = props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
+    // Mitsuba 3.9.1's serialized has no flip_tex_coords (it refuses the parameter; here it
+    // stays unused and is reported so).
+    let flip_v = ty != "serialized" && props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
     let shape_index = match props.opt_int_pos(ctx, &["shape_index"])? {
         None => 0,
         Some((i, _)) if i >= 0 && ty == "serialized" => i as usize,
@@ -334,7 +336,8 @@ fn check_mesh_attributes(
 /// | all | nested `<emitter type="area">` | `radiance` colour, default 1 | none |
 /// | obj, ply, serialized | `filename` | string | required |
 /// | obj, ply, serialized | `face_normals` (`faceNormals`) | boolean | false |
-/// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
+/// | obj, ply | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, false for ply |
+/// | rectangle, cube | `face_normals` | boolean | false (read, no effect: flat already) |
 /// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
 /// | sphere | `center` | point | 0 |
 /// | sphere | `radius` | float | 1 (must be positive) |
@@ -368,7 +371,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             };
             Geometry::Sphere { center, radius }
         }
-        "rectangle" => Geometry::Rectangle,
+        "rectangle" => {
+            props.boolean(ctx, &["face_normals"], false)?;
+            Geometry::Rectangle
+        }
         "disk" => Geometry::Disk,
         "cylinder" => {
             let p0 = props.point(ctx, &["p0"])?.unwrap_or(Vec3::ZERO);
@@ -390,7 +396,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             }
             Geometry::Cylinder { p0, p1, radius }
         }
-        "cube" => Geometry::Mesh(cube_mesh()),
+        "cube" => {
+            props.boolean(ctx, &["face_normals"], false)?;
+            Geometry::Mesh(cube_mesh())
+        }
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };
 
