@@ -54,6 +54,13 @@ fn bvh_agrees_with_brute_force() {
     }
 }
 
+/// Analytic primitives keep `PrimGeom` as small as a triangle (the build holds one per
+/// primitive).
+#[test]
+fn prim_geom_stays_triangle_sized() {
+    assert_eq!(std::mem::size_of::<PrimGeom>(), 64);
+}
+
 /// Disks and cylinders (randomly placed, rotated and non-uniformly scaled) among triangles
 /// and spheres: the BVH finds what brute force finds.
 #[test]
