@@ -637,6 +637,22 @@ fn mesh_attribute_textures_are_checked_against_their_shapes() {
         "invalid mesh attribute name 'color': it must start with 'vertex_' or 'face_'",
         pos_of(&xml, "color\"/>"),
     );
+    // A three-channel attribute as a float parameter (Mitsuba: "eval_attribute_1(): Attribute
+    // \"vertex_color\" requested but had size 3"); a one-channel one is fine.
+    let rough = |name: &str| {
+        format!(
+            "<scene version=\"3.0.0\">\n  <shape type=\"ply\"><string name=\"filename\" value=\"m.ply\"/>\n    <bsdf type=\"roughconductor\"><texture type=\"mesh_attribute\" name=\"alpha\"><string name=\"name\" value=\"{name}\"/></texture></bsdf></shape></scene>"
+        )
+    };
+    assert!(parse_in(&dir, &rough("face_w")).is_ok());
+    let xml = rough("vertex_color");
+    let e = parse_in(&dir, &xml).unwrap_err();
+    assert_err(&e, "the mesh_attribute texture at", pos_of(&xml, "<shape"));
+    assert!(
+        e.message
+            .contains("as a float parameter, but it has 3 channels"),
+        "{e}"
+    );
     // Through a referenced bsdf, on a shape that is not a mesh.
     let xml = "<scene version=\"3.0.0\">\n  <bsdf type=\"diffuse\" id=\"b\"><texture type=\"mesh_attribute\" name=\"reflectance\"><string name=\"name\" value=\"vertex_color\"/></texture></bsdf>\n  <shape type=\"sphere\"><ref id=\"b\"/></shape></scene>";
     let e = common::parse(xml).unwrap_err();

@@ -164,7 +164,7 @@ impl TextureQuery<'_> {
         c.eval(self.textures, self.uv, self.footprint)
     }
 
-    /// A float parameter; a three-channel `mesh_attribute` gives its first channel.
+    /// A float parameter (the parser lets only one-channel `mesh_attribute`s be read as one).
     #[inline(always)]
     pub fn float(&self, f: FloatSource) -> f32 {
         if let (FloatSource::Texture(i), Some(at)) = (f, &self.at) {

@@ -132,7 +132,7 @@ pub(crate) fn color_param(
     };
     if let Some(t) = texture {
         if let Some(uses) = ctx.texture_uses.last_mut() {
-            uses.push(t);
+            uses.push((t, false));
         }
         return Ok(ColorParam::Texture(t));
     }
@@ -301,7 +301,13 @@ fn float_param(
     names: &[&str],
     default: f32,
 ) -> Result<ColorParam> {
-    color_param(ctx, props, names, Vec3::splat(default))
+    let p = color_param(ctx, props, names, Vec3::splat(default))?;
+    if let (ColorParam::Texture(t), Some(uses)) = (&p, ctx.texture_uses.last_mut()) {
+        if let Some(last) = uses.iter_mut().rev().find(|(u, _)| u == t) {
+            last.1 = true;
+        }
+    }
+    Ok(p)
 }
 
 /// Mitsuba's `int_ior` / `ext_ior` pair as their ratio.

@@ -282,8 +282,9 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
     })
 }
 
-/// Every `mesh_attribute` texture that bsdf `bsdf` uses must name an attribute `geometry` has
-/// (Mitsuba fails at render time otherwise; torrey at load, at the shape).
+/// Every `mesh_attribute` texture that bsdf `bsdf` uses must name an attribute `geometry` has,
+/// with one channel where a float parameter reads it (Mitsuba fails at render time otherwise;
+/// torrey at load, at the shape).
 fn check_mesh_attributes(
     ctx: &Ctx,
     elem: &Element,
@@ -294,14 +295,24 @@ fn check_mesh_attributes(
     let Some(uses) = ctx.bsdf_textures.get(&bsdf) else {
         return Ok(());
     };
-    for &t in uses {
+    for &(t, float) in uses {
         let TextureKind::MeshAttribute { name, location, .. } = &ctx.textures[t].kind else {
             continue;
         };
         let found = match geometry {
-            Geometry::Mesh(m) => m.attributes.iter().any(|a| &a.name == name),
-            _ => false,
+            Geometry::Mesh(m) => m.attributes.iter().find(|a| &a.name == name),
+            _ => None,
         };
+        if let Some(a) = found.filter(|a| float && a.channels != 1) {
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "the mesh_attribute texture at {location} reads '{name}' of {owner} as a float parameter, but it has {} channels (as in Mitsuba, a float needs one)",
+                    a.channels
+                ),
+            ));
+        }
+        let found = found.is_some();
         if !found {
             let has = match geometry {
                 Geometry::Mesh(m) if !m.attributes.is_empty() => format!(
