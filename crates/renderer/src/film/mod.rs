@@ -207,7 +207,11 @@ mod tests {
         let tiles = film.tiles(4);
         assert!(!tiles.is_empty());
         for &(x0, y0, x1, y1) in &tiles {
-            assert!(x0 >= 5 && y0 >= 4 && x1 <= 13 && y1 <= 10, "{:?}", (x0, y0, x1, y1));
+            assert!(
+                x0 >= 5 && y0 >= 4 && x1 <= 13 && y1 <= 10,
+                "{:?}",
+                (x0, y0, x1, y1)
+            );
             let t = film.tile((x0, y0, x1, y1));
             assert!(!t.film_position((x0, y0), Vec2::new(-0.6, 0.0)).1 || x0 > 5);
             assert!(t.film_position((x0, y0), Vec2::new(0.4, 0.4)).1);

@@ -42,10 +42,7 @@ impl TileFilm {
         Self {
             filter,
             min: Vec2::new(bounds.0 as f32, bounds.1 as f32),
-            max: Vec2::new(
-                (bounds.0 + bounds.2) as f32,
-                (bounds.1 + bounds.3) as f32,
-            ),
+            max: Vec2::new((bounds.0 + bounds.2) as f32, (bounds.1 + bounds.3) as f32),
             window,
             means,
             splats,
