@@ -67,6 +67,8 @@ pub(crate) fn scene_summary(s: &torrey_parser::Scene) -> String {
             torrey_parser::Geometry::Mesh(_) => "mesh",
             torrey_parser::Geometry::Sphere { .. } => "sphere",
             torrey_parser::Geometry::Rectangle => "rectangle",
+            torrey_parser::Geometry::Disk => "disk",
+            torrey_parser::Geometry::Cylinder { .. } => "cylinder",
         });
         if sh.emitter.is_some() {
             kinds.insert("area");

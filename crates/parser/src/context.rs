@@ -48,6 +48,11 @@ pub(crate) struct Ctx {
     /// Triangles and vertices of the meshes loaded so far, against `limits`.
     pub triangles: u64,
     pub vertices: u64,
+    /// Textures used by the bsdf being parsed (and those nested in it), innermost last, each
+    /// with whether a float parameter reads it.
+    pub texture_uses: Vec<Vec<(crate::scene::TextureId, bool)>>,
+    /// The textures each parsed bsdf uses, to check `mesh_attribute`s against the shapes.
+    pub bsdf_textures: HashMap<crate::scene::BsdfId, Vec<(crate::scene::TextureId, bool)>>,
 }
 
 impl Ctx {
@@ -61,6 +66,8 @@ impl Ctx {
             shape_groups: Vec::new(),
             instances: Vec::new(),
             area_emitters: Vec::new(),
+            texture_uses: Vec::new(),
+            bsdf_textures: HashMap::new(),
             files: Default::default(),
             ids: HashMap::new(),
             media_warned: false,

@@ -222,6 +222,14 @@ pub enum TextureKind {
         color1: Vec3,
         to_uv: Affine2,
     },
+    /// Mitsuba's `mesh_attribute`: the attribute `name` (`vertex_...`, interpolated with the
+    /// hit's barycentrics, or `face_...`, constant per face) of the mesh it is evaluated on,
+    /// times `scale`. One channel is read as grey.
+    MeshAttribute {
+        name: String,
+        scale: f32,
+        location: SourceLocation,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -498,6 +506,15 @@ pub enum Geometry {
     },
     /// Mitsuba rectangle: [-1,1]^2 in the z = 0 plane, normal +z, uv = ((x+1)/2, (y+1)/2).
     Rectangle,
+    /// Mitsuba disk: the unit disk in the z = 0 plane, normal +z, uv = (radius, angle / 2π).
+    Disk,
+    /// Mitsuba cylinder: the open tube of `radius` from `p0` to `p1` (object space, then
+    /// `to_world`), uv = (angle / 2π, height fraction).
+    Cylinder {
+        p0: Vec3,
+        p1: Vec3,
+        radius: f32,
+    },
 }
 
 /// A triangle mesh in object space. Texture coordinates are already in Mitsuba's convention
@@ -509,6 +526,24 @@ pub struct TriangleMesh {
     pub normals: Vec<Vec3>,
     pub uvs: Vec<Vec2>,
     pub indices: Vec<[u32; 3]>,
+    /// Named per-vertex and per-face attributes (from PLY files), for `mesh_attribute`.
+    pub attributes: Vec<MeshAttribute>,
+}
+
+/// A mesh attribute as Mitsuba names it: `vertex_<name>` (one tuple per vertex) or
+/// `face_<name>` (one per triangle; a polygon's triangles share its tuple).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttribute {
+    pub name: String,
+    /// 1 or 3 values per vertex or triangle.
+    pub channels: usize,
+    pub values: Vec<f32>,
+}
+
+impl MeshAttribute {
+    pub fn per_face(&self) -> bool {
+        self.name.starts_with("face_")
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]

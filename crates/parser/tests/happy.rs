@@ -497,6 +497,19 @@ fn serialized_roundtrip() {
     assert_eq!(m.positions[2], Vec3::new(0.0, 3.0, 0.0));
     assert_eq!(m.indices, vec![[0, 1, 2]]);
     assert_eq!(m.normals, vec![Vec3::Z; 3]);
+    // Mitsuba 3.9.1's serialized has no flip_tex_coords (it refuses the parameter): unused.
+    let flip = xml.replace(
+        "</shape>",
+        "<boolean name=\"flip_tex_coords\" value=\"true\"/></shape>",
+    );
+    let s = parse_in(&dir, &flip).unwrap();
+    assert!(
+        s.warnings.iter().any(|w| w
+            .message
+            .contains("unknown parameter 'flip_tex_coords' of shape 'serialized'")),
+        "{:?}",
+        s.warnings
+    );
     let xml = xml.replace("value=\"0\"", "value=\"1\"");
     let e = parse_in(&dir, &xml).unwrap_err();
     assert!(

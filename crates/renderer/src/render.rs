@@ -984,7 +984,8 @@ mod tests {
     /// the features the path loop touches: a sphere lamp (shadow rays aimed at the sampled
     /// point), textured area emitters (radiance and pdf at the hit's uv), instances (two-level
     /// BVH, no packets), bump and normal maps (the perturbation), clip planes and a principal
-    /// point, a film crop window, a splatted filter, a projector, a thin lens. Each scene at its
+    /// point, a film crop window, a splatted filter, a projector, a thin lens, disks and cylinders,
+    /// mesh attributes as textures. Each scene at its
     /// own film size and filter, 3 spp, both samplers.
     #[test]
     fn wavefront_renders_the_scalar_image_of_the_feature_scenes() {
@@ -998,6 +999,8 @@ mod tests {
             "mitsuba/filter_lanczos.xml",
             "mitsuba/projector.xml",
             "mitsuba/thinlens.xml",
+            "mitsuba/disk_cylinder.xml",
+            "mitsuba/mesh_attribute.xml",
             "mitsuba_bsdfs/bumpmap_env.xml",
             "mitsuba_bsdfs/normalmap_twosided_env.xml",
             "mitsuba_bsdfs/principled_area.xml",

@@ -1,6 +1,9 @@
 //! Textures as the renderer evaluates them at a hit: bitmaps (filtered over the ray cone's
-//! anisotropic footprint) and Mitsuba's procedural checkerboard; and the textured parameters of
-//! materials ([`ColorSource`], [`FloatSource`]), resolved at a hit through a [`TextureQuery`].
+//! anisotropic footprint), Mitsuba's procedural checkerboard and mesh attributes; and the
+//! textured parameters of materials ([`ColorSource`], [`FloatSource`]), resolved at a hit
+//! through a [`TextureQuery`].
+
+use crate::shapes::attributes::AttributePoint;
 
 use glam::{Affine2, Vec2, Vec3A};
 use torrey_texture::{BitmapTexture, Footprint};
@@ -12,6 +15,13 @@ pub enum Texture {
         color0: Vec3A,
         color1: Vec3A,
         to_uv: Affine2,
+    },
+    /// Mitsuba's `mesh_attribute`: for each shape (by index), its attribute's index in
+    /// [`crate::shapes::attributes::MeshAttributes`] (`u32::MAX`: the shape has none; the
+    /// parser refuses scenes where such a shape uses the texture), times `scale`.
+    MeshAttribute {
+        by_shape: Vec<u32>,
+        scale: f32,
     },
 }
 
@@ -40,7 +50,20 @@ impl Texture {
                     *color1
                 }
             }
+            // Needs the hit, not uv: evaluated by `TextureQuery` (BSDF parameters only).
+            Texture::MeshAttribute { .. } => Vec3A::ZERO,
         }
+    }
+
+    /// A `mesh_attribute`'s value at `at`; None for other textures.
+    #[inline(never)]
+    fn eval_attribute(&self, at: &AttributePoint) -> Option<Vec3A> {
+        let Texture::MeshAttribute { by_shape, scale } = self else {
+            return None;
+        };
+        let slot = *by_shape.get(at.shape as usize)?;
+        let data = at.attributes.list.get(slot as usize)?;
+        Some(data.eval(at) * *scale)
     }
 }
 
@@ -77,7 +100,7 @@ impl Texture {
     pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
         match self {
             Texture::Bitmap(b) => b.eval_1_grad(uv),
-            Texture::Checkerboard { .. } => Vec2::ZERO,
+            Texture::Checkerboard { .. } | Texture::MeshAttribute { .. } => Vec2::ZERO,
         }
     }
 }
@@ -134,6 +157,9 @@ impl ColorSource {
 #[derive(Clone, Copy)]
 pub struct TextureQuery<'a> {
     pub textures: &'a [Texture],
+    /// The hit, for `mesh_attribute` textures (None where there is no mesh hit).
+    /// A reference, not the point itself: the query is copied into every blend of every hit.
+    pub at: Option<&'a AttributePoint<'a>>,
     pub uv: Vec2,
     /// The filter's footprint, an ellipse in the surface's uv units ([`Footprint::POINT`]: the
     /// finest level, bilinear).
@@ -143,11 +169,22 @@ pub struct TextureQuery<'a> {
 impl TextureQuery<'_> {
     #[inline(always)]
     pub fn color(&self, c: ColorSource) -> Vec3A {
+        if let (ColorSource::Texture(i), Some(at)) = (c, &self.at) {
+            if let Some(v) = self.textures[i as usize].eval_attribute(at) {
+                return v;
+            }
+        }
         c.eval(self.textures, self.uv, self.footprint)
     }
 
+    /// A float parameter (the parser lets only one-channel `mesh_attribute`s be read as one).
     #[inline(always)]
     pub fn float(&self, f: FloatSource) -> f32 {
+        if let (FloatSource::Texture(i), Some(at)) = (f, &self.at) {
+            if let Some(v) = self.textures[i as usize].eval_attribute(at) {
+                return v.x;
+            }
+        }
         f.eval(self.textures, self.uv, self.footprint)
     }
 }

@@ -2,10 +2,12 @@
 //! Reads vertex `x y z`, optional `nx ny nz`, optional texture coordinates (`u v`, `s t`,
 //! `texture_u texture_v` or `texture_s texture_t`; not flipped) and faces from a
 //! `vertex_indices`/`vertex_index` list (any count and index types; polygons are split into
-//! fans, so quads become two triangles). Every other element and property is skipped.
+//! fans, so quads become two triangles). Other scalar properties of vertices and faces become
+//! mesh attributes named as Mitsuba 3.9.1's loader names them ([`attribute_groups`]); every
+//! other element and property is skipped.
 
 use crate::mesh::Budget;
-use crate::scene::TriangleMesh;
+use crate::scene::{MeshAttribute, TriangleMesh};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
@@ -230,6 +232,66 @@ fn header(data: &[u8]) -> Result<(Format, Vec<ElementDef>, usize), String> {
     Ok((format, elements, pos))
 }
 
+/// Properties of vertices that are not attributes: position, normal, texture coordinates.
+const VERTEX_RESERVED: &[&str] = &[
+    "x",
+    "y",
+    "z",
+    "nx",
+    "ny",
+    "nz",
+    "u",
+    "v",
+    "s",
+    "t",
+    "texture_u",
+    "texture_v",
+    "texture_s",
+    "texture_t",
+];
+
+/// The mesh attributes an element's scalar properties form, as Mitsuba 3.9.1's PLY loader
+/// groups them (checked against it): `r g b [a]` or `red green blue [alpha]` form
+/// `<element>_color`; `<name>_r _g _b` form `<element>_<name>_color`; other names with a
+/// postfix after their last underscore (`n_x n_y n_z`, `w_0`) group by the part before it
+/// (`<element>_n`, `<element>_w`). Names without a postfix are ignored, and so are groups of
+/// other than 1 or 3 values (colours keep their first three). Returns (name, property
+/// indices).
+fn attribute_groups(element: &str, props: &[Property]) -> Vec<(String, Vec<usize>)> {
+    let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
+    for (i, p) in props.iter().enumerate() {
+        if !matches!(p.kind, Kind::Scalar(_))
+            || (element == "vertex" && VERTEX_RESERVED.contains(&p.name.as_str()))
+        {
+            continue;
+        }
+        let n = p.name.as_str();
+        let group = if ["r", "g", "b", "a", "red", "green", "blue", "alpha"].contains(&n) {
+            "color".to_string()
+        } else if let Some((prefix, postfix)) = n.rsplit_once('_') {
+            if ["r", "g", "b", "a"].contains(&postfix) {
+                format!("{prefix}_color")
+            } else {
+                prefix.to_string()
+            }
+        } else {
+            continue;
+        };
+        let name = format!("{element}_{group}");
+        match groups.iter_mut().find(|(g, _)| *g == name) {
+            Some((_, members)) => members.push(i),
+            None => groups.push((name, vec![i])),
+        }
+    }
+    groups.retain_mut(|(name, members)| {
+        if name.ends_with("color") && members.len() == 4 {
+            members.truncate(3);
+        }
+        members.len() == 1 || members.len() == 3
+    });
+    groups
+}
+
 /// Reads a PLY mesh file.
 pub(crate) fn load(path: &Path, budget: &Budget) -> Result<TriangleMesh, String> {
     let data = std::fs::read(path).map_err(|e| e.to_string())?;
@@ -285,6 +347,19 @@ pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String
         if el.props.is_empty() {
             continue; // nothing to read, however many it declares
         }
+        let groups = if is_vertex || is_face {
+            attribute_groups(&el.name, &el.props)
+        } else {
+            Vec::new()
+        };
+        let first_attribute = mesh.attributes.len();
+        for (name, members) in &groups {
+            mesh.attributes.push(MeshAttribute {
+                name: name.clone(),
+                channels: members.len(),
+                values: Vec::new(),
+            });
+        }
         let mut values = vec![0.0f64; el.props.len()];
         let mut list: Vec<u32> = Vec::new();
         for r in 0..el.count {
@@ -326,6 +401,10 @@ pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String
                 if has_uvs {
                     mesh.uvs.push(Vec2::new(g(ui), g(vi)));
                 }
+                for (k, (_, members)) in groups.iter().enumerate() {
+                    let a = &mut mesh.attributes[first_attribute + k];
+                    a.values.extend(members.iter().map(|&m| values[m] as f32));
+                }
             } else if is_face {
                 if list.len() < 3 {
                     return Err(format!(
@@ -336,6 +415,10 @@ pub(crate) fn parse(data: &[u8], budget: &Budget) -> Result<TriangleMesh, String
                 budget.check(0, mesh.indices.len() + list.len() - 2)?;
                 for k in 1..list.len() - 1 {
                     mesh.indices.push([list[0], list[k], list[k + 1]]);
+                    for (g, (_, members)) in groups.iter().enumerate() {
+                        let a = &mut mesh.attributes[first_attribute + g];
+                        a.values.extend(members.iter().map(|&m| values[m] as f32));
+                    }
                 }
             }
         }
@@ -381,6 +464,39 @@ mod tests {
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(m.uvs[2], Vec2::new(1.0, 1.0));
         assert!(m.normals.is_empty());
+    }
+
+    /// Attribute names and channel counts as Mitsuba 3.9.1's loader gives them for the same
+    /// headers; integer colours keep their values (Mitsuba does not normalise them either).
+    #[test]
+    fn extra_properties_become_mitsuba_named_attributes() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\nproperty float quality\nproperty float n_x\nproperty float n_y\nproperty float n_z\nproperty float w_0\nproperty float q_0\nproperty float q_1\nproperty float k_r\nproperty float k_g\nproperty float k_b\nelement face 1\nproperty list uchar int vertex_indices\nproperty float weight_0\nproperty uchar r\nproperty uchar g\nproperty uchar b\nend_header\n\
+            0 0 0 255 0 0 9 7 1 2 3 4 5 6 7 8 9\n1 0 0 0 255 0 9 7 1 2 3 4 5 6 7 8 9\n1 1 0 0 0 255 9 7 1 2 3 4 5 6 7 8 9\n0 1 0 1 2 3 9 7 1 2 3 4 5 6 7 8 9\n4 0 1 2 3 0.25 10 20 30\n";
+        let m = parse(text.as_bytes(), &UNLIMITED).unwrap();
+        let names: Vec<(&str, usize)> = m
+            .attributes
+            .iter()
+            .map(|a| (a.name.as_str(), a.channels))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                ("vertex_color", 3),
+                ("vertex_n", 3),
+                ("vertex_w", 1),
+                ("vertex_k_color", 3),
+                ("face_weight", 1),
+                ("face_color", 3),
+            ]
+        );
+        assert_eq!(
+            m.attributes[0].values[..6],
+            [255.0, 0.0, 0.0, 0.0, 255.0, 0.0]
+        );
+        assert_eq!(m.attributes[0].values.len(), 12);
+        // The quad's two triangles share its values.
+        assert_eq!(m.attributes[4].values, [0.25, 0.25]);
+        assert_eq!(m.attributes[5].values, [10.0, 20.0, 30.0, 10.0, 20.0, 30.0]);
     }
 
     #[test]

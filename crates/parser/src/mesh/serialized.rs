@@ -192,7 +192,13 @@ pub(crate) fn parse(d: &[u8], index: usize, budget: &Budget) -> Result<TriangleM
             .collect::<Result<_, String>>()?;
     }
     if flags & HAS_COLORS != 0 {
-        c.vec3s(nv, double)?;
+        // Mitsuba names them `vertex_color`, for `mesh_attribute`.
+        let colors = c.vec3s(nv, double)?;
+        mesh.attributes.push(crate::scene::MeshAttribute {
+            name: "vertex_color".into(),
+            channels: 3,
+            values: colors.iter().flat_map(|c| c.to_array()).collect(),
+        });
     }
     mesh.indices = (0..nt)
         .map(|_| {

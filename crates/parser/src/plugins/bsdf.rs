@@ -130,26 +130,31 @@ pub(crate) fn color_param(
     let Some(e) = props.take_any(names) else {
         return Ok(ColorParam::Constant(default));
     };
-    match e.tag.as_str() {
-        "texture" => Ok(ColorParam::Texture(parse_texture(ctx, e)?)),
-        "ref" => texture_ref(ctx, e).map(ColorParam::Texture),
-        _ => {
-            let c = props.color_of(ctx, e)?;
-            if c.max_element() > 1.0 {
-                // Renderable, but a surface reflecting more than it receives adds energy.
-                let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
-                ctx.warn_once(
-                    "reflectance above 1",
-                    pos,
-                    format!(
-                        "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",
-                        c.x, c.y, c.z, props.owner
-                    ),
-                );
-            }
-            Ok(ColorParam::Constant(c))
+    let texture = match e.tag.as_str() {
+        "texture" => Some(parse_texture(ctx, e)?),
+        "ref" => Some(texture_ref(ctx, e)?),
+        _ => None,
+    };
+    if let Some(t) = texture {
+        if let Some(uses) = ctx.texture_uses.last_mut() {
+            uses.push((t, false));
         }
+        return Ok(ColorParam::Texture(t));
     }
+    let c = props.color_of(ctx, e)?;
+    if c.max_element() > 1.0 {
+        // Renderable, but a surface reflecting more than it receives adds energy.
+        let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
+        ctx.warn_once(
+            "reflectance above 1",
+            pos,
+            format!(
+                "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",
+                c.x, c.y, c.z, props.owner
+            ),
+        );
+    }
+    Ok(ColorParam::Constant(c))
 }
 
 pub(crate) fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
@@ -309,7 +314,13 @@ fn float_param(
     names: &[&str],
     default: f32,
 ) -> Result<ColorParam> {
-    color_param(ctx, props, names, Vec3::splat(default))
+    let p = color_param(ctx, props, names, Vec3::splat(default))?;
+    if let (ColorParam::Texture(t), Some(uses)) = (&p, ctx.texture_uses.last_mut()) {
+        if let Some(last) = uses.iter_mut().rev().find(|(u, _)| u == t) {
+            last.1 = true;
+        }
+    }
+    Ok(p)
 }
 
 /// A float parameter that may be a texture, without [`color_param`]'s reflectance warning
@@ -888,9 +899,13 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
 
 /// Parses a `<bsdf>`, adds it to the scene and registers its id.
 pub(crate) fn parse_bsdf(ctx: &mut Ctx, elem: &Element) -> Result<BsdfId> {
-    let bsdf = parse_bsdf_value(ctx, elem)?;
+    ctx.texture_uses.push(Vec::new());
+    let bsdf = parse_bsdf_value(ctx, elem);
+    let uses = ctx.texture_uses.pop().unwrap_or_default();
+    let bsdf = bsdf?;
     ctx.bsdfs.push(bsdf);
     let index = ctx.bsdfs.len() - 1;
+    ctx.bsdf_textures.insert(index, uses);
     ctx.register_id(elem, IdTarget::Bsdf(index))?;
     Ok(index)
 }

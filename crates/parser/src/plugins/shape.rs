@@ -1,4 +1,5 @@
-//! Shape plugins: `obj`, `ply`, `serialized`, `sphere`, `rectangle`.
+//! Shape plugins: `obj`, `ply`, `serialized`, `sphere`, `rectangle`, `cube`, `disk`, `cylinder`,
+//! `shapegroup`, `instance`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -8,7 +9,7 @@ use crate::plugins::bsdf::{color_param, parse_bsdf};
 use crate::props::Props;
 use crate::scene::{
     Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Instance, Shape, ShapeGroup,
-    TriangleMesh, Warning,
+    TextureKind, TriangleMesh, Warning,
 };
 use crate::xml::Element;
 use glam::{Mat3, Mat4, Vec3};
@@ -21,12 +22,11 @@ pub(crate) const KNOWN: &[&str] = &[
     "sphere",
     "rectangle",
     "cube",
+    "disk",
+    "cylinder",
     "shapegroup",
     "instance",
 ];
-
-/// Mitsuba 3 shapes the renderer cannot draw yet: a clear error at their place.
-const NOT_YET: &[&str] = &["disk", "cylinder"];
 
 /// Mitsuba's `cube`: [-1, 1]^3 as 12 triangles, each face with its own 4 vertices, flat
 /// normals and uvs (0,1), (1,1), (1,0), (0,0) at its corners, in Mitsuba's vertex order
@@ -237,7 +237,9 @@ fn mesh(ctx: &mut Ctx, props: &mut Props, elem: &Element, ty: &str) -> Result<Tr
     };
     let path = input_file(ctx, file, "mesh")?;
     let face_normals = props.boolean(ctx, &["face_normals"], false)?;
-    let flip_v = props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
+    // Mitsuba 3.9.1's serialized has no flip_tex_coords (it refuses the parameter; here it
+    // stays unused and is reported so).
+    let flip_v = ty != "serialized" && props.boolean(ctx, &["flip_tex_coords"], ty == "obj")?;
     let shape_index = match props.opt_int_pos(ctx, &["shape_index"])? {
         None => 0,
         Some((i, _)) if i >= 0 && ty == "serialized" => i as usize,
@@ -313,11 +315,16 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
             let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
             c + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
         }
-        Geometry::Rectangle => farthest(
+        Geometry::Rectangle | Geometry::Disk => farthest(
             &mut [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
                 .into_iter()
                 .map(|(x, y)| glam::DVec3::new(x, y, 0.0)),
         ),
+        Geometry::Cylinder { p0, p1, radius } => {
+            let ends = farthest(&mut [p0.as_dvec3(), p1.as_dvec3()].into_iter());
+            let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
+            ends + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
+        }
     };
     (reach.is_nan() || reach > WORLD_EXTENT).then(|| {
         format!(
@@ -355,6 +362,61 @@ pub(crate) fn parse_area_emitter(
     Ok(emission)
 }
 
+/// Every `mesh_attribute` texture that bsdf `bsdf` uses must name an attribute `geometry` has,
+/// with one channel where a float parameter reads it (Mitsuba fails at render time otherwise;
+/// torrey at load, at the shape).
+fn check_mesh_attributes(
+    ctx: &Ctx,
+    elem: &Element,
+    owner: &str,
+    geometry: &Geometry,
+    bsdf: BsdfId,
+) -> Result<()> {
+    let Some(uses) = ctx.bsdf_textures.get(&bsdf) else {
+        return Ok(());
+    };
+    for &(t, float) in uses {
+        let TextureKind::MeshAttribute { name, location, .. } = &ctx.textures[t].kind else {
+            continue;
+        };
+        let found = match geometry {
+            Geometry::Mesh(m) => m.attributes.iter().find(|a| &a.name == name),
+            _ => None,
+        };
+        if let Some(a) = found.filter(|a| float && a.channels != 1) {
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "the mesh_attribute texture at {location} reads '{name}' of {owner} as a float parameter, but it has {} channels (as in Mitsuba, a float needs one)",
+                    a.channels
+                ),
+            ));
+        }
+        let found = found.is_some();
+        if !found {
+            let has = match geometry {
+                Geometry::Mesh(m) if !m.attributes.is_empty() => format!(
+                    "it has {}",
+                    m.attributes
+                        .iter()
+                        .map(|a| a.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                Geometry::Mesh(_) => "it has no attributes".to_string(),
+                _ => "only meshes have attributes".to_string(),
+            };
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "{owner} has no attribute '{name}' for the mesh_attribute texture at {location} ({has})"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Parses a `<shape>`; inline bsdfs are added to the scene.
 ///
 /// | shapes | name | type | default |
@@ -365,22 +427,15 @@ pub(crate) fn parse_area_emitter(
 /// | all | nested `<emitter type="area">` | `radiance`: colour (default 1), or a `<texture>` / `<ref>` (evaluated at the surface's uv) | none |
 /// | obj, ply, serialized | `filename` | string | required |
 /// | obj, ply, serialized | `face_normals` (`faceNormals`) | boolean | false |
-/// | obj, ply, serialized | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, else false |
+/// | obj, ply | `flip_tex_coords` (`flipTexCoords`) | boolean | true for obj, false for ply |
+/// | rectangle, cube | `face_normals` | boolean | false (read, no effect: flat already) |
 /// | serialized | `shape_index` (`shapeIndex`) | integer | 0 |
 /// | sphere | `center` | point | 0 |
 /// | sphere | `radius` | float | 1 (must be positive) |
+/// | cylinder | `p0`, `p1` | point | (0, 0, 0), (0, 0, 1) (must differ) |
+/// | cylinder | `radius` | float | 1 (must be positive) |
 pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     let ty = plugin_type(ctx, elem)?;
-    if NOT_YET.contains(&ty) {
-        let pos = elem.attr("type").map_or(elem.pos, |a| a.value_pos);
-        return Err(ctx.err(
-            pos,
-            format!(
-                "shape '{ty}' is not supported yet (supported: {})",
-                KNOWN.join(", ")
-            ),
-        ));
-    }
     if !KNOWN.contains(&ty) {
         return Err(unknown_type(ctx, elem, "shape", KNOWN));
     }
@@ -407,8 +462,35 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             };
             Geometry::Sphere { center, radius }
         }
-        "rectangle" => Geometry::Rectangle,
-        "cube" => Geometry::Mesh(cube_mesh()),
+        "rectangle" => {
+            props.boolean(ctx, &["face_normals"], false)?;
+            Geometry::Rectangle
+        }
+        "disk" => Geometry::Disk,
+        "cylinder" => {
+            let p0 = props.point(ctx, &["p0"])?.unwrap_or(Vec3::ZERO);
+            let p1_pos = elem
+                .children
+                .iter()
+                .find(|c| c.attr_value("name") == Some("p1"))
+                .map_or(elem.pos, |c| c.pos);
+            let p1 = props.point(ctx, &["p1"])?.unwrap_or(Vec3::Z);
+            let radius = match props.opt_float_pos(ctx, &["radius"])? {
+                None => 1.0,
+                Some((r, pos)) if r <= 0.0 => {
+                    return Err(ctx.err(pos, format!("cylinder radius must be positive, found {r}")))
+                }
+                Some((r, _)) => r,
+            };
+            if p0 == p1 {
+                return Err(ctx.err(p1_pos, "cylinder p0 and p1 must differ"));
+            }
+            Geometry::Cylinder { p0, p1, radius }
+        }
+        "cube" => {
+            props.boolean(ctx, &["face_normals"], false)?;
+            Geometry::Mesh(cube_mesh())
+        }
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };
 
@@ -460,6 +542,10 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         Some(e) => Some(parse_bsdf(ctx, e)?),
     };
 
+    if let Some(b) = bsdf {
+        check_mesh_attributes(ctx, elem, &props.owner, &geometry, b)?;
+    }
+
     if let Some(second) = emitters.get(1) {
         return Err(ctx.err(
             second.pos,
@@ -478,6 +564,16 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         Some((radiance, texture)) => (Some(radiance), texture),
         None => (None, None),
     };
+    if emitter_texture.is_some() && matches!(geometry, Geometry::Disk | Geometry::Cylinder { .. }) {
+        let at = emitters.first().map_or(elem.pos, |e| e.pos);
+        return Err(ctx.err(
+            at,
+            format!(
+                "a textured area emitter on {} is not supported yet (rectangles, spheres and meshes are)",
+                props.owner
+            ),
+        ));
+    }
     // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
     // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
     let bsdf = match bsdf {

@@ -113,7 +113,7 @@ pub(crate) fn bitmap_element(ctx: &mut Ctx, elem: &Element) -> Result<Bitmap> {
 }
 
 /// The texture types this parser reads.
-pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard"];
+pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard", "mesh_attribute"];
 
 /// Parses a `<texture>` (top level or inline), adds it to the scene and registers its id.
 ///
@@ -124,6 +124,13 @@ pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard"];
 /// | `color0` | colour | 0.4 |
 /// | `color1` | colour | 0.2 |
 /// | `to_uv`, `uscale`, `vscale`, `uoffset`, `voffset`, `uvscale` | as bitmap | identity |
+///
+/// `mesh_attribute` (the shapes that use it must have the attribute: checked with the shape):
+///
+/// | name | type | default |
+/// | --- | --- | --- |
+/// | `name` | string | required; starts with `vertex_` or `face_` |
+/// | `scale` | float | 1 |
 pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> {
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
@@ -132,6 +139,28 @@ pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> 
     let mut props = Props::new(ctx, elem, format!("texture '{ty}'"))?;
     let kind = if ty == "bitmap" {
         TextureKind::Bitmap(parse_bitmap(ctx, &mut props, elem)?)
+    } else if ty == "mesh_attribute" {
+        let Some(name) = props.string(ctx, &["name"])? else {
+            return Err(ctx.err(
+                elem.pos,
+                "missing required parameter 'name' of texture 'mesh_attribute'",
+            ));
+        };
+        if !name.value.starts_with("vertex_") && !name.value.starts_with("face_") {
+            return Err(ctx.err(
+                name.value_pos,
+                format!(
+                    "invalid mesh attribute name '{}': it must start with 'vertex_' or 'face_' (as in Mitsuba)",
+                    name.value
+                ),
+            ));
+        }
+        let name = name.value.to_string();
+        TextureKind::MeshAttribute {
+            name,
+            scale: props.float(ctx, &["scale"], 1.0)?,
+            location: ctx.location(elem.pos),
+        }
     } else {
         TextureKind::Checkerboard {
             color0: props.color(ctx, &["color0"], Vec3::splat(0.4))?,

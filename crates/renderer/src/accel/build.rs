@@ -17,6 +17,9 @@ impl PrimGeom {
         let coordinates = match *self {
             PrimGeom::Triangle { p0, p1, p2 } => p0.is_finite() && p1.is_finite() && p2.is_finite(),
             PrimGeom::Sphere { center, radius } => center.is_finite() && radius.is_finite(),
+            PrimGeom::Disk { to_object } | PrimGeom::Cylinder { to_object } => {
+                to_object.is_finite() && to_object.inverse_affine().is_finite()
+            }
         };
         coordinates && {
             let b = self.aabb();
@@ -35,6 +38,31 @@ impl PrimGeom {
                 min: center - Vec3A::splat(radius),
                 max: center + Vec3A::splat(radius),
             },
+            // The object-space box's corners (z = 0 for a disk, 0..1 for a cylinder) mapped to
+            // world space.
+            PrimGeom::Disk { to_object } | PrimGeom::Cylinder { to_object } => {
+                let to_world = to_object.inverse_affine();
+                let z_max = if matches!(self, PrimGeom::Disk { .. }) {
+                    0.0
+                } else {
+                    1.0
+                };
+                let mut b = Aabb {
+                    min: Vec3A::splat(f32::INFINITY),
+                    max: Vec3A::splat(f32::NEG_INFINITY),
+                };
+                for i in 0..8 {
+                    let corner = Vec3A::new(
+                        if i & 1 == 0 { -1.0 } else { 1.0 },
+                        if i & 2 == 0 { -1.0 } else { 1.0 },
+                        if i & 4 == 0 { 0.0 } else { z_max },
+                    );
+                    let p = to_world.transform_point3a(corner);
+                    b.min = b.min.min(p);
+                    b.max = b.max.max(p);
+                }
+                b
+            }
         }
     }
 }

@@ -1,10 +1,13 @@
-//! The leaves of a BVH, whatever its node width: blocks of four triangles, spheres, and the
-//! records of leaves that hold spheres.
+//! The leaves of a BVH, whatever its node width: blocks of four triangles, spheres, disks and
+//! cylinders, and the records of leaves that hold anything but triangles.
 
 use super::traversal::{ChildRef, LEAF, LEAF_COUNT_SHIFT, LEAF_INDEX_MASK};
 use super::triangle4::{Ray4, Triangle4};
 use super::{ClosestHit, PrimGeom};
 use crate::ray::Ray;
+use crate::shapes::cylinder::intersect_cylinder;
+use crate::shapes::disk::intersect_disk;
+use crate::shapes::object_rows::ObjectRows;
 use crate::shapes::sphere::intersect_sphere;
 use glam::Vec3A;
 use obvhs::bvh2::Bvh2;
@@ -16,6 +19,16 @@ struct Leaf {
     block_count: u32,
     first_sphere: u32,
     sphere_count: u32,
+    first_quadric: u32,
+    quadric_count: u32,
+}
+
+/// A disk or a cylinder in a leaf: its world-to-object transform and primitive index.
+#[derive(Clone, Copy, Debug)]
+struct QuadricRef {
+    to_object: ObjectRows,
+    cylinder: bool,
+    prim: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -55,6 +68,7 @@ pub(crate) struct Leaves {
     leaves: Vec<Leaf>,
     blocks: Vec<Triangle4>,
     spheres: Vec<SphereRef>,
+    quadrics: Vec<QuadricRef>,
 }
 
 impl Leaves {
@@ -66,9 +80,12 @@ impl Leaves {
                 block_count: 0,
                 first_sphere: 0,
                 sphere_count: 0,
+                first_quadric: 0,
+                quadric_count: 0,
             }],
             blocks: Vec::new(),
             spheres: Vec::new(),
+            quadrics: Vec::new(),
         }
     }
 
@@ -86,6 +103,7 @@ impl Leaves {
         let prims = &bvh2.primitive_indices[first as usize..(first + count) as usize];
         let mut tris = Vec::new();
         let first_sphere = self.spheres.len() as u32;
+        let first_quadric = self.quadrics.len() as u32;
         for &prim in prims {
             match geoms[prim as usize] {
                 PrimGeom::Triangle { p0, p1, p2 } => tris.push((p0, p1, p2, prim)),
@@ -94,13 +112,28 @@ impl Leaves {
                     radius,
                     prim,
                 }),
+                PrimGeom::Disk { to_object } => self.quadrics.push(QuadricRef {
+                    to_object,
+                    cylinder: false,
+                    prim,
+                }),
+                PrimGeom::Cylinder { to_object } => self.quadrics.push(QuadricRef {
+                    to_object,
+                    cylinder: true,
+                    prim,
+                }),
             }
         }
         let first_block = self.blocks.len() as u32;
         self.blocks.extend(tris.chunks(4).map(Triangle4::new));
         let block_count = self.blocks.len() as u32 - first_block;
         let sphere_count = self.spheres.len() as u32 - first_sphere;
-        if sphere_count == 0 && (1..16).contains(&block_count) && first_block <= LEAF_INDEX_MASK {
+        let quadric_count = self.quadrics.len() as u32 - first_quadric;
+        if sphere_count == 0
+            && quadric_count == 0
+            && (1..16).contains(&block_count)
+            && first_block <= LEAF_INDEX_MASK
+        {
             return LEAF | block_count << LEAF_COUNT_SHIFT | first_block;
         }
         self.leaves.push(Leaf {
@@ -108,6 +141,8 @@ impl Leaves {
             block_count: self.blocks.len() as u32 - first_block,
             first_sphere,
             sphere_count: self.spheres.len() as u32 - first_sphere,
+            first_quadric,
+            quadric_count,
         });
         LEAF | (self.leaves.len() as u32 - 1)
     }
@@ -126,8 +161,8 @@ impl Leaves {
         Some(unsafe { self.blocks.get_unchecked(first..first + count) })
     }
 
-    /// Closest hit in (0, tmax) among the triangles and spheres of leaf `r` of `leaves`. Kept
-    /// out of line: leaves with spheres are rare, and inlining the sphere test into the
+    /// Closest hit in (0, tmax) among the triangles, spheres, disks and cylinders of leaf `r`
+    /// of `leaves`. Kept out of line: leaves with analytic shapes are rare, and inlining the sphere test into the
     /// traversal loops costs every ray registers and set-up.
     #[inline(never)]
     pub(crate) fn intersect_general(
@@ -148,6 +183,24 @@ impl Leaves {
                 best = Some(ClosestHit {
                     t,
                     prim: s.prim,
+                    b1: 0.0,
+                    b2: 0.0,
+                });
+            }
+        }
+        let quadrics =
+            leaf.first_quadric as usize..(leaf.first_quadric + leaf.quadric_count) as usize;
+        for q in &self.quadrics[quadrics] {
+            let t = if q.cylinder {
+                intersect_cylinder(ray, &q.to_object, tmax)
+            } else {
+                intersect_disk(ray, &q.to_object, tmax)
+            };
+            if let Some(t) = t {
+                tmax = t;
+                best = Some(ClosestHit {
+                    t,
+                    prim: q.prim,
                     b1: 0.0,
                     b2: 0.0,
                 });

@@ -35,6 +35,7 @@ mod triangle4;
 pub(crate) mod x86_64;
 
 use crate::ray::Ray;
+use crate::shapes::object_rows::ObjectRows;
 use glam::Vec3A;
 use leaves::Leaves;
 use nodes4::Nodes4;
@@ -45,8 +46,23 @@ use traversal::{any_hit, closest_hit, ChildRef, InnerNodes, EMPTY, STACK_SIZE};
 /// Geometry of one BVH primitive, in world space.
 #[derive(Clone, Copy, Debug)]
 pub enum PrimGeom {
-    Triangle { p0: Vec3A, p1: Vec3A, p2: Vec3A },
-    Sphere { center: Vec3A, radius: f32 },
+    Triangle {
+        p0: Vec3A,
+        p1: Vec3A,
+        p2: Vec3A,
+    },
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+    },
+    /// Mitsuba's disk: the unit disk at z = 0 of the object space `to_object` maps to.
+    Disk {
+        to_object: ObjectRows,
+    },
+    /// Mitsuba's cylinder: the open unit tube, 0 <= z <= 1, of that object space.
+    Cylinder {
+        to_object: ObjectRows,
+    },
 }
 
 /// The closest hit along a ray: distance, primitive index, triangle barycentrics.

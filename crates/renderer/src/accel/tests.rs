@@ -2,6 +2,8 @@
 
 use super::*;
 use crate::ray::Ray;
+use crate::shapes::cylinder::intersect_cylinder;
+use crate::shapes::disk::intersect_disk;
 use crate::shapes::{sphere::intersect_sphere, triangle::intersect_triangle};
 use glam::Vec3A;
 
@@ -9,6 +11,8 @@ fn intersect_one(g: &PrimGeom, ray: &Ray, tmax: f32) -> Option<f32> {
     match *g {
         PrimGeom::Triangle { p0, p1, p2 } => intersect_triangle(ray, p0, p1, p2, tmax).map(|h| h.t),
         PrimGeom::Sphere { center, radius } => intersect_sphere(ray, center, radius, 0.0, tmax),
+        PrimGeom::Disk { to_object } => intersect_disk(ray, &to_object, tmax),
+        PrimGeom::Cylinder { to_object } => intersect_cylinder(ray, &to_object, tmax),
     }
 }
 
@@ -44,6 +48,54 @@ fn bvh_agrees_with_brute_force() {
         }
     }
     // Widths the CPU lacks fall back to narrower ones (and are tested where it has them).
+    for width in [BvhWidth::Four, BvhWidth::Eight, BvhWidth::Sixteen] {
+        let accel = Accel::build(&geoms, width);
+        check_against_brute_force(&accel, &geoms, &mut rnd);
+    }
+}
+
+/// Analytic primitives keep `PrimGeom` as small as a triangle (the build holds one per
+/// primitive).
+#[test]
+fn prim_geom_stays_triangle_sized() {
+    assert_eq!(std::mem::size_of::<PrimGeom>(), 64);
+}
+
+/// Disks and cylinders (randomly placed, rotated and non-uniformly scaled) among triangles
+/// and spheres: the BVH finds what brute force finds.
+#[test]
+fn bvh_with_disks_and_cylinders_agrees_with_brute_force() {
+    use crate::shapes::{cylinder::Cylinder, disk::Disk};
+    use glam::{Mat4, Quat, Vec3};
+    let mut rng = torrey_testkit::Rng::new(4242);
+    let mut rnd = || rng.range(-1.0, 1.0);
+    let mut geoms = Vec::new();
+    for i in 0..300 {
+        let c = Vec3A::new(rnd(), rnd(), rnd()) * 5.0;
+        let to_world = Mat4::from_scale_rotation_translation(
+            Vec3::new(0.2 + 0.2 * rnd().abs(), 0.2 + 0.2 * rnd().abs(), 0.3),
+            Quat::from_euler(glam::EulerRot::XYZ, rnd() * 3.0, rnd() * 3.0, rnd() * 3.0),
+            c.into(),
+        );
+        match i % 4 {
+            0 => geoms.push(Disk::new(to_world).unwrap().prim_geom()),
+            1 => geoms.push(
+                Cylinder::new(Vec3::ZERO, Vec3::new(0.0, 0.3, 1.0), 0.8, to_world)
+                    .unwrap()
+                    .prim_geom(),
+            ),
+            2 => geoms.push(PrimGeom::Sphere {
+                center: c,
+                radius: 0.2,
+            }),
+            _ => {
+                let p1 = c + Vec3A::new(rnd(), rnd(), rnd()) * 0.5;
+                let p2 = c + Vec3A::new(rnd(), rnd(), rnd()) * 0.5;
+                geoms.push(PrimGeom::Triangle { p0: c, p1, p2 });
+            }
+        }
+    }
+    assert!(geoms.iter().all(PrimGeom::is_finite));
     for width in [BvhWidth::Four, BvhWidth::Eight, BvhWidth::Sixteen] {
         let accel = Accel::build(&geoms, width);
         check_against_brute_force(&accel, &geoms, &mut rnd);

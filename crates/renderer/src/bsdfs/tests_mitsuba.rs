@@ -43,6 +43,7 @@ fn smooth_plastic(d: Vec3A, eta: f32, nonlinear: bool) -> Bsdf<'static> {
 fn no_textures() -> crate::textures::TextureQuery<'static> {
     crate::textures::TextureQuery {
         textures: &[],
+        at: None,
         uv: Vec2::ZERO,
         footprint: torrey_texture::Footprint::POINT,
     }

@@ -10,6 +10,7 @@ use crate::textures::{ColorSource, FloatSource};
 fn no_textures() -> crate::textures::TextureQuery<'static> {
     crate::textures::TextureQuery {
         textures: &[],
+        at: None,
         uv: Vec2::ZERO,
         footprint: torrey_texture::Footprint::POINT,
     }

@@ -398,9 +398,11 @@ fn shade(
     };
     let (frame, perturbation) = material.shading_frame(&scene.textures, hit, wo, footprint);
     let wo_local = frame.to_local(wo);
+    let attribute_point = scene.attribute_point(hit);
     let bsdf = material.bsdf(
         &TextureQuery {
             textures: &scene.textures,
+            at: attribute_point.as_ref(),
             uv: hit.uv,
             footprint,
         },

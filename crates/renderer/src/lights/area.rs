@@ -1,10 +1,13 @@
 //! A diffuse area emitter on a shape (Mitsuba's `area`): constant or textured radiance
-//! (emission_texture.rs), one-sided (along the possibly flipped normal only). Meshes are sampled
-//! uniformly by area, spheres by the solid angle they subtend (each shape's file holds its
-//! sampling and pdf); a bitmap radiance on a rectangle or sphere by the texture's luminance.
+//! (emission_texture.rs), one-sided (along the possibly flipped normal only). Meshes, disks and
+//! cylinders are sampled uniformly by area, spheres by the solid angle they subtend (each shape's
+//! file holds its sampling and pdf); a bitmap radiance on a rectangle or sphere by the texture's
+//! luminance.
 
 use super::emission_texture::EmissionTexture;
 use super::{LightDraw, LightSample};
+use crate::shapes::cylinder::Cylinder;
+use crate::shapes::disk::Disk;
 use crate::shapes::mesh::MeshEmitter;
 use crate::shapes::sphere::Sphere;
 use crate::textures::Texture;
@@ -15,6 +18,9 @@ use torrey_texture::Footprint;
 pub enum AreaEmitter {
     Mesh(MeshEmitter),
     Sphere(Sphere),
+    /// Boxed: their object transforms would make every light as large as these rare ones.
+    Disk(Box<Disk>),
+    Cylinder(Box<Cylinder>),
 }
 
 /// An emitting shape.
@@ -51,18 +57,36 @@ impl AreaLight {
                 let n = if self.flip_normals { -normal } else { normal };
                 LightDraw::MeshPoint { q, n }
             }
+            AreaEmitter::Disk(disk) => {
+                let (q, normal) = disk.sample_point(u);
+                let n = if self.flip_normals { -normal } else { normal };
+                LightDraw::MeshPoint { q, n }
+            }
+            AreaEmitter::Cylinder(cylinder) => {
+                let (q, normal) = cylinder.sample_point(u);
+                let n = if self.flip_normals { -normal } else { normal };
+                LightDraw::MeshPoint { q, n }
+            }
             AreaEmitter::Sphere(_) => LightDraw::Deferred(u),
         }
     }
 
-    /// The connection from `p` to point `q` (normal `n`) drawn on an emitting mesh. A textured
-    /// radiance needs the point's uv, which a point drawn by area does not carry: such meshes
-    /// are not drawn early ([`AreaLight::sample_deferred`]).
+    /// The surface area of a shape sampled uniformly by area (not of a sphere).
+    #[inline(always)]
+    fn area(&self) -> f32 {
+        match &self.emitter {
+            AreaEmitter::Mesh(mesh) => mesh.total_area(),
+            AreaEmitter::Disk(disk) => disk.area,
+            AreaEmitter::Cylinder(cylinder) => cylinder.area,
+            AreaEmitter::Sphere(_) => unreachable!("spheres are sampled by solid angle"),
+        }
+    }
+
+    /// The connection from `p` to point `q` (normal `n`) drawn on an emitting mesh, disk or
+    /// cylinder. A textured radiance needs the point's uv, which a point drawn by area does not
+    /// carry: such shapes are not drawn early ([`AreaLight::sample_deferred`]).
     #[inline(always)]
     pub fn connect_point(&self, q: Vec3A, n: Vec3A, p: Vec3A) -> Option<LightSample> {
-        let AreaEmitter::Mesh(mesh) = &self.emitter else {
-            unreachable!("mesh points come from mesh lights");
-        };
         let d = q - p;
         let dist2 = d.length_squared();
         let dist = dist2.sqrt();
@@ -78,7 +102,7 @@ impl AreaLight {
             wi,
             dist,
             radiance: self.radiance,
-            pdf: dist2 / (cos_light * mesh.total_area()),
+            pdf: dist2 / (cos_light * self.area()),
             is_delta: false,
         })
     }
@@ -124,6 +148,8 @@ impl AreaLight {
                     ..ls
                 });
             }
+            // Untextured ones are drawn by `draw`; the parser refuses textured ones.
+            AreaEmitter::Disk(_) | AreaEmitter::Cylinder(_) => return None,
         };
         let s = sphere.sample_solid_angle(p, u)?;
         let mut n: Vec3A = s.normal.into();
@@ -168,15 +194,15 @@ impl AreaLight {
             }
         }
         match &self.emitter {
-            AreaEmitter::Mesh(mesh) => {
+            AreaEmitter::Sphere(sphere) => sphere.solid_angle_pdf(p, wi),
+            _ => {
                 let cos = n_light.dot(wi).abs();
                 if cos == 0.0 {
                     0.0
                 } else {
-                    dist * dist / (cos * mesh.total_area())
+                    dist * dist / (cos * self.area())
                 }
             }
-            AreaEmitter::Sphere(sphere) => sphere.solid_angle_pdf(p, wi),
         }
     }
 }

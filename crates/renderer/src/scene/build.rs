@@ -10,6 +10,9 @@ use crate::lights::{
     AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EmissionTexture, EnvLight, Light,
     PointLight, ProjectorLight, SpotLight, TexelDistribution, UvMap,
 };
+use crate::shapes::attributes::{AttributeData, MeshAttributes};
+use crate::shapes::cylinder::Cylinder;
+use crate::shapes::disk::Disk;
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
@@ -74,6 +77,17 @@ impl RenderScene {
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
         let mut dropped = 0usize;
+        let mut dropped_analytic = 0usize;
+        // Attributes are kept only when a mesh_attribute texture may read them.
+        let attribute_names: Vec<&str> = scene
+            .textures
+            .iter()
+            .filter_map(|t| match &t.kind {
+                desc::TextureKind::MeshAttribute { name, .. } => Some(name.as_str()),
+                _ => None,
+            })
+            .collect();
+        let mut attributes = MeshAttributes::default();
         // The world's shapes, then each shape group's (in the group's space): a group's
         // primitives get their own list (its BVH's) and contiguous records in `prims` from
         // `group_first_prim`, so that group primitive i is record group_first_prim + i.
@@ -98,14 +112,40 @@ impl RenderScene {
                 None => &mut world_geoms,
             };
             let kind = match &shape.geometry {
-                desc::Geometry::Mesh(m) => ShapeKind::Mesh(MeshShape::add(
-                    &mut mesh,
-                    geoms,
-                    &mut prims,
-                    shape_id,
-                    m,
-                    shape.to_world,
-                )),
+                desc::Geometry::Mesh(m) => {
+                    let base = mesh.positions.len() as u32;
+                    let kind =
+                        MeshShape::add(&mut mesh, geoms, &mut prims, shape_id, m, shape.to_world);
+                    for a in &m.attributes {
+                        if !attribute_names.contains(&a.name.as_str()) {
+                            continue;
+                        }
+                        let per_face = a.per_face();
+                        let values = if per_face {
+                            // One tuple per kept triangle, in primitive order.
+                            m.indices
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, t)| mesh.keeps_triangle(t.map(|i| i + base)))
+                                .flat_map(|(f, _)| {
+                                    a.values[f * a.channels..(f + 1) * a.channels].iter()
+                                })
+                                .copied()
+                                .collect()
+                        } else {
+                            a.values.clone()
+                        };
+                        attributes.list.push(AttributeData {
+                            name: a.name.clone(),
+                            shape: shape_id,
+                            channels: a.channels as u32,
+                            per_face,
+                            offset: if per_face { first_prim as u32 } else { base },
+                            values,
+                        });
+                    }
+                    ShapeKind::Mesh(kind)
+                }
                 desc::Geometry::Rectangle => ShapeKind::Mesh(MeshShape::add(
                     &mut mesh,
                     geoms,
@@ -128,6 +168,42 @@ impl RenderScene {
                     }
                     ShapeKind::Sphere(sphere)
                 }
+                desc::Geometry::Disk => {
+                    match Disk::new(shape.to_world).filter(|d| d.prim_geom().is_finite()) {
+                        Some(disk) => {
+                            geoms.push(disk.prim_geom());
+                            prims.push(PrimInfo {
+                                ng: Vec3A::ZERO,
+                                indices: [0; 3],
+                                shape: shape_id,
+                            });
+                            ShapeKind::Disk(disk)
+                        }
+                        None => {
+                            dropped_analytic += 1;
+                            ShapeKind::Mesh(MeshShape::EMPTY)
+                        }
+                    }
+                }
+                desc::Geometry::Cylinder { p0, p1, radius } => {
+                    match Cylinder::new(*p0, *p1, *radius, shape.to_world)
+                        .filter(|c| c.prim_geom().is_finite())
+                    {
+                        Some(cylinder) => {
+                            geoms.push(cylinder.prim_geom());
+                            prims.push(PrimInfo {
+                                ng: Vec3A::ZERO,
+                                indices: [0; 3],
+                                shape: shape_id,
+                            });
+                            ShapeKind::Cylinder(cylinder)
+                        }
+                        None => {
+                            dropped_analytic += 1;
+                            ShapeKind::Mesh(MeshShape::EMPTY)
+                        }
+                    }
+                }
             };
             let shape_prims = &prims[first_prim..];
             let area_light = match shape.emitter {
@@ -143,6 +219,8 @@ impl RenderScene {
                         ShapeKind::Mesh(_) if textured => {
                             AreaEmitter::Mesh(MeshEmitter::with_uvs(&mesh, shape_prims))
                         }
+                        ShapeKind::Disk(disk) => AreaEmitter::Disk(Box::new(disk)),
+                        ShapeKind::Cylinder(cylinder) => AreaEmitter::Cylinder(Box::new(cylinder)),
                         ShapeKind::Mesh(_) => {
                             AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
                         }
@@ -167,6 +245,12 @@ impl RenderScene {
                 textured_emission: area_light.is_some() && shape.emitter_texture.is_some(),
                 flip_normals: shape.flip_normals,
             });
+        }
+        if dropped_analytic > 0 {
+            warnings.push(format!(
+                "{dropped_analytic} disk(s) or cylinder(s) with a degenerate or non-finite \
+                 transform (a zero scale or radius, p0 = p1) were left out"
+            ));
         }
         if dropped > 0 {
             warnings.push(format!(
@@ -265,6 +349,19 @@ impl RenderScene {
             lights.push(light);
         }
 
+        let mut textures = textures;
+        for (t, desc_texture) in textures.iter_mut().zip(&scene.textures) {
+            if let (
+                Texture::MeshAttribute { by_shape, .. },
+                desc::TextureKind::MeshAttribute { name, .. },
+            ) = (t, &desc_texture.kind)
+            {
+                *by_shape = (0..shapes.len() as u32)
+                    .map(|s| attributes.find(s, name).unwrap_or(u32::MAX))
+                    .collect();
+            }
+        }
+
         debug_assert!(world_geoms.iter().all(PrimGeom::is_finite));
         let accel = Accel::build(&world_geoms, bvh_width);
         let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
@@ -278,6 +375,7 @@ impl RenderScene {
             shapes,
             materials,
             textures,
+            attributes,
             lights,
             infinite_lights,
             has_area_lights,
@@ -441,6 +539,11 @@ fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Textur
             color1: (*color1).into(),
             to_uv: *to_uv,
         },
+        // Its table of shapes is filled once the shapes are built.
+        desc::TextureKind::MeshAttribute { scale, .. } => Texture::MeshAttribute {
+            by_shape: Vec::new(),
+            scale: *scale,
+        },
     })
 }
 
@@ -503,5 +606,160 @@ mod tests {
                 ..
             })
         ));
+    }
+
+    /// A triangle in OBJ and PLY with per-vertex normals and uvs, written once per test run.
+    fn triangle_files() -> (String, String) {
+        let dir = std::env::temp_dir().join(format!("torrey-shape-options-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = dir.join("tri.obj");
+        std::fs::write(
+            &obj,
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.9 0.2\nvt 0.1 0.7\nvn 0.3 0 1\nvn 0 0.3 1\nvn 0 0 1\nf 1/1/1 2/2/2 3/3/3\n",
+        )
+        .unwrap();
+        let ply = dir.join("tri.ply");
+        std::fs::write(
+            &ply,
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0.3 0 1 0.1 0.2\n1 0 0 0 0.3 1 0.9 0.2\n0 1 0 0 0 1 0.1 0.7\n3 0 1 2\n",
+        )
+        .unwrap();
+        (obj.display().to_string(), ply.display().to_string())
+    }
+
+    /// The hit of a ray from `origin` along `dir` on the scene's only shape, given with a
+    /// textured bsdf (so that the hit carries uv) and `params` inside.
+    fn probe(
+        shape: &str,
+        params: &str,
+        origin: [f32; 3],
+        dir: [f32; 3],
+    ) -> crate::shapes::SurfaceHit {
+        let s = scene(&format!(
+            r#"<shape type="{shape}">{params}<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>"#
+        ));
+        let ray = Ray {
+            origin: Vec3A::from(origin),
+            dir: Vec3A::from(dir),
+            tmax: f32::INFINITY,
+        };
+        s.intersect(&ray).expect("the ray hits the shape")
+    }
+
+    fn near(a: Vec3A, b: [f32; 3]) -> bool {
+        (a - Vec3A::from(b)).length() < 1e-4
+    }
+
+    const MITSUBA_SHADING_NORMAL: [f32; 3] = [0.175354, 0.058451, 0.982769];
+
+    /// `flip_normals` negates the geometric and shading normals and keeps uv and dp/du, for
+    /// every shape kind (Mitsuba 3.9.1 prints the same for these rays).
+    #[test]
+    fn flip_normals_negates_both_normals_for_every_shape() {
+        let (obj, ply) = triangle_files();
+        let down = [0.0, 0.0, -1.0];
+        let cases = [
+            (
+                "obj",
+                format!(r#"<string name="filename" value="{obj}"/>"#),
+                [0.2, 0.2, 5.0],
+                down,
+            ),
+            (
+                "ply",
+                format!(r#"<string name="filename" value="{ply}"/>"#),
+                [0.2, 0.2, 5.0],
+                down,
+            ),
+            ("rectangle", String::new(), [0.2, 0.2, 5.0], down),
+            ("cube", String::new(), [0.2, 0.2, 5.0], down),
+            ("sphere", String::new(), [0.2, 0.2, 5.0], down),
+            ("disk", String::new(), [0.2, 0.3, 5.0], down),
+            ("cylinder", String::new(), [5.0, 0.2, 0.5], [-1.0, 0.0, 0.0]),
+        ];
+        for (shape, params, o, d) in cases {
+            let plain = probe(shape, &params, o, d);
+            let flip = format!(r#"{params}<boolean name="flip_normals" value="true"/>"#);
+            let flipped = probe(shape, &flip, o, d);
+            assert_eq!(flipped.ng, -plain.ng, "{shape}");
+            assert_eq!(flipped.ns, -plain.ns, "{shape}");
+            assert_eq!(
+                (flipped.uv, flipped.dpdu),
+                (plain.uv, plain.dpdu),
+                "{shape}"
+            );
+            assert!(
+                plain.ng.dot(Vec3A::from(d)) < 0.0,
+                "{shape}: outward before flipping"
+            );
+        }
+        let (o, d) = ([0.2, 0.2, 5.0], down);
+        let obj_params = format!(r#"<string name="filename" value="{obj}"/>"#);
+        assert!(near(
+            probe("obj", &obj_params, o, d).ns,
+            MITSUBA_SHADING_NORMAL
+        ));
+    }
+
+    /// `face_normals` drops the vertex normals: the shading normal is the face's (Mitsuba
+    /// 3.9.1: (0, 0, 1) here, and the interpolated normal without it).
+    #[test]
+    fn face_normals_shade_flat() {
+        let (obj, ply) = triangle_files();
+        for file in [obj, ply] {
+            let f = format!(r#"<string name="filename" value="{file}"/>"#);
+            let smooth = probe(
+                if file.ends_with("obj") { "obj" } else { "ply" },
+                &f,
+                [0.2, 0.2, 5.0],
+                [0.0, 0.0, -1.0],
+            );
+            assert!(
+                near(smooth.ns, MITSUBA_SHADING_NORMAL),
+                "{file}: {}",
+                smooth.ns
+            );
+            let flat = format!(r#"{f}<boolean name="face_normals" value="true"/>"#);
+            let flat = probe(
+                if file.ends_with("obj") { "obj" } else { "ply" },
+                &flat,
+                [0.2, 0.2, 5.0],
+                [0.0, 0.0, -1.0],
+            );
+            assert_eq!(flat.ns, flat.ng);
+            assert!(near(flat.ns, [0.0, 0.0, 1.0]));
+        }
+    }
+
+    /// `flip_tex_coords`: v' = 1 - v, by default for OBJ and not for PLY (Mitsuba 3.9.1's uv at
+    /// this hit: (0.26, 0.7) flipped, (0.26, 0.3) not).
+    #[test]
+    fn flip_tex_coords_defaults_and_overrides() {
+        let (obj, ply) = triangle_files();
+        let uv = |shape: &str, file: &str, flip: Option<bool>| {
+            let mut p = format!(r#"<string name="filename" value="{file}"/>"#);
+            if let Some(f) = flip {
+                p += &format!(r#"<boolean name="flip_tex_coords" value="{f}"/>"#);
+            }
+            probe(shape, &p, [0.2, 0.2, 5.0], [0.0, 0.0, -1.0]).uv
+        };
+        let close = |a: glam::Vec2, b: [f32; 2]| (a - glam::Vec2::from(b)).length() < 1e-5;
+        assert!(close(uv("obj", &obj, None), [0.26, 0.7]));
+        assert!(close(uv("obj", &obj, Some(false)), [0.26, 0.3]));
+        assert!(close(uv("ply", &ply, None), [0.26, 0.3]));
+        assert!(close(uv("ply", &ply, Some(true)), [0.26, 0.7]));
+    }
+
+    /// `to_world` moves mesh normals by the inverse transpose (Mitsuba 3.9.1 for scale (2, 1, 1):
+    /// shading normal (0.089848, 0.058014, 0.994264) at the same point of the triangle).
+    #[test]
+    fn to_world_transforms_normals_by_the_inverse_transpose() {
+        let (obj, _) = triangle_files();
+        let p = format!(
+            r#"<string name="filename" value="{obj}"/><transform name="to_world"><scale x="2" y="1" z="1"/></transform>"#
+        );
+        let hit = probe("obj", &p, [0.4, 0.2, 5.0], [0.0, 0.0, -1.0]);
+        assert!(near(hit.ns, [0.089848, 0.058014, 0.994264]), "{}", hit.ns);
+        assert!((hit.uv - glam::Vec2::new(0.26, 0.7)).length() < 1e-5);
     }
 }

@@ -14,6 +14,7 @@ use crate::accel::{Accel, ClosestHit, PrimGeom};
 use crate::cameras::Camera;
 use crate::lights::Light;
 use crate::ray::Ray;
+use crate::shapes::attributes::{AttributePoint, MeshAttributes};
 use crate::shapes::mesh::MeshData;
 use crate::shapes::{PrimInfo, Shape, ShapeKind, SurfaceHit};
 use crate::textures::Texture;
@@ -33,6 +34,8 @@ pub struct RenderScene {
     pub(crate) shapes: Vec<Shape>,
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
+    /// Mesh attributes for `mesh_attribute` textures (empty when no texture reads them).
+    pub(crate) attributes: MeshAttributes,
     pub(crate) lights: Vec<Light>,
     /// Indices of lights at infinity (constant background, environment maps).
     pub(crate) infinite_lights: Vec<u32>,
@@ -97,6 +100,8 @@ impl RenderScene {
         let info = &self.prims[prim as usize];
         match &self.shapes[info.shape as usize].kind {
             ShapeKind::Sphere(sphere) => sphere.prim_geom(),
+            ShapeKind::Disk(disk) => disk.prim_geom(),
+            ShapeKind::Cylinder(cylinder) => cylinder.prim_geom(),
             ShapeKind::Mesh(_) => {
                 let [p0, p1, p2] = info.indices.map(|i| self.mesh.positions[i as usize]);
                 PrimGeom::Triangle { p0, p1, p2 }
@@ -149,6 +154,21 @@ impl RenderScene {
         // Anisotropic BSDFs need dp/du for their tangent frame.
         let needs_uv = material.is_textured() || material.anisotropic || shape.textured_emission;
         shape.surface(&self.mesh, prim, ray, hit, needs_uv)
+    }
+
+    /// Where `mesh_attribute` textures are evaluated at `hit`; None when the scene has none.
+    #[inline(always)]
+    pub(crate) fn attribute_point(&self, hit: &SurfaceHit) -> Option<AttributePoint<'_>> {
+        if self.attributes.list.is_empty() {
+            return None;
+        }
+        Some(AttributePoint {
+            attributes: &self.attributes,
+            prims: &self.prims,
+            shape: hit.shape,
+            prim: hit.prim,
+            bary: hit.bary,
+        })
     }
 
     /// True when nothing blocks the segment from `origin` along `dir` up to `tmax`.

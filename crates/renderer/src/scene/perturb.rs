@@ -126,6 +126,7 @@ mod tests {
             uv: Vec2::new(0.3, 0.6),
             dpdu: Vec3A::X * 2.0,
             dpdv: Vec3A::Y * 3.0,
+            bary: Vec2::ZERO,
             shape: 0,
             prim: 0,
         }

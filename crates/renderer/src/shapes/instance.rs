@@ -101,6 +101,7 @@ mod tests {
             uv: Vec2::new(0.25, 0.75),
             dpdu,
             dpdv,
+            bary: Vec2::ZERO,
             shape: 3,
             prim: 7,
         };

@@ -19,6 +19,19 @@ pub struct MeshData {
     pub triangle_count: usize,
 }
 
+impl MeshData {
+    /// Whether the triangle with (global) vertex indices `idx` becomes a primitive: zero-area
+    /// triangles can never be hit, and non-finite ones could not be placed in the BVH (their
+    /// bounds order nothing).
+    pub fn keeps_triangle(&self, idx: [u32; 3]) -> bool {
+        let p0 = self.positions[idx[0] as usize];
+        let p1 = self.positions[idx[1] as usize];
+        let p2 = self.positions[idx[2] as usize];
+        (p1 - p0).cross(p2 - p0).length_squared() != 0.0
+            && PrimGeom::Triangle { p0, p1, p2 }.is_finite()
+    }
+}
+
 /// What a mesh shape's hits need beyond its triangles' vertices.
 #[derive(Clone, Copy, Debug)]
 pub struct MeshShape {
@@ -31,6 +44,13 @@ pub struct MeshShape {
 }
 
 impl MeshShape {
+    /// A shape without primitives (one left out of the scene keeps its index).
+    pub const EMPTY: MeshShape = MeshShape {
+        has_normals: false,
+        flat_normals: false,
+        has_uvs: false,
+    };
+
     /// Transforms mesh `m` to world space and appends its vertices to `mesh` and its triangles
     /// to the BVH primitives `geoms` and their records `prims`. Degenerate (zero-area) triangles
     /// are dropped: they can never be hit and would only cost traversal time.
@@ -75,15 +95,13 @@ impl MeshShape {
                 .all(|t| normal(t[0]) == normal(t[1]) && normal(t[0]) == normal(t[2]));
         for tri in &m.indices {
             let idx = [tri[0] + base, tri[1] + base, tri[2] + base];
+            if !mesh.keeps_triangle(idx) {
+                continue;
+            }
             let p0 = mesh.positions[idx[0] as usize];
             let p1 = mesh.positions[idx[1] as usize];
             let p2 = mesh.positions[idx[2] as usize];
             let geom = PrimGeom::Triangle { p0, p1, p2 };
-            // Zero-area triangles can never be hit; non-finite ones could not be placed in the
-            // BVH (their bounds order nothing).
-            if (p1 - p0).cross(p2 - p0).length_squared() == 0.0 || !geom.is_finite() {
-                continue;
-            }
             prims.push(PrimInfo {
                 ng: (p1 - p0).cross(p2 - p0).normalize_or(Vec3A::Z),
                 indices: idx,
@@ -116,6 +134,7 @@ impl MeshShape {
             normals: vec![glam::Vec3::Z; 4],
             uvs,
             indices: vec![[0, 1, 2], [0, 2, 3]],
+            attributes: Vec::new(),
         }
     }
 
@@ -173,6 +192,7 @@ impl MeshShape {
             uv,
             dpdu,
             dpdv,
+            bary: Vec2::new(hit.b1, hit.b2),
             shape: prim.shape,
             prim: hit.prim,
         }

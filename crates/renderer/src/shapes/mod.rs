@@ -4,13 +4,19 @@
 //! variant with one-line arms below, its primitive in [`crate::accel::PrimGeom`] (or triangles),
 //! the parser mapping and the docs.
 
+pub mod attributes;
+pub mod cylinder;
+pub mod disk;
 pub mod instance;
 pub mod mesh;
+pub mod object_rows;
 pub mod sphere;
 pub mod triangle;
 
 use crate::accel::ClosestHit;
 use crate::ray::Ray;
+use cylinder::Cylinder;
+use disk::Disk;
 use glam::{Vec2, Vec3A};
 use mesh::{MeshData, MeshShape};
 use sphere::Sphere;
@@ -43,6 +49,9 @@ pub struct SurfaceHit {
     pub uv: Vec2,
     pub dpdu: Vec3A,
     pub dpdv: Vec3A,
+    /// The barycentrics (b1, b2) of a triangle hit, for `mesh_attribute` textures; zero on
+    /// analytic shapes.
+    pub bary: Vec2,
     pub shape: u32,
     pub prim: u32,
 }
@@ -52,6 +61,8 @@ pub struct SurfaceHit {
 pub enum ShapeKind {
     Mesh(MeshShape),
     Sphere(Sphere),
+    Disk(Disk),
+    Cylinder(Cylinder),
 }
 
 /// A shape of the scene: its geometry, material, emitter and orientation.
@@ -80,6 +91,8 @@ impl Shape {
         let mut sh = match &self.kind {
             ShapeKind::Mesh(m) => m.surface(mesh, prim, hit, needs_uv),
             ShapeKind::Sphere(s) => s.surface(ray, prim, hit, needs_uv),
+            ShapeKind::Disk(d) => d.surface(ray, prim, hit, needs_uv),
+            ShapeKind::Cylinder(c) => c.surface(ray, prim, hit, needs_uv),
         };
         if self.flip_normals {
             sh.ng = -sh.ng;

@@ -85,6 +85,7 @@ impl Sphere {
             uv,
             dpdu,
             dpdv,
+            bary: Vec2::ZERO,
             shape: prim.shape,
             prim: hit.prim,
         }
