@@ -161,11 +161,13 @@ pub fn render_slice(
         env_strategy: settings.env_strategy,
     };
 
-    let wavefront = match settings.path_loop {
-        PathLoop::Scalar => false,
-        PathLoop::Wavefront => true,
-        PathLoop::Auto => scene.lights.iter().any(|l| matches!(l, Light::Env(_))),
-    };
+    // `direct` with several samples per hit has no wavefront form: one path at a time.
+    let wavefront = scene.direct_samples.is_none()
+        && match settings.path_loop {
+            PathLoop::Scalar => false,
+            PathLoop::Wavefront => true,
+            PathLoop::Auto => scene.lights.iter().any(|l| matches!(l, Light::Env(_))),
+        };
 
     let rendered: Vec<TileFilm> = tiles
         .par_iter()

@@ -1,7 +1,9 @@
-//! Integrators: from a camera ray to the radiance arriving along it. One file per integrator;
-//! today Mitsuba's `path` ([`path::radiance`]), run one path at a time or as a wavefront of
-//! paths ([`wavefront::Wavefront`]), the same estimator.
+//! Integrators: from a camera ray to the radiance arriving along it. One file per integrator:
+//! Mitsuba's `path` ([`path::radiance`]), run one path at a time or as a wavefront of paths
+//! ([`wavefront::Wavefront`]), the same estimator; and Mitsuba's `direct` with several emitter or
+//! BSDF samples per hit ([`direct::radiance`]; with one of each it is `path` at depth 2).
 
+pub mod direct;
 pub mod path;
 pub mod wavefront;
 

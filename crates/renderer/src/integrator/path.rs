@@ -44,6 +44,11 @@ pub fn radiance(
     rays: &mut RayCount,
     mut first_hit: Option<Option<SurfaceHit>>,
 ) -> Vec3A {
+    if let Some(counts) = scene.direct_samples {
+        return super::direct::radiance(
+            scene, origin, dir, cone, settings, sampler, rays, first_hit, counts,
+        );
+    }
     let max_depth = if settings.max_depth < 0 {
         u32::MAX
     } else {
@@ -276,7 +281,7 @@ pub(super) fn shadow_ray(p: Vec3A, ng: Vec3A, ls: &LightSample) -> (Vec3A, Vec3A
 /// weighted against light sampling by MIS; `prev_bsdf_pdf` is the pdf of the BSDF sample that
 /// chose `dir` (None after a delta bounce or for camera rays: weight 1). `spread` filters
 /// environment maps (0: finest level).
-fn infinite_radiance(
+pub(super) fn infinite_radiance(
     scene: &RenderScene,
     throughput: Vec3A,
     dir: Vec3A,

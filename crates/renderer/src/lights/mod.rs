@@ -65,6 +65,15 @@ pub enum LightDraw {
 }
 
 impl Light {
+    /// A light no BSDF-sampled ray can reach (a point or a direction): delta lights.
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_) | Light::Projector(_)
+        )
+    }
+
+    /// A light at infinity that escaped rays see (constant background, environment map).
     pub fn is_infinite(&self) -> bool {
         matches!(self, Light::Constant(_) | Light::Env(_))
     }

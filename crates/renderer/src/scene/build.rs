@@ -366,6 +366,13 @@ impl RenderScene {
         let accel = Accel::build(&world_geoms, bvh_width);
         let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
+        let i = &scene.integrator;
+        if i.kind == "direct" && i.emitter_samples > 1 && lights.iter().any(Light::is_delta) {
+            warnings.push(format!(
+                "integrator 'direct' with emitter_samples {}: point, spot, directional and projector lights count {} times, as in Mitsuba 3.9.1 (its direct integrator does not divide their samples by the count)",
+                i.emitter_samples, i.emitter_samples
+            ));
+        }
         Ok(Self {
             camera,
             accel,
@@ -381,6 +388,11 @@ impl RenderScene {
             has_area_lights,
             hide_emitters: scene.integrator.hide_emitters,
             // The crop window counts only for the film it was written for (not under `--size`).
+            direct_samples: {
+                let i = &scene.integrator;
+                let counts = (i.emitter_samples, i.bsdf_samples);
+                (i.kind == "direct" && counts != (1, 1)).then_some(counts)
+            },
             sample_window: match scene.film.crop {
                 Some(c) if (width, height) == (scene.film.width, scene.film.height) => c.rect(),
                 _ => (0, 0, width, height),

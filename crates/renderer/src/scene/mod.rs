@@ -50,6 +50,10 @@ pub struct RenderScene {
     /// window, else the whole film. Mitsuba places samples inside the crop window only, so a
     /// filter offset that leaves it does not count, as at the film's edges.
     pub(crate) sample_window: (u32, u32, u32, u32),
+    /// Mitsuba's `direct` with other than one emitter and one BSDF sample per hit: the counts
+    /// ([`crate::integrator::direct`]); None renders `path` (`direct` with one of each is `path`
+    /// at depth 2).
+    pub(crate) direct_samples: Option<(u32, u32)>,
     /// What the build found worth telling the user (each once).
     pub warnings: Vec<String>,
 }
