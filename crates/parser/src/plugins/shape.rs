@@ -564,16 +564,6 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         Some((radiance, texture)) => (Some(radiance), texture),
         None => (None, None),
     };
-    if emitter_texture.is_some() && matches!(geometry, Geometry::Disk | Geometry::Cylinder { .. }) {
-        let at = emitters.first().map_or(elem.pos, |e| e.pos);
-        return Err(ctx.err(
-            at,
-            format!(
-                "a textured area emitter on {} is not supported yet (rectangles, spheres and meshes are)",
-                props.owner
-            ),
-        ));
-    }
     // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
     // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
     let bsdf = match bsdf {

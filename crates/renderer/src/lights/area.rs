@@ -148,8 +148,19 @@ impl AreaLight {
                     ..ls
                 });
             }
-            // Untextured ones are drawn by `draw`; the parser refuses textured ones.
-            AreaEmitter::Disk(_) | AreaEmitter::Cylinder(_) => return None,
+            // Textured disks and cylinders are sampled by area too, with the point's uv.
+            AreaEmitter::Disk(_) | AreaEmitter::Cylinder(_) => {
+                let (q, normal, uv) = match &self.emitter {
+                    AreaEmitter::Disk(disk) => disk.sample_point_uv(u),
+                    AreaEmitter::Cylinder(cylinder) => cylinder.sample_point_uv(u),
+                    _ => unreachable!("matched above"),
+                };
+                let n = if self.flip_normals { -normal } else { normal };
+                return self.connect_point(q, n, p).map(|ls| LightSample {
+                    radiance: self.radiance_at(textures, uv),
+                    ..ls
+                });
+            }
         };
         let s = sphere.sample_solid_angle(p, u)?;
         let mut n: Vec3A = s.normal.into();

@@ -1,6 +1,6 @@
 //! A textured `radiance` of an area emitter (Mitsuba's `area` with a texture): the texture at the
 //! surface's uv is the emitted radiance, and where Mitsuba importance-samples it (a bitmap on a
-//! shape whose uv parameterisation it can invert: here rectangles and spheres), next-event
+//! shape whose uv parameterisation it can invert: here rectangles, spheres, disks and cylinders), next-event
 //! estimation draws points by the texture's luminance as Mitsuba's `area.cpp` does: a uv from the
 //! texture's distribution (`sample_position`), mapped onto the shape (`eval_parameterization`),
 //! its density divided by |dp/du x dp/dv| and converted to solid angle.
@@ -12,13 +12,15 @@
 //! samples its bitmaps piecewise bilinearly instead; both are proper densities over the same
 //! support, so only noise differs.
 
+use crate::shapes::cylinder::Cylinder;
+use crate::shapes::disk::Disk;
 use glam::{Mat3, Vec2, Vec3A};
 use std::f32::consts::PI;
 use torrey_light::{luminance, AliasTable};
 use torrey_texture::Image;
 
 /// How a uv of the texture maps onto the emitting shape (Mitsuba's `eval_parameterization`).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub enum UvMap {
     /// Mitsuba's rectangle: p = origin + (2u - 1) ax + (2v - 1) ay, with the geometric normal
     /// of its triangles.
@@ -34,6 +36,10 @@ pub enum UvMap {
         radius: f32,
         to_world: Mat3,
     },
+    /// Mitsuba's disk: u = r, v = φ / 2π (boxed: the shape keeps its transforms).
+    Disk(Box<Disk>),
+    /// Mitsuba's cylinder: u = φ / 2π, v = height.
+    Cylinder(Box<Cylinder>),
 }
 
 impl UvMap {
@@ -65,6 +71,8 @@ impl UvMap {
                     2.0 * PI * PI * radius * radius * sin_theta,
                 )
             }
+            UvMap::Disk(ref disk) => disk.point_at_uv(uv),
+            UvMap::Cylinder(ref cylinder) => cylinder.point_at_uv(uv),
         }
     }
 
@@ -74,6 +82,8 @@ impl UvMap {
         match *self {
             UvMap::Rectangle { ax, ay, .. } => 4.0 * ax.cross(ay).length(),
             UvMap::Sphere { radius, .. } => 2.0 * PI * PI * radius * radius * (PI * uv.y).sin(),
+            UvMap::Disk(ref disk) => disk.uv_jacobian(uv),
+            UvMap::Cylinder(ref cylinder) => cylinder.uv_jacobian(uv),
         }
     }
 }

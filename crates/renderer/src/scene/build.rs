@@ -510,6 +510,8 @@ fn emission_texture(
             radius: sphere.radius,
             to_world: sphere.to_object.transpose(),
         }),
+        (_, ShapeKind::Disk(disk)) => Some(UvMap::Disk(Box::new(*disk))),
+        (_, ShapeKind::Cylinder(cylinder)) => Some(UvMap::Cylinder(Box::new(*cylinder))),
         _ => None,
     };
     let sampling = match (&textures[index as usize], map) {

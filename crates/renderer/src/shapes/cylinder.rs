@@ -124,6 +124,38 @@ impl Cylinder {
         let p = self.to_world.transform_point3a(Vec3A::new(c, s, u.x));
         (p, self.normal_at(c, s))
     }
+
+    /// The point at Mitsuba's uv (u = φ / 2π, v = height), the outward normal (before
+    /// `flip_normals`) and |dp/du × dp/dv| there: Mitsuba's `eval_parameterization`, for
+    /// sampling a textured emitter by its texture.
+    #[inline]
+    pub fn point_at_uv(&self, uv: Vec2) -> (Vec3A, Vec3A, f32) {
+        let (s, c) = (2.0 * PI * uv.x).sin_cos();
+        (
+            self.to_world.transform_point3a(Vec3A::new(c, s, uv.y)),
+            self.normal_at(c, s),
+            self.uv_jacobian(uv),
+        )
+    }
+
+    /// |dp/du × dp/dv| at `uv` (see [`Cylinder::point_at_uv`]).
+    #[inline]
+    pub fn uv_jacobian(&self, uv: Vec2) -> f32 {
+        let (s, c) = (2.0 * PI * uv.x).sin_cos();
+        let dpdu = self
+            .to_world
+            .transform_vector3a(2.0 * PI * Vec3A::new(-s, c, 0.0));
+        dpdu.cross(self.to_world.transform_vector3a(Vec3A::Z))
+            .length()
+    }
+
+    /// [`Cylinder::sample_point`] with Mitsuba's uv there (u = angle / 2π, v = height): the
+    /// sample's own coordinates.
+    #[inline]
+    pub fn sample_point_uv(&self, u: Vec2) -> (Vec3A, Vec3A, Vec2) {
+        let (p, n) = self.sample_point(u);
+        (p, n, Vec2::new(u.y, u.x))
+    }
 }
 
 /// Ray/cylinder intersection in the cylinder's object space (the unit tube, 0 <= z <= 1): the
@@ -165,6 +197,40 @@ pub fn intersect_cylinder(ray: &Ray, to_object: &ObjectRows, tmax: f32) -> Optio
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `point_at_uv` is the point whose Mitsuba uv is the uv asked for, on the wall (normal
+    /// outward), with |dp/du × dp/dv| by finite differences.
+    #[test]
+    fn point_at_uv_inverts_the_uv_and_gives_its_jacobian() {
+        let cyl = Cylinder::new(
+            glam::Vec3::new(1.0, 0.1, 0.2),
+            glam::Vec3::new(1.3, 1.1, 0.0),
+            0.3,
+            glam::Mat4::IDENTITY,
+        )
+        .unwrap();
+        for uv in [
+            Vec2::new(0.3, 0.1),
+            Vec2::new(0.8, 0.55),
+            Vec2::new(0.05, 0.9),
+        ] {
+            let (p, n, jac) = cyl.point_at_uv(uv);
+            let l = cyl.to_object.point(p);
+            let mut u = l.y.atan2(l.x) * (0.5 * FRAC_1_PI);
+            if u < 0.0 {
+                u += 1.0;
+            }
+            assert!((Vec2::new(u, l.z) - uv).length() < 1e-4, "{uv}");
+            assert!((n.length() - 1.0).abs() < 1e-5);
+            let h = 1e-3;
+            let du = (cyl.point_at_uv(uv + Vec2::new(h, 0.0)).0 - p) / h;
+            let dv = (cyl.point_at_uv(uv + Vec2::new(0.0, h)).0 - p) / h;
+            let fd = du.cross(dv).length();
+            assert!((fd - jac).abs() < 2e-2 * jac, "{fd} vs {jac}");
+            // Outward: away from the axis.
+            assert!(n.dot(p - cyl.to_world.transform_point3a(Vec3A::new(0.0, 0.0, uv.y))) > 0.0);
+        }
+    }
 
     fn ray(o: Vec3A, d: Vec3A) -> Ray {
         Ray {

@@ -102,6 +102,43 @@ impl Disk {
             self.normal,
         )
     }
+
+    /// The point at Mitsuba's uv (u = r, v = φ / 2π), the normal (before `flip_normals`) and
+    /// |dp/du × dp/dv| there (2π r times the area scale of `to_world`): Mitsuba's
+    /// `eval_parameterization`, for sampling a textured emitter by its texture.
+    #[inline]
+    pub fn point_at_uv(&self, uv: Vec2) -> (Vec3A, Vec3A, f32) {
+        let (sin_phi, cos_phi) = (2.0 * std::f32::consts::PI * uv.y).sin_cos();
+        let local = Vec3A::new(uv.x * cos_phi, uv.x * sin_phi, 0.0);
+        (
+            self.to_world.transform_point3a(local),
+            self.normal,
+            self.uv_jacobian(uv),
+        )
+    }
+
+    /// |dp/du × dp/dv| at `uv` (see [`Disk::point_at_uv`]).
+    #[inline]
+    pub fn uv_jacobian(&self, uv: Vec2) -> f32 {
+        let scale = self
+            .to_world
+            .transform_vector3a(Vec3A::X)
+            .cross(self.to_world.transform_vector3a(Vec3A::Y))
+            .length();
+        2.0 * std::f32::consts::PI * uv.x * scale
+    }
+
+    /// [`Disk::sample_point`] with Mitsuba's uv there (for a textured emitter's radiance).
+    #[inline]
+    pub fn sample_point_uv(&self, u: Vec2) -> (Vec3A, Vec3A, Vec2) {
+        let p = square_to_disk_concentric(u);
+        let local = Vec3A::new(p.x, p.y, 0.0);
+        (
+            self.to_world.transform_point3a(local),
+            self.normal,
+            disk_uv(local).0,
+        )
+    }
 }
 
 /// Mitsuba's disk uv at object-space point `local` (z = 0): u = r, v = atan2(y, x) / 2π in
@@ -160,6 +197,32 @@ pub fn intersect_disk(ray: &Ray, to_object: &ObjectRows, tmax: f32) -> Option<f3
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    /// `point_at_uv` inverts Mitsuba's disk uv (the uv of its point is the uv asked for), and its
+    /// Jacobian is |dp/du × dp/dv| by finite differences, through a non-uniform scale.
+    #[test]
+    fn point_at_uv_inverts_the_uv_and_gives_its_jacobian() {
+        let disk = Disk::new(
+            Mat4::from_translation(Vec3::new(0.5, 1.0, -2.0))
+                * Mat4::from_scale(Vec3::new(2.0, 0.5, 3.0)),
+        )
+        .unwrap();
+        for uv in [
+            Vec2::new(0.3, 0.1),
+            Vec2::new(0.8, 0.55),
+            Vec2::new(0.5, 0.9),
+        ] {
+            let (p, n, jac) = disk.point_at_uv(uv);
+            let back = disk_uv(disk.to_object.point(p)).0;
+            assert!((back - uv).length() < 1e-4, "{uv} -> {back}");
+            assert_eq!(n, disk.normal);
+            let h = 1e-3;
+            let du = (disk.point_at_uv(uv + Vec2::new(h, 0.0)).0 - p) / h;
+            let dv = (disk.point_at_uv(uv + Vec2::new(0.0, h)).0 - p) / h;
+            let fd = du.cross(dv).length();
+            assert!((fd - jac).abs() < 2e-2 * jac, "{fd} vs {jac}");
+        }
+    }
 
     fn ray(o: Vec3A, d: Vec3A) -> Ray {
         Ray {
