@@ -622,9 +622,16 @@ mod tests {
         ));
     }
 
-    /// A triangle in OBJ and PLY with per-vertex normals and uvs, written once per test run.
+    /// A triangle in OBJ and PLY with per-vertex normals and uvs, in a folder of its own.
     fn triangle_files() -> (String, String) {
-        let dir = std::env::temp_dir().join(format!("torrey-shape-options-{}", std::process::id()));
+        // One folder per call: tests run in parallel, and one rewriting the files while another
+        // reads them gave a truncated PLY.
+        static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!(
+            "torrey-shape-options-{}-{call}",
+            std::process::id()
+        ));
         std::fs::create_dir_all(&dir).unwrap();
         let obj = dir.join("tri.obj");
         std::fs::write(
