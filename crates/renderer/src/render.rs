@@ -5,8 +5,8 @@
 //! render.
 
 use crate::accel::ClosestHit;
-use crate::cameras::CameraSample;
-use crate::film::{Film, TileFilm};
+use crate::cameras::{Camera, CameraSample};
+use crate::film::{Film, Filter, TileFilm};
 use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
 use crate::integrator::{radiance, EnvStrategy, PathLoop, PathSettings, RayCount};
 use crate::lights::Light;
@@ -277,6 +277,66 @@ pub fn render_slice(
 }
 
 /// Renders one pixel's samples `samples` (global indices) into the tile's film.
+/// What every camera sample of one pixel shares: the camera, the pixel's ray cone and the film's
+/// filter; [`PixelCamera::ray`] draws one sample's camera ray. Both render loops start from it.
+struct PixelCamera<'a> {
+    camera: &'a Camera,
+    pixel: (u32, u32),
+    filter: Filter,
+    /// One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel
+    /// centre (the ray through the film's and the lens's centres).
+    cone: RayCone,
+    /// The camera's sampler draws: the film position, then its lens (if it has one).
+    requests: u32,
+}
+
+impl<'a> PixelCamera<'a> {
+    #[inline]
+    fn new(
+        scene: &'a RenderScene,
+        (x, y): (u32, u32),
+        settings: &RenderSettings,
+        path: PathSettings,
+        film: &TileFilm,
+    ) -> Self {
+        let camera = scene.camera();
+        let centre = camera
+            .generate_ray(&CameraSample {
+                film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                lens: Vec2::splat(0.5),
+            })
+            .1;
+        let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
+            .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
+        Self {
+            camera,
+            pixel: (x, y),
+            filter: film.filter(),
+            cone,
+            requests: 1 + camera.lens_requests(),
+        }
+    }
+
+    /// One sample's camera ray: origin, direction, filter offset and whether its film position
+    /// counts. Samples whose film position leaves the film do not count (see
+    /// `TileFilm::film_position`) and are not traced.
+    #[inline(always)]
+    fn ray<S: Sampler>(&self, sampler: &mut S, film: &TileFilm) -> (Vec3A, Vec3A, Vec2, bool) {
+        let offset = self.filter.offset(sampler.next_2d());
+        let (position, inside) = film.film_position(self.pixel, offset);
+        let lens = if self.camera.lens_requests() > 0 {
+            sampler.next_2d()
+        } else {
+            Vec2::ZERO
+        };
+        let (o, d) = self.camera.generate_ray(&CameraSample {
+            film: position,
+            lens,
+        });
+        (o, d, offset, inside)
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn render_pixel<S: Sampler>(
@@ -289,36 +349,9 @@ fn render_pixel<S: Sampler>(
     rays: &mut RayCount,
     film: &mut TileFilm,
 ) {
-    let camera = scene.camera();
-    // One sample's share of the pixel: 1/sqrt(spp) of its width, centred towards the pixel centre
-    // (the ray through the film's and the lens's centres).
-    let centre = camera
-        .generate_ray(&CameraSample {
-            film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
-            lens: Vec2::splat(0.5),
-        })
-        .1;
-    let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
-        .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
-    // The camera's sampler draws: the film position, then its lens (if it has one).
-    let camera_requests = 1 + camera.lens_requests();
-    let filter = film.filter();
-    // Samples whose film position leaves the film do not count (see `TileFilm::film_position`)
-    // and are not traced.
-    let camera_ray = |sampler: &mut S, film: &TileFilm| {
-        let offset = filter.offset(sampler.next_2d());
-        let (position, inside) = film.film_position((x, y), offset);
-        let lens = if camera.lens_requests() > 0 {
-            sampler.next_2d()
-        } else {
-            Vec2::ZERO
-        };
-        let (o, d) = camera.generate_ray(&CameraSample {
-            film: position,
-            lens,
-        });
-        (o, d, offset, inside)
-    };
+    let pixel = PixelCamera::new(scene, (x, y), settings, path, film);
+    let (camera, cone, camera_requests) = (pixel.camera, pixel.cone, pixel.requests);
+    let camera_ray = |sampler: &mut S, film: &TileFilm| pixel.ray(sampler, film);
     // Camera rays go in packets, traced together, for every group of `lanes` global sample
     // indices (k lanes .. (k+1) lanes) that lies whole in the range: each packet's rays are drawn
     // first, then their paths are followed one by one from the hits. Samplers resume a sample's
@@ -409,31 +442,9 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
     wavefront: &mut WavefrontBuffers<S>,
     film: &mut TileFilm,
 ) {
-    let camera = scene.camera();
-    let centre = camera
-        .generate_ray(&CameraSample {
-            film: Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
-            lens: Vec2::splat(0.5),
-        })
-        .1;
-    let cone = RayCone::from_pixel(camera.pixel_spread() * path.footprint_scale)
-        .toward_pixel_centre(centre.into(), centre_weight(settings.spp.max(1)));
-    let camera_requests = 1 + camera.lens_requests();
-    let filter = film.filter();
-    let camera_ray = |sampler: &mut S, film: &TileFilm| {
-        let offset = filter.offset(sampler.next_2d());
-        let (position, inside) = film.film_position((x, y), offset);
-        let lens = if camera.lens_requests() > 0 {
-            sampler.next_2d()
-        } else {
-            Vec2::ZERO
-        };
-        let (o, d) = camera.generate_ray(&CameraSample {
-            film: position,
-            lens,
-        });
-        (o, d, offset, inside)
-    };
+    let pixel = PixelCamera::new(scene, (x, y), settings, path, film);
+    let (camera, cone, camera_requests) = (pixel.camera, pixel.cone, pixel.requests);
+    let camera_ray = |sampler: &mut S, film: &TileFilm| pixel.ray(sampler, film);
     let lanes = if settings.packets && camera.rays_share_origin() {
         scene.packet_width().min(MAX_PACKET)
     } else {

@@ -4,7 +4,7 @@
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::plugins::bsdf::{color_param, texture_ref};
-use crate::plugins::sensor::focal_length_fov;
+use crate::plugins::sensor::{checked_fov, focal_length_fov, focal_length_param, fov_axis_param};
 use crate::plugins::texture::{bitmap_element, parse_bitmap, parse_texture};
 use crate::props::Props;
 use crate::scene::{ColorParam, FovAxis, Light};
@@ -258,33 +258,8 @@ fn parse_projector(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<L
                 "a projector takes 'fov' or 'focal_length', not both",
             ))
         }
-        (Some((f, pos)), None) => {
-            if !(f > 0.0 && f < 180.0) {
-                return Err(ctx.err(
-                    pos,
-                    format!("fov must be between 0 and 180 degrees, found {f}"),
-                ));
-            }
-            (f, FovAxis::X)
-        }
-        (None, Some(a)) => {
-            let mm = a
-                .value
-                .trim()
-                .strip_suffix("mm")
-                .and_then(|s| s.trim().parse::<f32>().ok())
-                .filter(|&v| v > 0.0 && v.is_finite())
-                .ok_or_else(|| {
-                    ctx.err(
-                        a.value_pos,
-                        format!(
-                            "cannot parse focal_length '{}' (expected e.g. 50mm)",
-                            a.value
-                        ),
-                    )
-                })?;
-            (focal_length_fov(mm), FovAxis::Diagonal)
-        }
+        (Some((f, pos)), None) => (checked_fov(ctx, f, pos)?, FovAxis::X),
+        (None, Some(a)) => (focal_length_param(ctx, a)?, FovAxis::Diagonal),
         (None, None) => (focal_length_fov(50.0), FovAxis::Diagonal),
     };
     if let Some(a) = axis {
@@ -294,21 +269,7 @@ fn parse_projector(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<L
                 "fov_axis without fov is ignored: Mitsuba measures focal_length along the diagonal",
             );
         } else {
-            fov_axis = match a.value.to_ascii_lowercase().as_str() {
-                "x" => FovAxis::X,
-                "y" => FovAxis::Y,
-                "diagonal" => FovAxis::Diagonal,
-                "smaller" => FovAxis::Smaller,
-                "larger" => FovAxis::Larger,
-                v => {
-                    return Err(ctx.err(
-                        a.value_pos,
-                        format!(
-                            "unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"
-                        ),
-                    ))
-                }
-            };
+            fov_axis = fov_axis_param(ctx, a)?;
         }
     }
     let to_world = match props.transform_pos(ctx, &["to_world"], false)? {

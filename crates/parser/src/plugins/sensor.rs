@@ -8,7 +8,7 @@ use crate::scene::{
     Camera, CameraKind, CropWindow, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler,
 };
 use crate::transform::frame_problem;
-use crate::xml::Element;
+use crate::xml::{Attr, Element, Pos};
 use glam::{Mat4, Vec2};
 
 /// Sensor types read (see [`parse_sensor`]).
@@ -53,6 +53,55 @@ const FILM_DIAGONAL_MM: f32 = 43.266_617;
 /// diagonal: 2 atan(diagonal / (2 f)); 50 mm gives 46.79 degrees.
 pub(crate) fn focal_length_fov(mm: f32) -> f32 {
     2.0 * (FILM_DIAGONAL_MM / (2.0 * mm)).atan().to_degrees()
+}
+
+/// A `fov` in degrees, checked to lie strictly between 0 and 180.
+pub(crate) fn checked_fov(ctx: &Ctx, f: f32, pos: Pos) -> Result<f32> {
+    if f > 0.0 && f < 180.0 {
+        Ok(f)
+    } else {
+        Err(ctx.err(
+            pos,
+            format!("fov must be between 0 and 180 degrees, found {f}"),
+        ))
+    }
+}
+
+/// Mitsuba's `focal_length` (`"50mm"`) as a field of view along the diagonal, in degrees.
+pub(crate) fn focal_length_param(ctx: &Ctx, a: &Attr) -> Result<f32> {
+    let mm = a
+        .value
+        .trim()
+        .strip_suffix("mm")
+        .and_then(|s| s.trim().parse::<f32>().ok())
+        .filter(|&v| v > 0.0 && v.is_finite())
+        .ok_or_else(|| {
+            ctx.err(
+                a.value_pos,
+                format!(
+                    "cannot parse focal_length '{}' (expected e.g. 50mm)",
+                    a.value
+                ),
+            )
+        })?;
+    Ok(focal_length_fov(mm))
+}
+
+/// Mitsuba's `fov_axis`: x, y, diagonal, smaller or larger (any case).
+pub(crate) fn fov_axis_param(ctx: &Ctx, a: &Attr) -> Result<FovAxis> {
+    Ok(match a.value.to_ascii_lowercase().as_str() {
+        "x" => FovAxis::X,
+        "y" => FovAxis::Y,
+        "diagonal" => FovAxis::Diagonal,
+        "smaller" => FovAxis::Smaller,
+        "larger" => FovAxis::Larger,
+        v => {
+            return Err(ctx.err(
+                a.value_pos,
+                format!("unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"),
+            ))
+        }
+    })
 }
 
 /// The camera used when a scene has no sensor (and the fov when a sensor gives none):
@@ -359,32 +408,11 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
         let axis = props.string(ctx, &["fov_axis"])?;
         match (fov, focal) {
             (Some((f, pos)), _) => {
-                if !(f > 0.0 && f < 180.0) {
-                    return Err(ctx.err(
-                        pos,
-                        format!("fov must be between 0 and 180 degrees, found {f}"),
-                    ));
-                }
-                camera.fov_degrees = f;
+                camera.fov_degrees = checked_fov(ctx, f, pos)?;
                 camera.fov_axis = FovAxis::X;
             }
             (None, Some(a)) => {
-                let mm = a
-                    .value
-                    .trim()
-                    .strip_suffix("mm")
-                    .and_then(|s| s.trim().parse::<f32>().ok())
-                    .filter(|&v| v > 0.0 && v.is_finite())
-                    .ok_or_else(|| {
-                        ctx.err(
-                            a.value_pos,
-                            format!(
-                                "cannot parse focal_length '{}' (expected e.g. 50mm)",
-                                a.value
-                            ),
-                        )
-                    })?;
-                camera.fov_degrees = focal_length_fov(mm);
+                camera.fov_degrees = focal_length_param(ctx, a)?;
                 camera.fov_axis = FovAxis::Diagonal;
             }
             (None, None) => {}
@@ -396,21 +424,7 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
                     "fov_axis without fov is ignored: Mitsuba measures focal_length along the diagonal",
                 );
             } else {
-                camera.fov_axis = match a.value.to_ascii_lowercase().as_str() {
-                    "x" => FovAxis::X,
-                    "y" => FovAxis::Y,
-                    "diagonal" => FovAxis::Diagonal,
-                    "smaller" => FovAxis::Smaller,
-                    "larger" => FovAxis::Larger,
-                    v => {
-                        return Err(ctx.err(
-                            a.value_pos,
-                            format!(
-                            "unknown fov_axis '{v}' (expected x, y, diagonal, smaller or larger)"
-                        ),
-                        ))
-                    }
-                };
+                camera.fov_axis = fov_axis_param(ctx, a)?;
             }
         }
         camera.principal_point_offset = Vec2::new(
