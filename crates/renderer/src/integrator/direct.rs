@@ -90,7 +90,7 @@ pub fn radiance(
     let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
     let wo_local = frame.to_local(wo);
     let attribute_point = scene.attribute_point(&hit);
-    let bsdf = material.bsdf(
+    let bsdf = material.bsdf_facing(
         &TextureQuery {
             textures: &scene.textures,
             at: attribute_point.as_ref(),
@@ -98,11 +98,12 @@ pub fn radiance(
             footprint,
         },
         perturbation,
+        wo_local,
     );
     let mis_env = settings.env_strategy == EnvStrategy::ImportanceMis;
 
     // Emitter sampling (only where the BSDF has a smooth lobe, as Mitsuba).
-    if light_count > 0 && bsdf.flags(wo_local).has_smooth() {
+    if light_count > 0 && bsdf.flags().has_smooth() {
         let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
         for _ in 0..emitter_samples {
             let u_light = sampler.next_1d();

@@ -179,7 +179,7 @@ pub fn radiance(
         let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
         let wo_local = frame.to_local(wo);
         let attribute_point = scene.attribute_point(&hit);
-        let bsdf = material.bsdf(
+        let bsdf = material.bsdf_facing(
             &TextureQuery {
                 textures: &scene.textures,
                 at: attribute_point.as_ref(),
@@ -187,6 +187,7 @@ pub fn radiance(
                 footprint,
             },
             perturbation,
+            wo_local,
         );
 
         // The BSDF sample that continues the path, drawn before next-event estimation although
@@ -196,7 +197,7 @@ pub fn radiance(
         let bsdf_sample = bsdf.sample(wo_local, u_dir, u_lobe);
 
         // Next-event estimation.
-        if let (true, Some((index, draw))) = (bsdf.flags(wo_local).has_smooth(), light_draw) {
+        if let (true, Some((index, draw))) = (bsdf.flags().has_smooth(), light_draw) {
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
             if let Some(ls) = light.connect(draw, hit.p, uniform_env, &scene.textures) {
@@ -231,7 +232,7 @@ pub fn radiance(
         throughput *= bs.weight;
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta() {
-            cone.spread += bsdf.roughness(wo_local) * settings.footprint_scale;
+            cone.spread += bsdf.roughness() * settings.footprint_scale;
             specular_chain = false;
         }
         eta *= bs.eta;
