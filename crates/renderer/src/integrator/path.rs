@@ -27,7 +27,7 @@ use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 use torrey_texture::{Footprint, RayCone};
 
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
@@ -72,6 +72,8 @@ pub fn radiance(
         tmax: f32::INFINITY,
     };
     let mut cone = cone;
+    // Cones only matter where they filter: textures (mip-mapping) and environment maps.
+    let track_cones = settings.mipmapping && scene.uses_cones;
     // Pdf of the BSDF sample that produced `ray` (for MIS at emitters it hits).
     let mut prev_bsdf_pdf = 0.0f32;
     let mut prev_delta = true;
@@ -83,16 +85,23 @@ pub fn radiance(
     let mut depth: u32 = 0;
 
     loop {
+        let last_segment = depth + 1 >= max_depth;
         // This bounce's random numbers, drawn before tracing: they do not depend on the hit, so
         // the sampler's hashing overlaps with the traversal instead of waiting for it, and every
-        // bounce uses the same sampler dimensions (4 draws) whichever branches it takes.
-        let light_rr = sampler.next_2d();
-        let u_pos = sampler.next_2d();
-        let u_dir = sampler.next_2d();
-        let u_lobe = sampler.next_1d();
+        // bounce uses the same sampler dimensions (4 draws) whichever branches it takes. The last
+        // segment only looks for emission and draws none (nothing is drawn after it).
+        let (light_rr, u_pos, u_dir, u_lobe) = if last_segment {
+            (Vec2::ZERO, Vec2::ZERO, Vec2::ZERO, 0.0)
+        } else {
+            (
+                sampler.next_2d(),
+                sampler.next_2d(),
+                sampler.next_2d(),
+                sampler.next_1d(),
+            )
+        };
         let (u_light, u_rr) = (light_rr.x, light_rr.y);
 
-        let last_segment = depth + 1 >= max_depth;
         // Next-event estimation's light, and the part of its sample that does not depend on the
         // hit (a point on an emitting mesh), made before tracing for the same reason: the
         // chain of dependent operations overlaps the traversal. Wasted when the ray escapes or
@@ -164,7 +173,9 @@ pub fn radiance(
         }
 
         // Shading frame, with the normal map applied and turned towards wo when two-sided.
-        cone = cone.at_distance(hit.t);
+        if track_cones {
+            cone = cone.at_distance(hit.t);
+        }
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
             cone.footprint(
@@ -232,7 +243,9 @@ pub fn radiance(
         throughput *= bs.weight;
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta() {
-            cone.spread += bsdf.roughness() * settings.footprint_scale;
+            if track_cones {
+                cone.spread += bsdf.roughness() * settings.footprint_scale;
+            }
             specular_chain = false;
         }
         eta *= bs.eta;
