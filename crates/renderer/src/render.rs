@@ -369,6 +369,7 @@ fn render_pixel<S: Sampler>(
     let mut offsets = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
+    let mut resume = [[0u64; 2]; MAX_PACKET];
     let mut packed = false;
     for s in samples.clone() {
         let (o, d, first_hit, offset, inside) = if in_packet(s, lanes, &samples) {
@@ -377,12 +378,13 @@ fn render_pixel<S: Sampler>(
                 for k in 0..lanes {
                     sampler.start_sample(s + k as u32);
                     (origin, dirs[k], offsets[k], insides[k]) = camera_ray(sampler, film);
+                    resume[k] = sampler.checkpoint();
                 }
                 packed = scene
                     .accel()
                     .intersect_packet(origin, &dirs[..lanes], &mut hits[..lanes]);
             }
-            sampler.resume_sample(s, camera_requests);
+            sampler.restore(resume[lane], s, camera_requests);
             let ray = Ray {
                 origin,
                 dir: dirs[lane],
