@@ -31,8 +31,8 @@ use glam::{Vec2, Vec3A};
 use torrey_texture::{Footprint, RayCone};
 
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
-/// `first_hit`, when given, is the primary ray's closest hit, already traced (in a packet with
-/// the pixel's other samples).
+/// `first_hit` is the primary ray's closest hit (between the camera's clip planes), which the
+/// render loop traces (in a packet with the pixel's other samples where it can).
 #[allow(clippy::too_many_arguments)]
 pub fn radiance(
     scene: &RenderScene,
@@ -42,11 +42,11 @@ pub fn radiance(
     settings: PathSettings,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
-    mut first_hit: Option<Option<SurfaceHit>>,
+    first_hit: Option<SurfaceHit>,
 ) -> Vec3A {
     if let Some(counts) = scene.direct_samples {
         return super::direct::radiance(
-            scene, origin, dir, cone, settings, sampler, rays, first_hit, counts,
+            scene, dir, cone, settings, sampler, rays, first_hit, counts,
         );
     }
     let max_depth = if settings.max_depth < 0 {
@@ -111,9 +111,9 @@ pub fn radiance(
             let index = ((u_light * light_count as f32) as u32 as usize).min(light_count - 1);
             (index, scene.lights[index].draw(u_pos))
         });
-        let hit = if let Some(hit) = first_hit.take() {
+        let hit = if depth == 0 {
             rays.closest += 1;
-            hit
+            first_hit
         } else if last_segment && !scene.has_area_lights {
             // Without area lights a hit on the last segment adds nothing: only whether the ray
             // escapes to the lights at infinity matters, which an any-hit query answers sooner.
