@@ -8,7 +8,8 @@
 //!   from the surface, in the frame of the shading normal *as the shape gives it*: `wo.z < 0`
 //!   means the viewer is on the back. Each model decides what its back side does (the course's
 //!   reflection-only models are black there; a dielectric refracts). [`SurfaceBsdf`] adds
-//!   two-sidedness (Mitsuba's `twosided`, every material of a torrey-dialect scene).
+//!   two-sidedness (Mitsuba's `twosided`, every material of a torrey-dialect scene);
+//!   [`SidedBsdf`] is the one side of it that a given `wo` sees, which the path loop shades with.
 //! - `eval` returns f(wo, wi)·|cos θi| for the non-delta lobes, `pdf` the solid-angle density of
 //!   `sample` producing `wi`, and `sample` a [`BsdfSample`] with its weight f·|cos θi|/pdf, the
 //!   relative index of refraction along the sampled direction and the sampled lobe's flags.
