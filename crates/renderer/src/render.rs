@@ -369,6 +369,7 @@ fn render_pixel<S: Sampler>(
     let mut offsets = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
+    let mut resume = [[0u64; 2]; MAX_PACKET];
     let mut packed = false;
     for s in samples.clone() {
         let (o, d, first_hit, offset, inside) = if in_packet(s, lanes, &samples) {
@@ -377,27 +378,27 @@ fn render_pixel<S: Sampler>(
                 for k in 0..lanes {
                     sampler.start_sample(s + k as u32);
                     (origin, dirs[k], offsets[k], insides[k]) = camera_ray(sampler, film);
+                    resume[k] = sampler.checkpoint();
                 }
                 packed = scene
                     .accel()
                     .intersect_packet(origin, &dirs[..lanes], &mut hits[..lanes]);
             }
-            sampler.resume_sample(s, camera_requests);
-            let ray = Ray {
+            sampler.restore(resume[lane], s, camera_requests);
+            (
                 origin,
-                dir: dirs[lane],
-                tmax: f32::INFINITY,
-            };
-            let first_hit =
-                packed.then(|| hits[lane].map(|hit: ClosestHit| scene.surface(&ray, &hit)));
-            (origin, dirs[lane], first_hit, offsets[lane], insides[lane])
+                dirs[lane],
+                packed.then_some(hits[lane]),
+                offsets[lane],
+                insides[lane],
+            )
         } else {
             sampler.start_sample(s);
             let (o, d, offset, inside) = camera_ray(sampler, film);
             (o, d, None, offset, inside)
         };
         if inside {
-            let first_hit = Some(clipped_first_hit(scene, o, d, first_hit));
+            let first_hit = clipped_first_hit(scene, o, d, first_hit);
             let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
             film.add_sample((x, y), offset, l);
         }
@@ -493,13 +494,7 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                     if !insides[k] {
                         continue;
                     }
-                    let ray = Ray {
-                        origin,
-                        dir: dirs[k],
-                        tmax: f32::INFINITY,
-                    };
-                    let traced =
-                        packed.then(|| hits[k].map(|hit: ClosestHit| scene.surface(&ray, &hit)));
+                    let traced = packed.then_some(hits[k]);
                     if per_path {
                         samplers.swap(cameras.len(), first + k);
                     }
@@ -584,32 +579,58 @@ impl<S> Default for WavefrontBuffers<S> {
 
 /// The camera ray's first hit between the camera's clip planes ([`crate::Camera::clip_range`]):
 /// Mitsuba starts perspective and thin lens rays on the near plane and ends them on the far one.
-/// `traced` is the closest hit from the ray's origin if it was traced already (in a packet); a
-/// hit nearer than the near plane is traced again from there.
+/// `traced` is the closest hit from the ray's origin if it was traced already (in a packet): its
+/// surface is set up only once it is known to lie between the planes; a hit nearer than the near
+/// plane is traced again from there.
 #[inline]
 fn clipped_first_hit(
     scene: &RenderScene,
     origin: Vec3A,
     dir: Vec3A,
-    traced: Option<Option<SurfaceHit>>,
+    traced: Option<Option<ClosestHit>>,
 ) -> Option<SurfaceHit> {
     let (near, far) = scene.camera().clip_range(dir);
-    let hit = traced.unwrap_or_else(|| {
-        scene.intersect(&Ray {
+    let Some(traced) = traced else {
+        let hit = scene.intersect(&Ray {
             origin,
             dir,
             tmax: far,
-        })
-    });
-    match hit {
-        Some(h) if h.t < near => scene.intersect(&Ray {
-            origin: origin + dir * near,
-            dir,
-            tmax: far - near,
-        }),
+        });
+        return match hit {
+            Some(h) if h.t < near => clip_near(scene, origin, dir, near, far),
+            Some(h) if h.t > far => None,
+            hit => hit,
+        };
+    };
+    match traced {
+        Some(h) if h.t < near => clip_near(scene, origin, dir, near, far),
         Some(h) if h.t > far => None,
-        hit => hit,
+        Some(h) => {
+            let ray = Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            Some(scene.surface(&ray, &h))
+        }
+        None => None,
     }
+}
+
+/// The camera ray's closest hit traced again from the near plane.
+#[cold]
+fn clip_near(
+    scene: &RenderScene,
+    origin: Vec3A,
+    dir: Vec3A,
+    near: f32,
+    far: f32,
+) -> Option<SurfaceHit> {
+    scene.intersect(&Ray {
+        origin: origin + dir * near,
+        dir,
+        tmax: far - near,
+    })
 }
 
 #[cfg(test)]

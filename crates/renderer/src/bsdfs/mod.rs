@@ -8,7 +8,8 @@
 //!   from the surface, in the frame of the shading normal *as the shape gives it*: `wo.z < 0`
 //!   means the viewer is on the back. Each model decides what its back side does (the course's
 //!   reflection-only models are black there; a dielectric refracts). [`SurfaceBsdf`] adds
-//!   two-sidedness (Mitsuba's `twosided`, every material of a torrey-dialect scene).
+//!   two-sidedness (Mitsuba's `twosided`, every material of a torrey-dialect scene);
+//!   [`SidedBsdf`] is the one side of it that a given `wo` sees, which the path loop shades with.
 //! - `eval` returns f(wo, wi)·|cos θi| for the non-delta lobes, `pdf` the solid-angle density of
 //!   `sample` producing `wi`, and `sample` a [`BsdfSample`] with its weight f·|cos θi|/pdf, the
 //!   relative index of refraction along the sampled direction and the sampled lobe's flags.
@@ -692,5 +693,84 @@ impl<'a> SurfaceBsdf<'a> {
     #[inline(always)]
     pub fn roughness(&self, wo: Vec3A) -> f32 {
         self.side(wo).0.roughness()
+    }
+}
+
+/// The side of a [`SurfaceBsdf`] that one viewing direction `wo` sees, chosen once per hit: what
+/// the path loop shades with. Only that side's parameters are resolved (textures of the other
+/// side are not looked up), the side is not decided again at every call, and it is half the size
+/// of a [`SurfaceBsdf`] with a second BSDF. Every method must be given that same `wo`; they
+/// return exactly what [`SurfaceBsdf`]'s do for it.
+#[derive(Clone, Copy, Debug)]
+pub struct SidedBsdf<'a> {
+    pub bsdf: Bsdf<'a>,
+    /// `wo` is behind a two-sided material: both directions are mirrored to the front for `bsdf`.
+    pub mirrored: bool,
+    /// Mitsuba's `normalmap` / `bumpmap` adapter, as in [`SurfaceBsdf`].
+    pub perturbation: Option<Perturbation>,
+}
+
+impl SidedBsdf<'_> {
+    /// `w` as `bsdf` sees it.
+    #[inline(always)]
+    fn local(&self, w: Vec3A) -> Vec3A {
+        if self.mirrored {
+            flip_z(w)
+        } else {
+            w
+        }
+    }
+
+    #[inline(always)]
+    pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
+        let f = self.bsdf.eval(self.local(wo), self.local(wi));
+        match &self.perturbation {
+            None => f,
+            Some(p) => f * p.factor(wi),
+        }
+    }
+
+    #[inline(always)]
+    pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
+        if let Some(p) = &self.perturbation {
+            if !p.same_side(wi) {
+                return 0.0;
+            }
+        }
+        self.bsdf.pdf(self.local(wo), self.local(wi))
+    }
+
+    #[inline(always)]
+    pub fn sample(&self, wo: Vec3A, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        let s = if self.mirrored {
+            self.bsdf.sample(flip_z(wo), u, u_lobe).map(|s| BsdfSample {
+                wi: flip_z(s.wi),
+                ..s
+            })
+        } else {
+            self.bsdf.sample(wo, u, u_lobe)
+        };
+        match &self.perturbation {
+            None => s,
+            Some(p) => s.and_then(|s| {
+                let k = p.factor(s.wi);
+                (k > 0.0).then(|| BsdfSample {
+                    weight: s.weight * k,
+                    ..s
+                })
+            }),
+        }
+    }
+
+    /// The lobes of the side seen.
+    #[inline(always)]
+    pub fn flags(&self) -> BsdfFlags {
+        self.bsdf.flags()
+    }
+
+    /// [`Bsdf::roughness`] of the side seen.
+    #[inline(always)]
+    pub fn roughness(&self) -> f32 {
+        self.bsdf.roughness()
     }
 }

@@ -18,18 +18,17 @@ use crate::textures::TextureQuery;
 use glam::Vec3A;
 use torrey_texture::{Footprint, RayCone};
 
-/// Radiance along the camera ray (`first_hit`: its hit, when already traced in a packet), with
+/// Radiance along the camera ray (`first_hit`: its closest hit, traced by the render loop), with
 /// `emitter_samples` light samples and `bsdf_samples` BSDF samples at the first hit.
 #[allow(clippy::too_many_arguments)]
 pub fn radiance(
     scene: &RenderScene,
-    origin: Vec3A,
     dir: Vec3A,
     cone: RayCone,
     settings: PathSettings,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
-    first_hit: Option<Option<SurfaceHit>>,
+    first_hit: Option<SurfaceHit>,
     (emitter_samples, bsdf_samples): (u32, u32),
 ) -> Vec3A {
     let light_count = scene.lights.len();
@@ -41,14 +40,7 @@ pub fn radiance(
     let total = (emitter_samples + bsdf_samples).max(1) as f32;
     let (frac_lum, frac_bsdf) = (emitter_samples as f32 / total, bsdf_samples as f32 / total);
     rays.closest += 1;
-    let hit = match first_hit {
-        Some(hit) => hit,
-        None => scene.intersect(&Ray {
-            origin,
-            dir,
-            tmax: f32::INFINITY,
-        }),
-    };
+    let hit = first_hit;
     let camera_sees_emitters = !scene.hide_emitters;
     let Some(hit) = hit else {
         if !camera_sees_emitters {
@@ -90,7 +82,7 @@ pub fn radiance(
     let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
     let wo_local = frame.to_local(wo);
     let attribute_point = scene.attribute_point(&hit);
-    let bsdf = material.bsdf(
+    let bsdf = material.bsdf_facing(
         &TextureQuery {
             textures: &scene.textures,
             at: attribute_point.as_ref(),
@@ -98,11 +90,12 @@ pub fn radiance(
             footprint,
         },
         perturbation,
+        wo_local,
     );
     let mis_env = settings.env_strategy == EnvStrategy::ImportanceMis;
 
     // Emitter sampling (only where the BSDF has a smooth lobe, as Mitsuba).
-    if light_count > 0 && bsdf.flags(wo_local).has_smooth() {
+    if light_count > 0 && bsdf.flags().has_smooth() {
         let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
         for _ in 0..emitter_samples {
             let u_light = sampler.next_1d();

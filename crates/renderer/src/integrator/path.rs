@@ -27,12 +27,12 @@ use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 use torrey_texture::{Footprint, RayCone};
 
 /// Radiance arriving at the camera along the primary ray; `rays` counts the queries traced.
-/// `first_hit`, when given, is the primary ray's closest hit, already traced (in a packet with
-/// the pixel's other samples).
+/// `first_hit` is the primary ray's closest hit (between the camera's clip planes), which the
+/// render loop traces (in a packet with the pixel's other samples where it can).
 #[allow(clippy::too_many_arguments)]
 pub fn radiance(
     scene: &RenderScene,
@@ -42,11 +42,11 @@ pub fn radiance(
     settings: PathSettings,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
-    mut first_hit: Option<Option<SurfaceHit>>,
+    first_hit: Option<SurfaceHit>,
 ) -> Vec3A {
     if let Some(counts) = scene.direct_samples {
         return super::direct::radiance(
-            scene, origin, dir, cone, settings, sampler, rays, first_hit, counts,
+            scene, dir, cone, settings, sampler, rays, first_hit, counts,
         );
     }
     let max_depth = if settings.max_depth < 0 {
@@ -72,6 +72,8 @@ pub fn radiance(
         tmax: f32::INFINITY,
     };
     let mut cone = cone;
+    // Cones only matter where they filter: textures (mip-mapping) and environment maps.
+    let track_cones = settings.mipmapping && scene.uses_cones;
     // Pdf of the BSDF sample that produced `ray` (for MIS at emitters it hits).
     let mut prev_bsdf_pdf = 0.0f32;
     let mut prev_delta = true;
@@ -83,16 +85,23 @@ pub fn radiance(
     let mut depth: u32 = 0;
 
     loop {
+        let last_segment = depth + 1 >= max_depth;
         // This bounce's random numbers, drawn before tracing: they do not depend on the hit, so
         // the sampler's hashing overlaps with the traversal instead of waiting for it, and every
-        // bounce uses the same sampler dimensions (4 draws) whichever branches it takes.
-        let light_rr = sampler.next_2d();
-        let u_pos = sampler.next_2d();
-        let u_dir = sampler.next_2d();
-        let u_lobe = sampler.next_1d();
+        // bounce uses the same sampler dimensions (4 draws) whichever branches it takes. The last
+        // segment only looks for emission and draws none (nothing is drawn after it).
+        let (light_rr, u_pos, u_dir, u_lobe) = if last_segment {
+            (Vec2::ZERO, Vec2::ZERO, Vec2::ZERO, 0.0)
+        } else {
+            (
+                sampler.next_2d(),
+                sampler.next_2d(),
+                sampler.next_2d(),
+                sampler.next_1d(),
+            )
+        };
         let (u_light, u_rr) = (light_rr.x, light_rr.y);
 
-        let last_segment = depth + 1 >= max_depth;
         // Next-event estimation's light, and the part of its sample that does not depend on the
         // hit (a point on an emitting mesh), made before tracing for the same reason: the
         // chain of dependent operations overlaps the traversal. Wasted when the ray escapes or
@@ -102,9 +111,9 @@ pub fn radiance(
             let index = ((u_light * light_count as f32) as u32 as usize).min(light_count - 1);
             (index, scene.lights[index].draw(u_pos))
         });
-        let hit = if let Some(hit) = first_hit.take() {
+        let hit = if depth == 0 {
             rays.closest += 1;
-            hit
+            first_hit
         } else if last_segment && !scene.has_area_lights {
             // Without area lights a hit on the last segment adds nothing: only whether the ray
             // escapes to the lights at infinity matters, which an any-hit query answers sooner.
@@ -164,7 +173,9 @@ pub fn radiance(
         }
 
         // Shading frame, with the normal map applied and turned towards wo when two-sided.
-        cone = cone.at_distance(hit.t);
+        if track_cones {
+            cone = cone.at_distance(hit.t);
+        }
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
             cone.footprint(
@@ -179,7 +190,7 @@ pub fn radiance(
         let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
         let wo_local = frame.to_local(wo);
         let attribute_point = scene.attribute_point(&hit);
-        let bsdf = material.bsdf(
+        let bsdf = material.bsdf_facing(
             &TextureQuery {
                 textures: &scene.textures,
                 at: attribute_point.as_ref(),
@@ -187,6 +198,7 @@ pub fn radiance(
                 footprint,
             },
             perturbation,
+            wo_local,
         );
 
         // The BSDF sample that continues the path, drawn before next-event estimation although
@@ -196,7 +208,7 @@ pub fn radiance(
         let bsdf_sample = bsdf.sample(wo_local, u_dir, u_lobe);
 
         // Next-event estimation.
-        if let (true, Some((index, draw))) = (bsdf.flags(wo_local).has_smooth(), light_draw) {
+        if let (true, Some((index, draw))) = (bsdf.flags().has_smooth(), light_draw) {
             let light = &scene.lights[index];
             let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
             if let Some(ls) = light.connect(draw, hit.p, uniform_env, &scene.textures) {
@@ -231,7 +243,9 @@ pub fn radiance(
         throughput *= bs.weight;
         let wi = frame.to_world(bs.wi);
         if !bs.is_delta() {
-            cone.spread += bsdf.roughness(wo_local) * settings.footprint_scale;
+            if track_cones {
+                cone.spread += bsdf.roughness() * settings.footprint_scale;
+            }
             specular_chain = false;
         }
         eta *= bs.eta;

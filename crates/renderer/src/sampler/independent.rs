@@ -49,6 +49,17 @@ impl Sampler for PcgSampler {
         }
     }
 
+    /// The stream's state: restoring it skips the rehash and the steps of `resume_sample`.
+    #[inline]
+    fn checkpoint(&self) -> [u64; 2] {
+        [self.rng.state, self.rng.increment]
+    }
+
+    #[inline]
+    fn restore(&mut self, [state, increment]: [u64; 2], _index: u32, _requests: u32) {
+        self.rng = Pcg32 { state, increment };
+    }
+
     #[inline]
     fn next_1d(&mut self) -> f32 {
         let x = self.rng.next_u32();
@@ -159,6 +170,19 @@ mod tests {
             let rest = [packed.next_1d(), packed.next_2d().y, packed.next_1d()];
             let r = reference[i as usize];
             assert_eq!([firsts[i as usize - 8], rest[0], rest[1], rest[2]], r);
+        }
+        // The same with checkpoints taken after each camera draw, restored instead of resumed.
+        let mut checkpoints = Vec::new();
+        for i in 8..16 {
+            packed.start_sample(i);
+            packed.next_2d();
+            checkpoints.push(packed.checkpoint());
+        }
+        for i in 8..16u32 {
+            packed.restore(checkpoints[i as usize - 8], i, 1);
+            let rest = [packed.next_1d(), packed.next_2d().y, packed.next_1d()];
+            let r = reference[i as usize];
+            assert_eq!([rest[0], rest[1], rest[2]], [r[1], r[2], r[3]]);
         }
         let mut bins = [0u32; 16];
         let n = 64_000u32;

@@ -33,6 +33,19 @@ pub trait Sampler {
     /// independent numbers just continues; a low-discrepancy sampler returns to the sample's
     /// next dimension.
     fn resume_sample(&mut self, _index: u32, _requests: u32) {}
+    /// Where the current sample stands now, for [`Sampler::restore`]: a sampler whose
+    /// `resume_sample` recomputes its state (the independent one rehashes its stream) returns
+    /// that state, so that going back costs a copy; the others return nothing.
+    #[inline]
+    fn checkpoint(&self) -> [u64; 2] {
+        [0; 2]
+    }
+    /// The same as `resume_sample(index, requests)`, given the [`Sampler::checkpoint`] taken
+    /// right after the first `requests` draws of sample `index`.
+    #[inline]
+    fn restore(&mut self, _checkpoint: [u64; 2], index: u32, requests: u32) {
+        self.resume_sample(index, requests);
+    }
     fn next_1d(&mut self) -> f32;
     fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())

@@ -366,6 +366,8 @@ impl RenderScene {
         let accel = Accel::build(&world_geoms, bvh_width);
         let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
+        let uses_cones = materials.iter().any(Material::is_textured)
+            || lights.iter().any(|l| matches!(l, Light::Env(_)));
         let i = &scene.integrator;
         if i.kind == "direct" && i.emitter_samples > 1 && lights.iter().any(Light::is_delta) {
             warnings.push(format!(
@@ -386,6 +388,7 @@ impl RenderScene {
             lights,
             infinite_lights,
             has_area_lights,
+            uses_cones,
             hide_emitters: scene.integrator.hide_emitters,
             // The crop window counts only for the film it was written for (not under `--size`).
             direct_samples: {

@@ -3,7 +3,7 @@
 //! (Mitsuba's `normalmap` / `bumpmap`, see [`MitsubaPerturb`]).
 
 use super::perturb::{MitsubaPerturb, PerturbSource};
-use crate::bsdfs::{BackSide, BsdfParams, Perturbation, SurfaceBsdf};
+use crate::bsdfs::{BackSide, BsdfParams, Perturbation, SidedBsdf, SurfaceBsdf};
 use crate::sampling::Frame;
 use crate::shapes::SurfaceHit;
 use crate::textures::{Texture, TextureQuery};
@@ -125,6 +125,28 @@ impl Material {
         }
     }
 
+    /// [`Material::bsdf`]'s side that `wo` (local, in the shading frame) sees, the other side's
+    /// parameters left unresolved: what the path loop shades with.
+    #[inline(always)]
+    pub fn bsdf_facing<'a>(
+        &'a self,
+        q: &TextureQuery<'a>,
+        perturbation: Option<Perturbation>,
+        wo: Vec3A,
+    ) -> SidedBsdf<'a> {
+        // As `SurfaceBsdf::side`: the back is whatever a viewer with wo.z < 0 sees.
+        let (params, mirrored) = match &self.back {
+            Some(b) if wo.z < 0.0 => (b, true),
+            None if wo.z < 0.0 && self.two_sided => (&self.bsdf, true),
+            _ => (&self.bsdf, false),
+        };
+        SidedBsdf {
+            bsdf: params.resolve(q),
+            mirrored,
+            perturbation,
+        }
+    }
+
     /// The local shading frame at a hit: the shading normal as the shape gives it (the BSDF
     /// decides what its back side does, see [`SurfaceBsdf`]), or the normal map's; with
     /// Mitsuba's `normalmap` / `bumpmap`, also the adapter the BSDF applies in that frame.
@@ -208,5 +230,75 @@ impl Material {
             n = (n + wo * (MIN_COS - cos)).normalize_or(n);
         }
         Frame::from_normal(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdfs::{DiffuseParams, PhongParams};
+    use crate::textures::{ColorSource, FloatSource};
+    use glam::Vec2;
+    use torrey_testkit::Rng;
+
+    /// The side [`Material::bsdf_facing`] resolves answers exactly as the whole
+    /// [`SurfaceBsdf`] does for the same `wo`, from the front and the back, for a one-sided
+    /// material, a two-sided one and one with a second BSDF behind (black, mirrored and other).
+    #[test]
+    fn the_facing_side_shades_as_the_whole_surface() {
+        let diffuse = BsdfParams::Diffuse(DiffuseParams {
+            reflectance: ColorSource::Constant(Vec3A::new(0.2, 0.5, 0.7)),
+        });
+        let phong = BsdfParams::Phong(PhongParams {
+            reflectance: ColorSource::Constant(Vec3A::new(0.6, 0.3, 0.1)),
+            exponent: FloatSource::Constant(20.0),
+        });
+        let materials = [
+            Material::new(phong.clone(), None, false, None, false),
+            Material::new(phong.clone(), None, true, None, false),
+            Material::new(phong, Some(diffuse), true, None, false),
+        ];
+        let q = TextureQuery {
+            textures: &[],
+            at: None,
+            uv: Vec2::ZERO,
+            footprint: Footprint::POINT,
+        };
+        let mut rng = Rng::new(5);
+        let mut nonzero_back = [0; 3];
+        for (m, material) in materials.iter().enumerate() {
+            let whole = material.bsdf(&q, None);
+            for k in 0..400 {
+                let (a, b) = (rng.vec2(), rng.vec2());
+                let dir = |u: Vec2, sign: f32| {
+                    let z = (0.05 + 0.9 * u.x) * sign;
+                    let r = (1.0 - z * z).sqrt();
+                    let phi = std::f32::consts::TAU * u.y;
+                    Vec3A::new(r * phi.cos(), r * phi.sin(), z)
+                };
+                let wo = dir(a, if k % 2 == 0 { 1.0 } else { -1.0 });
+                let wi = dir(b, if k % 4 < 2 { 1.0 } else { -1.0 });
+                let sided = material.bsdf_facing(&q, None, wo);
+                assert_eq!(sided.eval(wo, wi), whole.eval(wo, wi), "material {m}");
+                assert_eq!(sided.pdf(wo, wi), whole.pdf(wo, wi), "material {m}");
+                assert_eq!(sided.flags(), whole.flags(wo), "material {m}");
+                assert_eq!(sided.roughness(), whole.roughness(wo), "material {m}");
+                let (u, u_lobe) = (rng.vec2(), rng.f32());
+                let (s, w) = (sided.sample(wo, u, u_lobe), whole.sample(wo, u, u_lobe));
+                assert_eq!(
+                    s.map(|s| (s.wi, s.weight, s.pdf)),
+                    w.map(|s| (s.wi, s.weight, s.pdf))
+                );
+                if wo.z < 0.0 && whole.eval(wo, wi) != Vec3A::ZERO {
+                    nonzero_back[m] += 1;
+                }
+            }
+        }
+        // One-sided: black from behind; the others shade their back.
+        assert_eq!(nonzero_back[0], 0);
+        assert!(
+            nonzero_back[1] > 50 && nonzero_back[2] > 50,
+            "{nonzero_back:?}"
+        );
     }
 }

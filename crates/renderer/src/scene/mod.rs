@@ -42,6 +42,9 @@ pub struct RenderScene {
     /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
     /// path's last segment only needs to know whether it escapes (an any-hit query).
     pub(crate) has_area_lights: bool,
+    /// Whether ray cones filter anything: a material reads a texture, or a light at infinity is
+    /// an environment map. Without, the path loop does not track them.
+    pub(crate) uses_cones: bool,
     /// The integrator's `hide_emitters`: camera rays see no emission (neither emitting shapes
     /// nor the lights at infinity), as Mitsuba's path integrator; emitters seen after a bounce,
     /// even a mirror's, and the light they cast stay.
