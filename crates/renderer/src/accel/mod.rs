@@ -330,7 +330,7 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
         match self {
-            Layout::Four(nodes) => closest_hit(nodes, leaves, root, ray, stack),
+            Layout::Four(nodes) => closest_hit4(nodes, leaves, root, ray, stack),
             // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA (checked in its build).
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(nodes) => unsafe {
@@ -354,7 +354,7 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> bool {
         match self {
-            Layout::Four(nodes) => any_hit(nodes, leaves, root, ray, stack),
+            Layout::Four(nodes) => any_hit4(nodes, leaves, root, ray, stack),
             // SAFETY: as in `closest_hit`.
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(nodes) => unsafe {
@@ -378,4 +378,29 @@ impl Layout {
             Layout::Sixteen(_) => <x86_64::avx512::Nodes16 as InnerNodes>::WIDTH,
         }
     }
+}
+
+/// [`closest_hit`] over four-wide nodes, out of line like the other layouts' kernels: inlined
+/// into [`Accel::intersect`], its registers made every query save and restore six more.
+#[inline(never)]
+fn closest_hit4(
+    nodes: &Nodes4,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> Option<ClosestHit> {
+    closest_hit(nodes, leaves, root, ray, stack)
+}
+
+/// [`any_hit`] over four-wide nodes, out of line as [`closest_hit4`].
+#[inline(never)]
+fn any_hit4(
+    nodes: &Nodes4,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> bool {
+    any_hit(nodes, leaves, root, ray, stack)
 }
