@@ -7,7 +7,6 @@ use super::leaves::{closest_in_blocks, Leaves};
 use super::triangle4::Ray4;
 use super::ClosestHit;
 use crate::ray::Ray;
-use crate::shapes::triangle::WatertightRay;
 use glam::Vec3A;
 use std::mem::MaybeUninit;
 
@@ -100,7 +99,7 @@ pub(crate) fn slab_setup(ray: &Ray, inv: Vec3A) -> (Vec3A, [usize; 3], [usize; 3
 #[inline(always)]
 fn ray_constants<N: InnerNodes>(ray: &Ray) -> (N::RayConsts, Ray4) {
     let inv = reciprocal(ray);
-    let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv), ray.origin);
+    let ray4 = Ray4::for_ray(ray, inv);
     (N::ray_consts(ray, inv), ray4)
 }
 

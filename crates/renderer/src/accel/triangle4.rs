@@ -6,8 +6,8 @@
 //! hold NaN vertices: every comparison on them is false, so they never report a hit.
 
 use crate::ray::Ray;
-use crate::shapes::triangle::{intersect_triangle_pre, WatertightRay};
-use glam::{Vec3A, Vec4};
+use crate::shapes::triangle::{intersect_triangle_pre, WatertightRay, PERMUTATION};
+use glam::{Vec3A, Vec3Swizzles, Vec4};
 
 /// Up to four triangles in structure-of-arrays layout, with their primitive indices.
 #[derive(Clone, Copy, Debug)]
@@ -236,6 +236,35 @@ pub(crate) struct Ray4 {
 }
 
 impl Ray4 {
+    /// The constants of `ray`, whose reciprocal direction is `inv`: those of
+    /// `WatertightRay::with_reciprocal(ray, inv)`, with the largest axis found by one 3-lane
+    /// comparison (|x| > |y|, |x| > |z|, |y| > |z| in its bits 0-2, as `largest_axis` indexes its
+    /// table) instead of three scalar ones: the set-up every query pays, short shadow rays
+    /// included.
+    #[inline(always)]
+    pub(crate) fn for_ray(ray: &Ray, inv: Vec3A) -> Self {
+        /// Largest axis by the comparison bits (`shapes::triangle::largest_axis`'s table).
+        const LARGEST: [usize; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
+        let ad = ray.dir.abs();
+        let kz = LARGEST[ad.xxy().cmpgt(ad.yzz()).bitmask() as usize & 7];
+        let axes = PERMUTATION[kz];
+        let (d, inv, o) = (ray.dir.to_array(), inv.to_array(), ray.origin.to_array());
+        let sz = inv[kz];
+        Self {
+            axes,
+            shear: [
+                Vec4::splat(-d[axes[0]] * sz),
+                Vec4::splat(-d[axes[1]] * sz),
+                Vec4::splat(sz),
+            ],
+            origin: [
+                Vec4::splat(o[axes[0]]),
+                Vec4::splat(o[axes[1]]),
+                Vec4::splat(o[axes[2]]),
+            ],
+        }
+    }
+
     #[inline(always)]
     pub(crate) fn new(wr: &WatertightRay, origin: Vec3A) -> Self {
         let axes = wr.axes();
@@ -306,6 +335,43 @@ mod tests {
             }
         }
         assert!(hits > 5000, "the test rays should hit often, got {hits}");
+    }
+
+    /// `Ray4::for_ray` builds the constants `Ray4::new` builds from a `WatertightRay`, bit for
+    /// bit, on random directions and on ties, zeros, infinities and NaNs.
+    #[test]
+    fn for_ray_matches_the_watertight_constants() {
+        let mut rng = torrey_testkit::Rng::new(77);
+        let special = [0.0, -0.0, 1.0, -1.0, 0.5, f32::INFINITY, f32::NAN, 1e-30];
+        let mut dirs = Vec::new();
+        for &x in &special {
+            for &y in &special {
+                for &z in &special {
+                    dirs.push(Vec3A::new(x, y, z));
+                }
+            }
+        }
+        for _ in 0..10_000 {
+            dirs.push(Vec3A::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            ));
+        }
+        for dir in dirs {
+            let ray = Ray {
+                origin: Vec3A::new(0.25, -3.0, 7.5),
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let inv = crate::accel::traversal::reciprocal(&ray);
+            let a = Ray4::for_ray(&ray, inv);
+            let b = Ray4::new(&WatertightRay::with_reciprocal(&ray, inv), ray.origin);
+            assert_eq!(a.axes, b.axes, "{dir:?}");
+            let bits =
+                |r: &Ray4| [r.shear, r.origin].map(|v| v.map(|l| l.to_array().map(f32::to_bits)));
+            assert_eq!(bits(&a), bits(&b), "{dir:?}");
+        }
     }
 
     /// A ray through a vertex shared by triangles hits (exact zero edge functions).
