@@ -72,6 +72,24 @@ pub(crate) const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
     table
 };
 
+/// [`NEAR_FAR`] as byte offsets into a node's `bounds` whose rows are `row_bytes` long: what a
+/// wide node test adds to the node's address, without scaling row indices in every query's
+/// set-up.
+pub(crate) const fn near_far_offsets(row_bytes: usize) -> [([u32; 3], [u32; 3]); 8] {
+    let mut table = [([0; 3], [0; 3]); 8];
+    let mut octant = 0;
+    while octant < 8 {
+        let mut axis = 0;
+        while axis < 3 {
+            table[octant].0[axis] = (NEAR_FAR[octant].0[axis] * row_bytes) as u32;
+            table[octant].1[axis] = (NEAR_FAR[octant].1[axis] * row_bytes) as u32;
+            axis += 1;
+        }
+        octant += 1;
+    }
+    table
+}
+
 /// Rounding in the slab distances may shrink a box by an ulp or two; widening the exit distance
 /// by this factor keeps rays that graze a box edge (pbrt's 1 + 2γ₃ factor, γ₃ = 3 × 2⁻²⁴).
 pub(crate) const EXIT_WIDENING: f32 = 1.0 + 3.0 * f32::EPSILON;
@@ -92,6 +110,18 @@ pub(crate) fn reciprocal(ray: &Ray) -> Vec3A {
 #[inline(always)]
 pub(crate) fn slab_setup(ray: &Ray, inv: Vec3A) -> (Vec3A, [usize; 3], [usize; 3]) {
     let (near, far) = NEAR_FAR[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
+    (ray.origin * inv, near, far)
+}
+
+/// [`slab_setup`] with the near and far rows as byte offsets from `table` (a
+/// [`near_far_offsets`] table).
+#[inline(always)]
+pub(crate) fn slab_setup_offsets(
+    ray: &Ray,
+    inv: Vec3A,
+    table: &[([u32; 3], [u32; 3]); 8],
+) -> (Vec3A, [u32; 3], [u32; 3]) {
+    let (near, far) = table[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
     (ray.origin * inv, near, far)
 }
 
