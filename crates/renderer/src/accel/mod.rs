@@ -222,7 +222,8 @@ impl Accel {
         }
         // Uninitialised: zeroing the stack per ray showed up in profiles as 3% memset.
         let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
-        self.layout.closest_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds STACK_SIZE >= stack_needed entries.
+        unsafe { self.layout.closest_hit(&self.leaves, self.root, ray, stack) }
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax); stops at the first hit.
@@ -235,7 +236,8 @@ impl Accel {
             return self.occluded_deep(ray);
         }
         let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
-        self.layout.any_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds STACK_SIZE >= stack_needed entries.
+        unsafe { self.layout.any_hit(&self.leaves, self.root, ray, stack) }
     }
 
     /// Rays per packet this layout traces together (0: no packet traversal).
@@ -308,21 +310,26 @@ impl Accel {
     #[inline(never)]
     fn intersect_deep(&self, ray: &Ray) -> Option<ClosestHit> {
         let stack = &mut vec![MaybeUninit::uninit(); self.stack_needed];
-        self.layout.closest_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds stack_needed entries.
+        unsafe { self.layout.closest_hit(&self.leaves, self.root, ray, stack) }
     }
 
     #[cold]
     #[inline(never)]
     fn occluded_deep(&self, ray: &Ray) -> bool {
         let stack = &mut vec![MaybeUninit::uninit(); self.stack_needed];
-        self.layout.any_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds stack_needed entries.
+        unsafe { self.layout.any_hit(&self.leaves, self.root, ray, stack) }
     }
 }
 
 impl Layout {
     /// [`closest_hit`] on this layout's nodes.
+    ///
+    /// # Safety
+    /// `stack` must hold the tree's `stack_needed` entries.
     #[inline(always)]
-    fn closest_hit(
+    unsafe fn closest_hit(
         &self,
         leaves: &Leaves,
         root: ChildRef,
@@ -330,7 +337,8 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
         match self {
-            Layout::Four(nodes) => closest_hit4(nodes, leaves, root, ray, stack),
+            // SAFETY (all arms): the stack holds `stack_needed` entries (the caller's contract).
+            Layout::Four(nodes) => unsafe { closest_hit4(nodes, leaves, root, ray, stack) },
             // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA (checked in its build).
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(nodes) => unsafe {
@@ -345,8 +353,11 @@ impl Layout {
     }
 
     /// [`any_hit`] on this layout's nodes.
+    ///
+    /// # Safety
+    /// As for [`Layout::closest_hit`].
     #[inline(always)]
-    fn any_hit(
+    unsafe fn any_hit(
         &self,
         leaves: &Leaves,
         root: ChildRef,
@@ -354,7 +365,8 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> bool {
         match self {
-            Layout::Four(nodes) => any_hit4(nodes, leaves, root, ray, stack),
+            // SAFETY (all arms): the stack holds `stack_needed` entries (the caller's contract).
+            Layout::Four(nodes) => unsafe { any_hit4(nodes, leaves, root, ray, stack) },
             // SAFETY: as in `closest_hit`.
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(nodes) => unsafe {
@@ -382,25 +394,33 @@ impl Layout {
 
 /// [`closest_hit`] over four-wide nodes, out of line like the other layouts' kernels: inlined
 /// into [`Accel::intersect`], its registers made every query save and restore six more.
+///
+/// # Safety
+/// As for [`closest_hit`].
 #[inline(never)]
-fn closest_hit4(
+unsafe fn closest_hit4(
     nodes: &Nodes4,
     leaves: &Leaves,
     root: ChildRef,
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> Option<ClosestHit> {
-    closest_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { closest_hit(nodes, leaves, root, ray, stack) }
 }
 
 /// [`any_hit`] over four-wide nodes, out of line as [`closest_hit4`].
+///
+/// # Safety
+/// As for [`any_hit`].
 #[inline(never)]
-fn any_hit4(
+unsafe fn any_hit4(
     nodes: &Nodes4,
     leaves: &Leaves,
     root: ChildRef,
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> bool {
-    any_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { any_hit(nodes, leaves, root, ray, stack) }
 }

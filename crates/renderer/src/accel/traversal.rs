@@ -134,10 +134,12 @@ fn ray_constants<N: InnerNodes>(ray: &Ray) -> (N::RayConsts, Ray4) {
 }
 
 /// Closest-hit traversal: nearest child first, farther ones on the stack with their entry
-/// distance, popped only while they can still hold a closer hit. `stack` must hold
-/// [`super::Accel`]'s `stack_needed` entries.
+/// distance, popped only while they can still hold a closer hit.
+///
+/// # Safety
+/// `stack` must hold the tree's [`super::Accel`] `stack_needed` entries (see [`push`]).
 #[inline(always)]
-pub(crate) fn closest_hit<N: InnerNodes>(
+pub(crate) unsafe fn closest_hit<N: InnerNodes>(
     nodes: &N,
     leaves: &Leaves,
     root: ChildRef,
@@ -146,35 +148,67 @@ pub(crate) fn closest_hit<N: InnerNodes>(
 ) -> Option<ClosestHit> {
     let (box_ray, ray4) = ray_constants::<N>(ray);
     let mut best: Option<ClosestHit> = None;
-    nearest_first(
-        nodes,
-        root,
-        ray.tmax,
-        stack,
-        |node, tmax| nodes.test(node, &box_ray, tmax),
-        |leaf, tmax| {
-            let hit = match leaves.packed_blocks(leaf) {
-                Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
-                None => leaves.intersect_general(leaf, ray, &ray4, tmax),
-            };
-            match hit {
-                Some(hit) => {
-                    best = Some(hit);
-                    hit.t
+    // SAFETY: the caller's stack holds `stack_needed` entries.
+    unsafe {
+        nearest_first(
+            nodes,
+            root,
+            ray.tmax,
+            stack,
+            |node, tmax| nodes.test(node, &box_ray, tmax),
+            |leaf, tmax| {
+                let hit = match leaves.packed_blocks(leaf) {
+                    Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
+                    None => leaves.intersect_general(leaf, ray, &ray4, tmax),
+                };
+                match hit {
+                    Some(hit) => {
+                        best = Some(hit);
+                        hit.t
+                    }
+                    None => tmax,
                 }
-                None => tmax,
-            }
-        },
-    );
+            },
+        )
+    };
     best
+}
+
+/// Writes entry `i` of a traversal stack, without a bounds check: the traversals' pushes are on
+/// every query's path.
+///
+/// # Safety
+/// `i < stack.len()`. The traversals guarantee it for stacks of `stack_needed` entries,
+/// (width − 1) × depth + 1: below each inner node on the current path at most width − 1 of its
+/// children wait on the stack, and the deepest one pushes at most width before it pops one.
+/// NaN rays, which enter every box, stay within that bound too.
+#[inline(always)]
+unsafe fn push(stack: &mut [MaybeUninit<(ChildRef, f32)>], i: usize, entry: (ChildRef, f32)) {
+    debug_assert!(i < stack.len());
+    // SAFETY: `i` is in bounds (the caller's contract).
+    unsafe { *stack.get_unchecked_mut(i) = MaybeUninit::new(entry) }
+}
+
+/// Reads entry `i` of a traversal stack, without a bounds check.
+///
+/// # Safety
+/// Entry `i` has been written by [`push`] (so `i < stack.len()`).
+#[inline(always)]
+unsafe fn entry(stack: &[MaybeUninit<(ChildRef, f32)>], i: usize) -> (ChildRef, f32) {
+    debug_assert!(i < stack.len());
+    // SAFETY: the entry is in bounds and initialised (the caller's contract).
+    unsafe { stack.get_unchecked(i).assume_init() }
 }
 
 /// The loop of a closest-hit traversal, for one ray or a packet: `test` gives an inner node's
 /// children's entry distances and the mask of those entered before `tmax`; `leaf` tests a leaf's
 /// primitives and returns the new `tmax` (the distance beyond which nothing is looked at).
 /// Visits the nearest entered child first and stacks the others far to near.
+///
+/// # Safety
+/// `stack` must hold the tree's `stack_needed` entries (see [`push`]).
 #[inline(always)]
-pub(crate) fn nearest_first<N: InnerNodes>(
+pub(crate) unsafe fn nearest_first<N: InnerNodes>(
     nodes: &N,
     root: ChildRef,
     tmax: f32,
@@ -204,7 +238,9 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                     } else {
                         (first, second)
                     };
-                    stack[top] = MaybeUninit::new((nodes.child(current, far_lane), near[far_lane]));
+                    // SAFETY (all stack accesses below): within `stack_needed` (see `push`);
+                    // reads are of entries below `top`, which have been written.
+                    unsafe { push(stack, top, (nodes.child(current, far_lane), near[far_lane])) };
                     top += 1;
                     current = nodes.child(current, near_lane);
                     continue;
@@ -215,14 +251,15 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                 mask |= 1 << second;
                 let mut lane = first;
                 loop {
-                    let entry = (nodes.child(current, lane), near[lane]);
+                    let new = (nodes.child(current, lane), near[lane]);
                     let mut i = top;
-                    // SAFETY (all reads below): entries below `top` have been written.
-                    while i > base && unsafe { stack[i - 1].assume_init() }.1 < entry.1 {
-                        stack[i] = stack[i - 1];
-                        i -= 1;
+                    unsafe {
+                        while i > base && entry(stack, i - 1).1 < new.1 {
+                            push(stack, i, entry(stack, i - 1));
+                            i -= 1;
+                        }
+                        push(stack, i, new);
                     }
-                    stack[i] = MaybeUninit::new(entry);
                     top += 1;
                     if mask == 0 {
                         break;
@@ -231,7 +268,7 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                     mask &= mask - 1;
                 }
                 top -= 1;
-                current = unsafe { stack[top].assume_init() }.0;
+                current = unsafe { entry(stack, top) }.0;
                 continue;
             }
         } else {
@@ -243,7 +280,7 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                 return;
             }
             top -= 1;
-            let (node, near) = unsafe { stack[top].assume_init() };
+            let (node, near) = unsafe { entry(stack, top) };
             if near <= tmax {
                 current = node;
                 break;
@@ -252,10 +289,12 @@ pub(crate) fn nearest_first<N: InnerNodes>(
     }
 }
 
-/// Any-hit traversal: children in no particular order, done at the first blocker. `stack` must
-/// hold [`super::Accel`]'s `stack_needed` entries.
+/// Any-hit traversal: children in no particular order, done at the first blocker.
+///
+/// # Safety
+/// `stack` must hold the tree's [`super::Accel`] `stack_needed` entries (see [`push`]).
 #[inline(always)]
-pub(crate) fn any_hit<N: InnerNodes>(
+pub(crate) unsafe fn any_hit<N: InnerNodes>(
     nodes: &N,
     leaves: &Leaves,
     root: ChildRef,
@@ -273,7 +312,8 @@ pub(crate) fn any_hit<N: InnerNodes>(
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                stack[top] = MaybeUninit::new((nodes.child(current, lane), 0.0));
+                // SAFETY: within `stack_needed` (see `push`).
+                unsafe { push(stack, top, (nodes.child(current, lane), 0.0)) };
                 top += 1;
             }
         } else if let Some(blocks) = leaves.packed_blocks(current) {
@@ -292,6 +332,7 @@ pub(crate) fn any_hit<N: InnerNodes>(
             return false;
         }
         top -= 1;
-        current = unsafe { stack[top].assume_init() }.0;
+        // SAFETY: entries below `top` have been written.
+        current = unsafe { entry(stack, top) }.0;
     }
 }

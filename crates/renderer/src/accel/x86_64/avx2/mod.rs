@@ -23,7 +23,8 @@ pub fn available() -> bool {
 /// [`traversal::closest_hit`] over eight-wide nodes, compiled with AVX2 and FMA.
 ///
 /// # Safety
-/// The CPU must have AVX2 and FMA ([`available`]); `Nodes8` values exist only then.
+/// The CPU must have AVX2 and FMA ([`available`]); `Nodes8` values exist only then. `stack`
+/// must hold the tree's `stack_needed` entries.
 #[target_feature(enable = "avx2,fma")]
 pub(crate) unsafe fn closest_hit(
     nodes: &Nodes8,
@@ -32,7 +33,8 @@ pub(crate) unsafe fn closest_hit(
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> Option<ClosestHit> {
-    traversal::closest_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { traversal::closest_hit(nodes, leaves, root, ray, stack) }
 }
 
 /// [`traversal::any_hit`] over eight-wide nodes, compiled with AVX2 and FMA.
@@ -47,5 +49,6 @@ pub(crate) unsafe fn any_hit(
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> bool {
-    traversal::any_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { traversal::any_hit(nodes, leaves, root, ray, stack) }
 }

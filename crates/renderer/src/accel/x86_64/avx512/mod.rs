@@ -27,6 +27,7 @@ pub fn available() -> bool {
 ///
 /// # Safety
 /// The CPU must have AVX-512F, AVX2 and FMA ([`available`]); `Nodes16` values exist only then.
+/// `stack` must hold the tree's `stack_needed` entries.
 #[target_feature(enable = "avx512f,avx2,fma")]
 pub(crate) unsafe fn closest_hit(
     nodes: &Nodes16,
@@ -35,7 +36,8 @@ pub(crate) unsafe fn closest_hit(
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> Option<ClosestHit> {
-    traversal::closest_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { traversal::closest_hit(nodes, leaves, root, ray, stack) }
 }
 
 /// [`traversal::any_hit`] over sixteen-wide nodes, compiled with AVX-512.
@@ -50,5 +52,6 @@ pub(crate) unsafe fn any_hit(
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> bool {
-    traversal::any_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { traversal::any_hit(nodes, leaves, root, ray, stack) }
 }
