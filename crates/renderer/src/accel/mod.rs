@@ -153,6 +153,16 @@ impl Simd {
 /// up to sixteen children costs what the shallower tree saves. `--bvh-width 16` selects them.
 const AVX512_AUTO_WIDTH: usize = 8;
 
+/// Whether camera packets are sixteen rays wide: on CPUs with AVX-512, unless the environment
+/// variable `TORREY_PACKET=8` asks for eight.
+#[cfg(target_arch = "x86_64")]
+fn packet16() -> bool {
+    static SIXTEEN: OnceLock<bool> = OnceLock::new();
+    *SIXTEEN.get_or_init(|| {
+        Simd::detect() == Simd::Avx512 && std::env::var("TORREY_PACKET").map_or(true, |v| v != "8")
+    })
+}
+
 /// The node layout a BVH was built with: one variant per width and instruction set.
 enum Layout {
     Four(Nodes4),
@@ -240,21 +250,28 @@ impl Accel {
         unsafe { self.layout.any_hit(&self.leaves, self.root, ray, stack) }
     }
 
-    /// Rays per packet this layout traces together (0: no packet traversal).
+    /// Rays per packet this layout prefers to trace together (0: no packet traversal): sixteen
+    /// with AVX-512 (`TORREY_PACKET=8` asks for eight), eight with AVX2. Packets of eight are
+    /// traced wherever packets are.
     pub fn packet_width(&self) -> usize {
         match &self.layout {
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(_) | Layout::Sixteen(_) if self.stack_needed <= STACK_SIZE => {
-                x86_64::avx2::PACKET
+                if packet16() {
+                    x86_64::avx512::packet16::PACKET16
+                } else {
+                    x86_64::avx2::PACKET
+                }
             }
             _ => 0,
         }
     }
 
     /// Closest hits, in (0, ∞), of rays from one `origin` along the unit directions `dirs`
-    /// (exactly [`Accel::packet_width`] of them), written to `hits`. False when they were not
-    /// traced (no packet layout, or directions in different octants or with different largest
-    /// axes): the caller then traces them one by one. Each ray finds the hit it finds alone.
+    /// (eight of them, or sixteen on CPUs with AVX-512), written to `hits`. False when they were
+    /// not traced (no packet layout, another count, or directions in different octants or with
+    /// different largest axes): the caller then traces them one by one. Each ray finds the hit it
+    /// finds alone.
     #[inline]
     pub fn intersect_packet(
         &self,
@@ -269,8 +286,40 @@ impl Accel {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            if self.packet_width() == 0 {
+            if self.packet_width() == 0 || dirs.len() != hits.len() {
                 return false;
+            }
+            if dirs.len() == x86_64::avx512::packet16::PACKET16 {
+                if Simd::detect() != Simd::Avx512 {
+                    return false;
+                }
+                let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
+                    return false;
+                };
+                // SAFETY: checked for AVX-512 above, and as below.
+                return match &self.layout {
+                    Layout::Eight(nodes) => unsafe {
+                        x86_64::avx512::packet16::closest_hits16_8(
+                            nodes,
+                            &self.leaves,
+                            self.root,
+                            origin,
+                            dirs,
+                            hits,
+                        )
+                    },
+                    Layout::Sixteen(nodes) => unsafe {
+                        x86_64::avx512::packet16::closest_hits16_16(
+                            nodes,
+                            &self.leaves,
+                            self.root,
+                            origin,
+                            dirs,
+                            hits,
+                        )
+                    },
+                    Layout::Four(_) => false,
+                };
             }
             let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
                 return false;

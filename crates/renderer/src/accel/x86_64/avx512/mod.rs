@@ -4,6 +4,7 @@
 //! features enabled.
 
 mod nodes16;
+pub(crate) mod packet16;
 
 pub(crate) use nodes16::Nodes16;
 
