@@ -11,9 +11,10 @@
 //! - [`x86_64::avx2`]: eight-wide nodes tested with AVX2 and FMA, and camera-ray packets of
 //!   eight. Two thirds of the levels, each one 8-wide test: 11-28% more rays per second than
 //!   four-wide nodes on the project's scenes (`cargo bench --bench traversal`).
-//! - [`x86_64::avx512`]: sixteen-wide nodes tested with AVX-512, with the same packets, on
-//!   request (`BvhWidth::Sixteen`): on a Zen 5 CPU they measured no faster than eight-wide ones,
-//!   which stay the default there.
+//! - [`x86_64::avx512`]: sixteen-wide nodes tested with AVX-512, on request
+//!   (`BvhWidth::Sixteen`): on a Zen 5 CPU they measured no faster than eight-wide ones, which
+//!   stay the default there; and camera-ray packets of sixteen through either wide layout (the
+//!   default there: the node tests of a packet are shared by twice the rays).
 //!
 //! The instruction set is chosen once, at start-up ([`Simd::detect`]); a layout for a new ISA is a
 //! node file implementing [`traversal::InnerNodes`] plus a variant of [`Layout`].
@@ -94,7 +95,7 @@ pub enum Simd {
     /// AVX2 and FMA: eight-wide nodes and packets of eight camera rays.
     Avx2,
     /// AVX-512 (F, BW, VL, with AVX2 and FMA): the Sobol sampler's columns sixteen lanes wide,
-    /// and sixteen-wide nodes on request.
+    /// packets of sixteen camera rays, and sixteen-wide nodes on request.
     Avx512,
 }
 
@@ -151,6 +152,8 @@ impl Simd {
 /// round-robin, 16 against 8: cbox 0%, textured_mesh +4.5%, envmap_sky -1.3%, living room 0%):
 /// a node test covers twice the boxes for a quarter fewer levels, and the nearest-first order of
 /// up to sixteen children costs what the shallower tree saves. `--bvh-width 16` selects them.
+/// Re-measured with the leaner per-query set-up (7 rounds, fastest, 16 against 8): cbox 0.99 vs
+/// 1.00 s, textured_mesh 0.50 vs 0.52 s, living room 0.72 vs 0.71 s.
 const AVX512_AUTO_WIDTH: usize = 8;
 
 /// Whether camera packets are sixteen rays wide: on CPUs with AVX-512, unless the environment

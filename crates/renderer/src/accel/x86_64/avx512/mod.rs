@@ -1,7 +1,8 @@
-//! AVX-512 (F, with AVX2 and FMA): sixteen-wide BVH nodes ([`Nodes16`]); the camera-ray
-//! packets of eight trace through them with [`super::avx2::packet::closest_hits16`]. The traversal loops are the generic
-//! ones of [`crate::accel::traversal`], instantiated here inside functions compiled with these
-//! features enabled.
+//! AVX-512 (F, with AVX2 and FMA): sixteen-wide BVH nodes ([`Nodes16`]), through which the
+//! camera-ray packets of eight trace with [`super::avx2::packet::closest_hits16`], and camera-ray
+//! packets of sixteen through eight- or sixteen-wide nodes ([`packet16`]). The traversal loops
+//! are the generic ones of [`crate::accel::traversal`], instantiated here inside functions
+//! compiled with these features enabled.
 
 mod nodes16;
 pub(crate) mod packet16;
