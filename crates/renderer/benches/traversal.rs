@@ -6,7 +6,7 @@
 //! once and replayed, so only the BVH queries are timed (not the surface reconstruction). The
 //! last three columns trace eight jittered camera rays per pixel, as a render's samples, one by
 //! one and in packets of eight (`Accel::intersect_packet`; wide nodes only) and sixteen (two
-//! pixels; Embree only).
+//! pixels; torrey on CPUs with AVX-512).
 //! `cargo bench -p torrey-renderer --bench traversal -- cbox` runs only scenes whose file name
 //! contains "cbox". Each scene is measured with 4-wide and, on CPUs with AVX2, 8-wide BVH nodes
 //! (and 16-wide ones on CPUs with AVX-512).
@@ -246,7 +246,7 @@ fn torrey_tracer<'a>(
             .count()
     };
     let packets: Option<Box<dyn Fn() -> usize + 'a>> =
-        (accel.packet_width() == PACKET).then(|| {
+        (accel.packet_width() >= PACKET).then(|| {
             Box::new(move || {
                 pixels
                     .iter()
@@ -257,6 +257,26 @@ fn torrey_tracer<'a>(
                         } else {
                             one_by_one(dirs)
                         }
+                    })
+                    .sum()
+            }) as Box<dyn Fn() -> usize + 'a>
+        });
+    // Sixteen-ray packets (AVX-512): two pixels' rays, as Embree's `rtcIntersect16` column.
+    let packets16: Option<Box<dyn Fn() -> usize + 'a>> =
+        (accel.packet_width() == 2 * PACKET).then(|| {
+            Box::new(move || {
+                pixels
+                    .chunks(2)
+                    .map(|two| {
+                        let mut hits = [None; 2 * PACKET];
+                        if two.len() == 2 {
+                            let dirs: [Vec3A; 2 * PACKET] =
+                                std::array::from_fn(|i| two[i / PACKET][i % PACKET]);
+                            if accel.intersect_packet(origin, &dirs, &mut hits) {
+                                return hits.iter().flatten().count();
+                            }
+                        }
+                        two.iter().map(one_by_one).sum()
                     })
                     .sum()
             }) as Box<dyn Fn() -> usize + 'a>
@@ -274,7 +294,7 @@ fn torrey_tracer<'a>(
             })),
             Some(Box::new(move || pixels.iter().map(one_by_one).sum())),
             packets,
-            None,
+            packets16,
         ],
     }
 }

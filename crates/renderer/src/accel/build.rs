@@ -171,6 +171,8 @@ pub(super) fn build(geoms: &[PrimGeom], width: usize) -> (Layout, Leaves, ChildR
     } else {
         BvhBuildParams::medium_build()
     };
+    // Measured alternatives, no faster (renders, one thread, within ±2%): a collapse cost of 1
+    // or 6, and leaves of up to eight (two blocks) with a cost of 3 or 6.
     params.max_prims_per_leaf = 4;
     params.collapse_traversal_cost = 3.0;
     let bvh2 = obvhs::bvh2::builder::build_bvh2(&aabbs, params, &mut Duration::default());

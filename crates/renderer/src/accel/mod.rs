@@ -11,9 +11,10 @@
 //! - [`x86_64::avx2`]: eight-wide nodes tested with AVX2 and FMA, and camera-ray packets of
 //!   eight. Two thirds of the levels, each one 8-wide test: 11-28% more rays per second than
 //!   four-wide nodes on the project's scenes (`cargo bench --bench traversal`).
-//! - [`x86_64::avx512`]: sixteen-wide nodes tested with AVX-512, with the same packets, on
-//!   request (`BvhWidth::Sixteen`): on a Zen 5 CPU they measured no faster than eight-wide ones,
-//!   which stay the default there.
+//! - [`x86_64::avx512`]: sixteen-wide nodes tested with AVX-512, on request
+//!   (`BvhWidth::Sixteen`): on a Zen 5 CPU they measured no faster than eight-wide ones, which
+//!   stay the default there; and camera-ray packets of sixteen through either wide layout (the
+//!   default there: the node tests of a packet are shared by twice the rays).
 //!
 //! The instruction set is chosen once, at start-up ([`Simd::detect`]); a layout for a new ISA is a
 //! node file implementing [`traversal::InnerNodes`] plus a variant of [`Layout`].
@@ -94,7 +95,7 @@ pub enum Simd {
     /// AVX2 and FMA: eight-wide nodes and packets of eight camera rays.
     Avx2,
     /// AVX-512 (F, BW, VL, with AVX2 and FMA): the Sobol sampler's columns sixteen lanes wide,
-    /// and sixteen-wide nodes on request.
+    /// packets of sixteen camera rays, and sixteen-wide nodes on request.
     Avx512,
 }
 
@@ -151,7 +152,19 @@ impl Simd {
 /// round-robin, 16 against 8: cbox 0%, textured_mesh +4.5%, envmap_sky -1.3%, living room 0%):
 /// a node test covers twice the boxes for a quarter fewer levels, and the nearest-first order of
 /// up to sixteen children costs what the shallower tree saves. `--bvh-width 16` selects them.
+/// Re-measured with the leaner per-query set-up (7 rounds, fastest, 16 against 8): cbox 0.99 vs
+/// 1.00 s, textured_mesh 0.50 vs 0.52 s, living room 0.72 vs 0.71 s.
 const AVX512_AUTO_WIDTH: usize = 8;
+
+/// Whether camera packets are sixteen rays wide: on CPUs with AVX-512, unless the environment
+/// variable `TORREY_PACKET=8` asks for eight.
+#[cfg(target_arch = "x86_64")]
+fn packet16() -> bool {
+    static SIXTEEN: OnceLock<bool> = OnceLock::new();
+    *SIXTEEN.get_or_init(|| {
+        Simd::detect() == Simd::Avx512 && std::env::var("TORREY_PACKET").map_or(true, |v| v != "8")
+    })
+}
 
 /// The node layout a BVH was built with: one variant per width and instruction set.
 enum Layout {
@@ -222,7 +235,8 @@ impl Accel {
         }
         // Uninitialised: zeroing the stack per ray showed up in profiles as 3% memset.
         let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
-        self.layout.closest_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds STACK_SIZE >= stack_needed entries.
+        unsafe { self.layout.closest_hit(&self.leaves, self.root, ray, stack) }
     }
 
     /// True when anything lies along the ray with t in (0, ray.tmax); stops at the first hit.
@@ -235,24 +249,32 @@ impl Accel {
             return self.occluded_deep(ray);
         }
         let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
-        self.layout.any_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds STACK_SIZE >= stack_needed entries.
+        unsafe { self.layout.any_hit(&self.leaves, self.root, ray, stack) }
     }
 
-    /// Rays per packet this layout traces together (0: no packet traversal).
+    /// Rays per packet this layout prefers to trace together (0: no packet traversal): sixteen
+    /// with AVX-512 (`TORREY_PACKET=8` asks for eight), eight with AVX2. Packets of eight are
+    /// traced wherever packets are.
     pub fn packet_width(&self) -> usize {
         match &self.layout {
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(_) | Layout::Sixteen(_) if self.stack_needed <= STACK_SIZE => {
-                x86_64::avx2::PACKET
+                if packet16() {
+                    x86_64::avx512::packet16::PACKET16
+                } else {
+                    x86_64::avx2::PACKET
+                }
             }
             _ => 0,
         }
     }
 
     /// Closest hits, in (0, ∞), of rays from one `origin` along the unit directions `dirs`
-    /// (exactly [`Accel::packet_width`] of them), written to `hits`. False when they were not
-    /// traced (no packet layout, or directions in different octants or with different largest
-    /// axes): the caller then traces them one by one. Each ray finds the hit it finds alone.
+    /// (eight of them, or sixteen on CPUs with AVX-512), written to `hits`. False when they were
+    /// not traced (no packet layout, another count, or directions in different octants or with
+    /// different largest axes): the caller then traces them one by one. Each ray finds the hit it
+    /// finds alone.
     #[inline]
     pub fn intersect_packet(
         &self,
@@ -267,8 +289,40 @@ impl Accel {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            if self.packet_width() == 0 {
+            if self.packet_width() == 0 || dirs.len() != hits.len() {
                 return false;
+            }
+            if dirs.len() == x86_64::avx512::packet16::PACKET16 {
+                if Simd::detect() != Simd::Avx512 {
+                    return false;
+                }
+                let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
+                    return false;
+                };
+                // SAFETY: checked for AVX-512 above, and as below.
+                return match &self.layout {
+                    Layout::Eight(nodes) => unsafe {
+                        x86_64::avx512::packet16::closest_hits16_8(
+                            nodes,
+                            &self.leaves,
+                            self.root,
+                            origin,
+                            dirs,
+                            hits,
+                        )
+                    },
+                    Layout::Sixteen(nodes) => unsafe {
+                        x86_64::avx512::packet16::closest_hits16_16(
+                            nodes,
+                            &self.leaves,
+                            self.root,
+                            origin,
+                            dirs,
+                            hits,
+                        )
+                    },
+                    Layout::Four(_) => false,
+                };
             }
             let (Ok(dirs), Ok(hits)) = (dirs.try_into(), hits.try_into()) else {
                 return false;
@@ -308,21 +362,26 @@ impl Accel {
     #[inline(never)]
     fn intersect_deep(&self, ray: &Ray) -> Option<ClosestHit> {
         let stack = &mut vec![MaybeUninit::uninit(); self.stack_needed];
-        self.layout.closest_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds stack_needed entries.
+        unsafe { self.layout.closest_hit(&self.leaves, self.root, ray, stack) }
     }
 
     #[cold]
     #[inline(never)]
     fn occluded_deep(&self, ray: &Ray) -> bool {
         let stack = &mut vec![MaybeUninit::uninit(); self.stack_needed];
-        self.layout.any_hit(&self.leaves, self.root, ray, stack)
+        // SAFETY: the stack holds stack_needed entries.
+        unsafe { self.layout.any_hit(&self.leaves, self.root, ray, stack) }
     }
 }
 
 impl Layout {
     /// [`closest_hit`] on this layout's nodes.
+    ///
+    /// # Safety
+    /// `stack` must hold the tree's `stack_needed` entries.
     #[inline(always)]
-    fn closest_hit(
+    unsafe fn closest_hit(
         &self,
         leaves: &Leaves,
         root: ChildRef,
@@ -330,7 +389,8 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
         match self {
-            Layout::Four(nodes) => closest_hit(nodes, leaves, root, ray, stack),
+            // SAFETY (all arms): the stack holds `stack_needed` entries (the caller's contract).
+            Layout::Four(nodes) => unsafe { closest_hit4(nodes, leaves, root, ray, stack) },
             // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA (checked in its build).
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(nodes) => unsafe {
@@ -345,8 +405,11 @@ impl Layout {
     }
 
     /// [`any_hit`] on this layout's nodes.
+    ///
+    /// # Safety
+    /// As for [`Layout::closest_hit`].
     #[inline(always)]
-    fn any_hit(
+    unsafe fn any_hit(
         &self,
         leaves: &Leaves,
         root: ChildRef,
@@ -354,7 +417,8 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> bool {
         match self {
-            Layout::Four(nodes) => any_hit(nodes, leaves, root, ray, stack),
+            // SAFETY (all arms): the stack holds `stack_needed` entries (the caller's contract).
+            Layout::Four(nodes) => unsafe { any_hit4(nodes, leaves, root, ray, stack) },
             // SAFETY: as in `closest_hit`.
             #[cfg(target_arch = "x86_64")]
             Layout::Eight(nodes) => unsafe {
@@ -378,4 +442,37 @@ impl Layout {
             Layout::Sixteen(_) => <x86_64::avx512::Nodes16 as InnerNodes>::WIDTH,
         }
     }
+}
+
+/// [`closest_hit`] over four-wide nodes, out of line like the other layouts' kernels: inlined
+/// into [`Accel::intersect`], its registers made every query save and restore six more.
+///
+/// # Safety
+/// As for [`closest_hit`].
+#[inline(never)]
+unsafe fn closest_hit4(
+    nodes: &Nodes4,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> Option<ClosestHit> {
+    // SAFETY: the caller's contract.
+    unsafe { closest_hit(nodes, leaves, root, ray, stack) }
+}
+
+/// [`any_hit`] over four-wide nodes, out of line as [`closest_hit4`].
+///
+/// # Safety
+/// As for [`any_hit`].
+#[inline(never)]
+unsafe fn any_hit4(
+    nodes: &Nodes4,
+    leaves: &Leaves,
+    root: ChildRef,
+    ray: &Ray,
+    stack: &mut [MaybeUninit<(ChildRef, f32)>],
+) -> bool {
+    // SAFETY: the caller's contract.
+    unsafe { any_hit(nodes, leaves, root, ray, stack) }
 }

@@ -191,14 +191,27 @@ fn packets_find_the_hits_of_single_rays() {
     }
     for width in [BvhWidth::Eight, BvhWidth::Sixteen] {
         let accel = Accel::build(&geoms, width);
-        check_packets(&accel, &mut rnd);
+        let preferred = if Simd::detect() == Simd::Avx512 {
+            16
+        } else {
+            8
+        };
+        if std::env::var("TORREY_PACKET").is_err() {
+            assert_eq!(accel.packet_width(), preferred);
+        }
+        check_packets::<8>(&accel, &mut rnd);
+        if Simd::detect() == Simd::Avx512 {
+            check_packets::<16>(&accel, &mut rnd);
+        } else {
+            let dirs = [Vec3A::new(0.0, 0.0, -1.0); 16];
+            assert!(!accel.intersect_packet(Vec3A::ZERO, &dirs, &mut [None; 16]));
+        }
     }
 }
 
-/// The checks of [`packets_find_the_hits_of_single_rays`] on one layout.
-fn check_packets(accel: &Accel, rnd: &mut impl FnMut() -> f32) {
-    const PACKET: usize = 8;
-    assert_eq!(accel.packet_width(), PACKET);
+/// The checks of [`packets_find_the_hits_of_single_rays`] on one layout, with packets of
+/// `PACKET` rays.
+fn check_packets<const PACKET: usize>(accel: &Accel, rnd: &mut impl FnMut() -> f32) {
     let (mut packed, mut hits, mut vertex_hits) = (0, 0, 0);
     for case in 0..3000 {
         // Integer x and y, so that straight-down lanes meet grid vertices exactly.
@@ -321,7 +334,7 @@ fn non_finite_rays_are_safe_in_every_layout() {
         radius: 0.5,
     });
     let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e-30, 0.0];
-    for width in [BvhWidth::Four, BvhWidth::Eight] {
+    for width in [BvhWidth::Four, BvhWidth::Eight, BvhWidth::Sixteen] {
         let accel = Accel::build(&geoms, width);
         for &x in &bad {
             for (origin, dir) in [
@@ -338,8 +351,12 @@ fn non_finite_rays_are_safe_in_every_layout() {
                     assert!((hit.prim as usize) < geoms.len());
                 }
                 accel.occluded(&ray);
-                let lanes = accel.packet_width();
-                if lanes > 0 {
+                let widths = if accel.packet_width() > 0 {
+                    vec![8, accel.packet_width()]
+                } else {
+                    vec![]
+                };
+                for lanes in widths {
                     let dirs = vec![dir; lanes];
                     let mut hits = vec![None; lanes];
                     accel.intersect_packet(origin, &dirs, &mut hits);

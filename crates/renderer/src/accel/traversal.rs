@@ -7,7 +7,6 @@ use super::leaves::{closest_in_blocks, Leaves};
 use super::triangle4::Ray4;
 use super::ClosestHit;
 use crate::ray::Ray;
-use crate::shapes::triangle::WatertightRay;
 use glam::Vec3A;
 use std::mem::MaybeUninit;
 
@@ -73,6 +72,24 @@ pub(crate) const NEAR_FAR: [([usize; 3], [usize; 3]); 8] = {
     table
 };
 
+/// [`NEAR_FAR`] as byte offsets into a node's `bounds` whose rows are `row_bytes` long: what a
+/// wide node test adds to the node's address, without scaling row indices in every query's
+/// set-up.
+pub(crate) const fn near_far_offsets(row_bytes: usize) -> [([u32; 3], [u32; 3]); 8] {
+    let mut table = [([0; 3], [0; 3]); 8];
+    let mut octant = 0;
+    while octant < 8 {
+        let mut axis = 0;
+        while axis < 3 {
+            table[octant].0[axis] = (NEAR_FAR[octant].0[axis] * row_bytes) as u32;
+            table[octant].1[axis] = (NEAR_FAR[octant].1[axis] * row_bytes) as u32;
+            axis += 1;
+        }
+        octant += 1;
+    }
+    table
+}
+
 /// Rounding in the slab distances may shrink a box by an ulp or two; widening the exit distance
 /// by this factor keeps rays that graze a box edge (pbrt's 1 + 2γ₃ factor, γ₃ = 3 × 2⁻²⁴).
 pub(crate) const EXIT_WIDENING: f32 = 1.0 + 3.0 * f32::EPSILON;
@@ -96,19 +113,33 @@ pub(crate) fn slab_setup(ray: &Ray, inv: Vec3A) -> (Vec3A, [usize; 3], [usize; 3
     (ray.origin * inv, near, far)
 }
 
+/// [`slab_setup`] with the near and far rows as byte offsets from `table` (a
+/// [`near_far_offsets`] table).
+#[inline(always)]
+pub(crate) fn slab_setup_offsets(
+    ray: &Ray,
+    inv: Vec3A,
+    table: &[([u32; 3], [u32; 3]); 8],
+) -> (Vec3A, [u32; 3], [u32; 3]) {
+    let (near, far) = table[inv.cmplt(Vec3A::ZERO).bitmask() as usize & 7];
+    (ray.origin * inv, near, far)
+}
+
 /// A ray's constants for the box and the triangle tests, sharing the reciprocal direction.
 #[inline(always)]
 fn ray_constants<N: InnerNodes>(ray: &Ray) -> (N::RayConsts, Ray4) {
     let inv = reciprocal(ray);
-    let ray4 = Ray4::new(&WatertightRay::with_reciprocal(ray, inv), ray.origin);
+    let ray4 = Ray4::for_ray(ray, inv);
     (N::ray_consts(ray, inv), ray4)
 }
 
 /// Closest-hit traversal: nearest child first, farther ones on the stack with their entry
-/// distance, popped only while they can still hold a closer hit. `stack` must hold
-/// [`super::Accel`]'s `stack_needed` entries.
+/// distance, popped only while they can still hold a closer hit.
+///
+/// # Safety
+/// `stack` must hold the tree's [`super::Accel`] `stack_needed` entries (see [`push`]).
 #[inline(always)]
-pub(crate) fn closest_hit<N: InnerNodes>(
+pub(crate) unsafe fn closest_hit<N: InnerNodes>(
     nodes: &N,
     leaves: &Leaves,
     root: ChildRef,
@@ -117,35 +148,67 @@ pub(crate) fn closest_hit<N: InnerNodes>(
 ) -> Option<ClosestHit> {
     let (box_ray, ray4) = ray_constants::<N>(ray);
     let mut best: Option<ClosestHit> = None;
-    nearest_first(
-        nodes,
-        root,
-        ray.tmax,
-        stack,
-        |node, tmax| nodes.test(node, &box_ray, tmax),
-        |leaf, tmax| {
-            let hit = match leaves.packed_blocks(leaf) {
-                Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
-                None => leaves.intersect_general(leaf, ray, &ray4, tmax),
-            };
-            match hit {
-                Some(hit) => {
-                    best = Some(hit);
-                    hit.t
+    // SAFETY: the caller's stack holds `stack_needed` entries.
+    unsafe {
+        nearest_first(
+            nodes,
+            root,
+            ray.tmax,
+            stack,
+            |node, tmax| nodes.test(node, &box_ray, tmax),
+            |leaf, tmax| {
+                let hit = match leaves.packed_blocks(leaf) {
+                    Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
+                    None => leaves.intersect_general(leaf, ray, &ray4, tmax),
+                };
+                match hit {
+                    Some(hit) => {
+                        best = Some(hit);
+                        hit.t
+                    }
+                    None => tmax,
                 }
-                None => tmax,
-            }
-        },
-    );
+            },
+        )
+    };
     best
+}
+
+/// Writes entry `i` of a traversal stack, without a bounds check: the traversals' pushes are on
+/// every query's path.
+///
+/// # Safety
+/// `i < stack.len()`. The traversals guarantee it for stacks of `stack_needed` entries,
+/// (width − 1) × depth + 1: below each inner node on the current path at most width − 1 of its
+/// children wait on the stack, and the deepest one pushes at most width before it pops one.
+/// NaN rays, which enter every box, stay within that bound too.
+#[inline(always)]
+unsafe fn push(stack: &mut [MaybeUninit<(ChildRef, f32)>], i: usize, entry: (ChildRef, f32)) {
+    debug_assert!(i < stack.len());
+    // SAFETY: `i` is in bounds (the caller's contract).
+    unsafe { *stack.get_unchecked_mut(i) = MaybeUninit::new(entry) }
+}
+
+/// Reads entry `i` of a traversal stack, without a bounds check.
+///
+/// # Safety
+/// Entry `i` has been written by [`push`] (so `i < stack.len()`).
+#[inline(always)]
+unsafe fn entry(stack: &[MaybeUninit<(ChildRef, f32)>], i: usize) -> (ChildRef, f32) {
+    debug_assert!(i < stack.len());
+    // SAFETY: the entry is in bounds and initialised (the caller's contract).
+    unsafe { stack.get_unchecked(i).assume_init() }
 }
 
 /// The loop of a closest-hit traversal, for one ray or a packet: `test` gives an inner node's
 /// children's entry distances and the mask of those entered before `tmax`; `leaf` tests a leaf's
 /// primitives and returns the new `tmax` (the distance beyond which nothing is looked at).
 /// Visits the nearest entered child first and stacks the others far to near.
+///
+/// # Safety
+/// `stack` must hold the tree's `stack_needed` entries (see [`push`]).
 #[inline(always)]
-pub(crate) fn nearest_first<N: InnerNodes>(
+pub(crate) unsafe fn nearest_first<N: InnerNodes>(
     nodes: &N,
     root: ChildRef,
     tmax: f32,
@@ -175,7 +238,9 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                     } else {
                         (first, second)
                     };
-                    stack[top] = MaybeUninit::new((nodes.child(current, far_lane), near[far_lane]));
+                    // SAFETY (all stack accesses below): within `stack_needed` (see `push`);
+                    // reads are of entries below `top`, which have been written.
+                    unsafe { push(stack, top, (nodes.child(current, far_lane), near[far_lane])) };
                     top += 1;
                     current = nodes.child(current, near_lane);
                     continue;
@@ -186,14 +251,15 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                 mask |= 1 << second;
                 let mut lane = first;
                 loop {
-                    let entry = (nodes.child(current, lane), near[lane]);
+                    let new = (nodes.child(current, lane), near[lane]);
                     let mut i = top;
-                    // SAFETY (all reads below): entries below `top` have been written.
-                    while i > base && unsafe { stack[i - 1].assume_init() }.1 < entry.1 {
-                        stack[i] = stack[i - 1];
-                        i -= 1;
+                    unsafe {
+                        while i > base && entry(stack, i - 1).1 < new.1 {
+                            push(stack, i, entry(stack, i - 1));
+                            i -= 1;
+                        }
+                        push(stack, i, new);
                     }
-                    stack[i] = MaybeUninit::new(entry);
                     top += 1;
                     if mask == 0 {
                         break;
@@ -202,7 +268,7 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                     mask &= mask - 1;
                 }
                 top -= 1;
-                current = unsafe { stack[top].assume_init() }.0;
+                current = unsafe { entry(stack, top) }.0;
                 continue;
             }
         } else {
@@ -214,7 +280,7 @@ pub(crate) fn nearest_first<N: InnerNodes>(
                 return;
             }
             top -= 1;
-            let (node, near) = unsafe { stack[top].assume_init() };
+            let (node, near) = unsafe { entry(stack, top) };
             if near <= tmax {
                 current = node;
                 break;
@@ -223,10 +289,12 @@ pub(crate) fn nearest_first<N: InnerNodes>(
     }
 }
 
-/// Any-hit traversal: children in no particular order, done at the first blocker. `stack` must
-/// hold [`super::Accel`]'s `stack_needed` entries.
+/// Any-hit traversal: children in no particular order, done at the first blocker.
+///
+/// # Safety
+/// `stack` must hold the tree's [`super::Accel`] `stack_needed` entries (see [`push`]).
 #[inline(always)]
-pub(crate) fn any_hit<N: InnerNodes>(
+pub(crate) unsafe fn any_hit<N: InnerNodes>(
     nodes: &N,
     leaves: &Leaves,
     root: ChildRef,
@@ -244,7 +312,8 @@ pub(crate) fn any_hit<N: InnerNodes>(
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                stack[top] = MaybeUninit::new((nodes.child(current, lane), 0.0));
+                // SAFETY: within `stack_needed` (see `push`).
+                unsafe { push(stack, top, (nodes.child(current, lane), 0.0)) };
                 top += 1;
             }
         } else if let Some(blocks) = leaves.packed_blocks(current) {
@@ -263,6 +332,7 @@ pub(crate) fn any_hit<N: InnerNodes>(
             return false;
         }
         top -= 1;
-        current = unsafe { stack[top].assume_init() }.0;
+        // SAFETY: entries below `top` have been written.
+        current = unsafe { entry(stack, top) }.0;
     }
 }

@@ -6,8 +6,8 @@
 //! hold NaN vertices: every comparison on them is false, so they never report a hit.
 
 use crate::ray::Ray;
-use crate::shapes::triangle::{intersect_triangle_pre, WatertightRay};
-use glam::{Vec3A, Vec4};
+use crate::shapes::triangle::{intersect_triangle_pre, WatertightRay, PERMUTATION};
+use glam::{Vec3A, Vec3Swizzles, Vec4};
 
 /// Up to four triangles in structure-of-arrays layout, with their primitive indices.
 #[derive(Clone, Copy, Debug)]
@@ -68,11 +68,9 @@ impl Triangle4 {
         // The closest-hit conditions without its division: in a lane whose edge functions share
         // a sign, det is non-zero with that sign, and 0 < t_num / det < tmax reads
         // 0 < t_num s < tmax |det| with s = sign(det).
-        let t_scaled = e.t_num * e.det.signum();
-        let hit = e.one_sign
-            & t_scaled.cmpgt(Vec4::ZERO)
-            & t_scaled.cmplt(e.det.abs() * Vec4::splat(tmax));
-        hit.any()
+        let t_scaled = flip_sign_by(e.t_num, e.det);
+        let inside = t_scaled.cmpgt(Vec4::ZERO) & t_scaled.cmplt(e.det.abs() * Vec4::splat(tmax));
+        inside.bitmask() & !e.mixed.is_negative_bitmask() != 0
     }
 
     /// The closest hit among the four with t in (0, tmax): (lane, t, b1, b2), where b1 and b2
@@ -89,14 +87,14 @@ impl Triangle4 {
             w,
             det,
             t_num,
-            one_sign,
+            mixed,
         }) = self.edges(r)
         else {
             return self.intersect_scalar(ray, tmax);
         };
         let t = t_num / det;
-        let hit = one_sign & t.cmpgt(Vec4::ZERO) & t.cmplt(Vec4::splat(tmax));
-        let mut bits = hit.bitmask();
+        let in_range = t.cmpgt(Vec4::ZERO) & t.cmplt(Vec4::splat(tmax));
+        let mut bits = in_range.bitmask() & !mixed.is_negative_bitmask();
         if bits == 0 {
             return None;
         }
@@ -143,14 +141,12 @@ impl Triangle4 {
         if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).any() {
             return None;
         }
-        let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-        let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
         Some(EdgeTest {
             v,
             w,
             det: u + v + w,
             t_num: u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z),
-            one_sign: !(negative & positive),
+            mixed: mixed_signs(u, v, w),
         })
     }
 
@@ -178,13 +174,56 @@ impl Triangle4 {
 
 /// The per-lane quantities of the watertight test that the closest-hit and any-hit tests share:
 /// edge functions v and w (u is folded into det), their sum det, the scaled distance numerator
-/// (t = t_num / det), and the lanes whose edge functions share a sign (the ray passes inside).
+/// (t = t_num / det), and `mixed`, negative in the lanes whose edge functions differ in sign (the
+/// ray passes outside).
 struct EdgeTest {
     v: Vec4,
     w: Vec4,
     det: Vec4,
     t_num: Vec4,
-    one_sign: glam::BVec4A,
+    mixed: Vec4,
+}
+
+/// Negative (sign bit set) in the lanes where u, v and w do not all share a sign, for edge
+/// functions none of which is zero ([`Triangle4::edges`] sends those to the scalar test): then
+/// the signs are the sign bits, and two XORs and an OR of them decide what six comparisons did.
+/// A lane with a NaN edge function may come out either way; its det and t are NaN, which no
+/// distance test accepts.
+#[inline(always)]
+fn mixed_signs(u: Vec4, v: Vec4, w: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_or_ps, _mm_xor_ps};
+        let (u, v, w) = (__m128::from(u), __m128::from(v), __m128::from(w));
+        // SAFETY: SSE is part of the x86-64 baseline.
+        Vec4::from(unsafe { _mm_or_ps(_mm_xor_ps(u, v), _mm_xor_ps(u, w)) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let zero = Vec4::ZERO;
+        let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+        let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+        Vec4::select(negative & positive, Vec4::NEG_ONE, Vec4::ONE)
+    }
+}
+
+/// `x` times the sign of `s` (`x * s.signum()` for non-NaN `s`): the sign bit of `s` flipped
+/// into `x`, exact like the product.
+#[inline(always)]
+fn flip_sign_by(x: Vec4, s: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_and_ps, _mm_set1_ps, _mm_xor_ps};
+        // SAFETY: SSE is part of the x86-64 baseline.
+        Vec4::from(unsafe {
+            let sign = _mm_and_ps(__m128::from(s), _mm_set1_ps(-0.0));
+            _mm_xor_ps(__m128::from(x), sign)
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        x * s.signum()
+    }
 }
 
 /// Per-ray constants of the 4-wide watertight test: the permuted axes, the shear and the
@@ -197,6 +236,35 @@ pub(crate) struct Ray4 {
 }
 
 impl Ray4 {
+    /// The constants of `ray`, whose reciprocal direction is `inv`: those of
+    /// `WatertightRay::with_reciprocal(ray, inv)`, with the largest axis found by one 3-lane
+    /// comparison (|x| > |y|, |x| > |z|, |y| > |z| in its bits 0-2, as `largest_axis` indexes its
+    /// table) instead of three scalar ones: the set-up every query pays, short shadow rays
+    /// included.
+    #[inline(always)]
+    pub(crate) fn for_ray(ray: &Ray, inv: Vec3A) -> Self {
+        /// Largest axis by the comparison bits (`shapes::triangle::largest_axis`'s table).
+        const LARGEST: [usize; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
+        let ad = ray.dir.abs();
+        let kz = LARGEST[ad.xxy().cmpgt(ad.yzz()).bitmask() as usize & 7];
+        let axes = PERMUTATION[kz];
+        let (d, inv, o) = (ray.dir.to_array(), inv.to_array(), ray.origin.to_array());
+        let sz = inv[kz];
+        Self {
+            axes,
+            shear: [
+                Vec4::splat(-d[axes[0]] * sz),
+                Vec4::splat(-d[axes[1]] * sz),
+                Vec4::splat(sz),
+            ],
+            origin: [
+                Vec4::splat(o[axes[0]]),
+                Vec4::splat(o[axes[1]]),
+                Vec4::splat(o[axes[2]]),
+            ],
+        }
+    }
+
     #[inline(always)]
     pub(crate) fn new(wr: &WatertightRay, origin: Vec3A) -> Self {
         let axes = wr.axes();
@@ -267,6 +335,43 @@ mod tests {
             }
         }
         assert!(hits > 5000, "the test rays should hit often, got {hits}");
+    }
+
+    /// `Ray4::for_ray` builds the constants `Ray4::new` builds from a `WatertightRay`, bit for
+    /// bit, on random directions and on ties, zeros, infinities and NaNs.
+    #[test]
+    fn for_ray_matches_the_watertight_constants() {
+        let mut rng = torrey_testkit::Rng::new(77);
+        let special = [0.0, -0.0, 1.0, -1.0, 0.5, f32::INFINITY, f32::NAN, 1e-30];
+        let mut dirs = Vec::new();
+        for &x in &special {
+            for &y in &special {
+                for &z in &special {
+                    dirs.push(Vec3A::new(x, y, z));
+                }
+            }
+        }
+        for _ in 0..10_000 {
+            dirs.push(Vec3A::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            ));
+        }
+        for dir in dirs {
+            let ray = Ray {
+                origin: Vec3A::new(0.25, -3.0, 7.5),
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let inv = crate::accel::traversal::reciprocal(&ray);
+            let a = Ray4::for_ray(&ray, inv);
+            let b = Ray4::new(&WatertightRay::with_reciprocal(&ray, inv), ray.origin);
+            assert_eq!(a.axes, b.axes, "{dir:?}");
+            let bits =
+                |r: &Ray4| [r.shear, r.origin].map(|v| v.map(|l| l.to_array().map(f32::to_bits)));
+            assert_eq!(bits(&a), bits(&b), "{dir:?}");
+        }
     }
 
     /// A ray through a vertex shared by triangles hits (exact zero edge functions).

@@ -2,7 +2,9 @@
 //! child boxes, for one ray ([`InnerNodes::test`]) or a packet ([`Nodes8::test_packet`]).
 
 use crate::accel::build::WideBuilder;
-use crate::accel::traversal::{slab_setup, ChildRef, InnerNodes, EXIT_WIDENING};
+use crate::accel::traversal::{
+    near_far_offsets, slab_setup_offsets, ChildRef, InnerNodes, EXIT_WIDENING,
+};
 use crate::ray::Ray;
 use glam::Vec3A;
 use std::arch::x86_64::*;
@@ -21,13 +23,16 @@ pub(crate) struct Node8 {
 pub(crate) struct Nodes8(Vec<Node8>);
 
 /// Per-ray constants of the eight-wide box test: reciprocal direction and origin × reciprocal
-/// per axis, and the near and far bound rows.
+/// per axis, and the byte offsets of the near and far bound rows.
 pub(crate) struct BoxRay8 {
     inv: [f32; 3],
     org_inv: [f32; 3],
-    near: [usize; 3],
-    far: [usize; 3],
+    near: [u32; 3],
+    far: [u32; 3],
 }
+
+/// The near and far bound rows' byte offsets by octant (rows of 8 floats).
+const ROW_OFFSETS: [([u32; 3], [u32; 3]); 8] = near_far_offsets(8 * 4);
 
 impl Nodes8 {
     /// Converts the BVH2 of `builder` below its root; returns the nodes and the root reference.
@@ -101,7 +106,7 @@ impl InnerNodes for Nodes8 {
 
     #[inline(always)]
     fn ray_consts(ray: &Ray, inv: Vec3A) -> BoxRay8 {
-        let (org_inv, near, far) = slab_setup(ray, inv);
+        let (org_inv, near, far) = slab_setup_offsets(ray, inv, &ROW_OFFSETS);
         BoxRay8 {
             inv: inv.to_array(),
             org_inv: org_inv.to_array(),
@@ -114,15 +119,16 @@ impl InnerNodes for Nodes8 {
     fn test(&self, r: ChildRef, c: &BoxRay8, tmax: f32) -> ([f32; 8], u32) {
         debug_assert!((r as usize) < self.0.len());
         // SAFETY: inner references are indices into the nodes, written by the build only;
-        // the row indices are below 6 (`NEAR_FAR`); AVX2 and FMA are present (see `Nodes8`).
+        // the row offsets are those of rows below 6, aligned like the rows (`ROW_OFFSETS`); AVX2
+        // and FMA are present (see `Nodes8`).
         unsafe {
             let b = &self.0.get_unchecked(r as usize).bounds;
             // Slab distances bound × 1/d − origin × 1/d as one fused multiply-subtract: one
             // rounding instead of two, so the exit widening stays conservative, and one operation
             // less on each node's dependent chain than the four-wide test's product and difference.
-            let t = |row: usize, axis: usize| {
+            let t = |offset: u32, axis: usize| {
                 _mm256_fmsub_ps(
-                    _mm256_load_ps(b.get_unchecked(row).as_ptr()),
+                    _mm256_load_ps(b.as_ptr().cast::<u8>().add(offset as usize).cast()),
                     _mm256_set1_ps(c.inv[axis]),
                     _mm256_set1_ps(c.org_inv[axis]),
                 )

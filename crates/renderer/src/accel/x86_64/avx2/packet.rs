@@ -118,6 +118,7 @@ macro_rules! packet_kernel {
             };
             let mut hits = Hits::new();
             let stack = &mut [const { MaybeUninit::uninit() }; STACK_SIZE];
+            // SAFETY: the tree's stack need fits STACK_SIZE (the caller's contract).
             nearest_first(
                 nodes,
                 root,

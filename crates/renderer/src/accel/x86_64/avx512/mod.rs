@@ -1,9 +1,11 @@
-//! AVX-512 (F, with AVX2 and FMA): sixteen-wide BVH nodes ([`Nodes16`]); the camera-ray
-//! packets of eight trace through them with [`super::avx2::packet::closest_hits16`]. The traversal loops are the generic
-//! ones of [`crate::accel::traversal`], instantiated here inside functions compiled with these
-//! features enabled.
+//! AVX-512 (F, with AVX2 and FMA): sixteen-wide BVH nodes ([`Nodes16`]), through which the
+//! camera-ray packets of eight trace with [`super::avx2::packet::closest_hits16`], and camera-ray
+//! packets of sixteen through eight- or sixteen-wide nodes ([`packet16`]). The traversal loops
+//! are the generic ones of [`crate::accel::traversal`], instantiated here inside functions
+//! compiled with these features enabled.
 
 mod nodes16;
+pub(crate) mod packet16;
 
 pub(crate) use nodes16::Nodes16;
 
@@ -27,6 +29,7 @@ pub fn available() -> bool {
 ///
 /// # Safety
 /// The CPU must have AVX-512F, AVX2 and FMA ([`available`]); `Nodes16` values exist only then.
+/// `stack` must hold the tree's `stack_needed` entries.
 #[target_feature(enable = "avx512f,avx2,fma")]
 pub(crate) unsafe fn closest_hit(
     nodes: &Nodes16,
@@ -35,7 +38,8 @@ pub(crate) unsafe fn closest_hit(
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> Option<ClosestHit> {
-    traversal::closest_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { traversal::closest_hit(nodes, leaves, root, ray, stack) }
 }
 
 /// [`traversal::any_hit`] over sixteen-wide nodes, compiled with AVX-512.
@@ -50,5 +54,6 @@ pub(crate) unsafe fn any_hit(
     ray: &Ray,
     stack: &mut [MaybeUninit<(ChildRef, f32)>],
 ) -> bool {
-    traversal::any_hit(nodes, leaves, root, ray, stack)
+    // SAFETY: the caller's contract.
+    unsafe { traversal::any_hit(nodes, leaves, root, ray, stack) }
 }

@@ -3,7 +3,9 @@
 //! comparison writes a mask register directly, so no movemask follows it.
 
 use crate::accel::build::WideBuilder;
-use crate::accel::traversal::{slab_setup, ChildRef, InnerNodes, EXIT_WIDENING};
+use crate::accel::traversal::{
+    near_far_offsets, slab_setup_offsets, ChildRef, InnerNodes, EXIT_WIDENING,
+};
 use crate::accel::x86_64::avx2::packet::PacketBox;
 use crate::ray::Ray;
 use glam::Vec3A;
@@ -23,13 +25,16 @@ pub(crate) struct Node16 {
 pub(crate) struct Nodes16(Vec<Node16>);
 
 /// Per-ray constants of the sixteen-wide box test: reciprocal direction and origin × reciprocal
-/// per axis, and the near and far bound rows.
+/// per axis, and the byte offsets of the near and far bound rows.
 pub(crate) struct BoxRay16 {
     inv: [f32; 3],
     org_inv: [f32; 3],
-    near: [usize; 3],
-    far: [usize; 3],
+    near: [u32; 3],
+    far: [u32; 3],
 }
+
+/// The near and far bound rows' byte offsets by octant (rows of 16 floats).
+const ROW_OFFSETS: [([u32; 3], [u32; 3]); 8] = near_far_offsets(16 * 4);
 
 impl Nodes16 {
     /// Converts the BVH2 of `builder` below its root; returns the nodes and the root reference.
@@ -92,7 +97,7 @@ impl InnerNodes for Nodes16 {
 
     #[inline(always)]
     fn ray_consts(ray: &Ray, inv: Vec3A) -> BoxRay16 {
-        let (org_inv, near, far) = slab_setup(ray, inv);
+        let (org_inv, near, far) = slab_setup_offsets(ray, inv, &ROW_OFFSETS);
         BoxRay16 {
             inv: inv.to_array(),
             org_inv: org_inv.to_array(),
@@ -105,13 +110,14 @@ impl InnerNodes for Nodes16 {
     fn test(&self, r: ChildRef, c: &BoxRay16, tmax: f32) -> ([f32; 16], u32) {
         debug_assert!((r as usize) < self.0.len());
         // SAFETY: inner references are indices into the nodes, written by the build only;
-        // the row indices are below 6 (`NEAR_FAR`); AVX-512 is present (see `Nodes16`).
+        // the row offsets are those of rows below 6, aligned like the rows (`ROW_OFFSETS`);
+        // AVX-512 is present (see `Nodes16`).
         unsafe {
             let b = &self.0.get_unchecked(r as usize).bounds;
             // bound × 1/d − origin × 1/d as one fused multiply-subtract, as the eight-wide test.
-            let t = |row: usize, axis: usize| {
+            let t = |offset: u32, axis: usize| {
                 _mm512_fmsub_ps(
-                    _mm512_load_ps(b.get_unchecked(row).as_ptr()),
+                    _mm512_load_ps(b.as_ptr().cast::<u8>().add(offset as usize).cast()),
                     _mm512_set1_ps(c.inv[axis]),
                     _mm512_set1_ps(c.org_inv[axis]),
                 )
