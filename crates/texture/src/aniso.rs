@@ -78,13 +78,14 @@ impl MipMap {
         // One probe step (rho texels along the major axis) in uv units, and in units of spread.
         let step = major * (rho / major_len) / size;
         let dt = rho / spread;
-        let mut sum = self.lookup_lod_a(uv, lod);
+        let probe = self.lod_lookup(lod);
+        let mut sum = probe.at(uv);
         let mut weights = 1.0;
         for k in 1..=m {
             let t = k as f32 * dt;
             let w = (1.0 - t * t) * (1.0 - t * t);
             let off = step * k as f32;
-            sum += (self.lookup_lod_a(uv + off, lod) + self.lookup_lod_a(uv - off, lod)) * w;
+            sum += (probe.at(uv + off) + probe.at(uv - off)) * w;
             weights += 2.0 * w;
         }
         sum / weights

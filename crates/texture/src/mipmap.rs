@@ -7,7 +7,7 @@
 use glam::{Vec2, Vec3, Vec3A};
 
 use crate::image::Image;
-use crate::packed::PackedLevel;
+use crate::packed::{LodLookup, PackedLevel};
 
 /// How texel indices outside the image are mapped back inside; applied per axis to integer
 /// texel indices so bilinear neighbours wrap the same way as the lookup point.
@@ -369,18 +369,36 @@ impl MipMap {
         self.lookup_level(level, uv).into()
     }
 
-    /// [`MipMap::lookup_lod`] as a [`Vec3A`] through [`MipMap::lookup_level_a`]; the same value
-    /// to the bit.
+    /// [`MipMap::lookup_lod`] as a [`Vec3A`], from the packed texels when there are some: the
+    /// same value to the bit.
     #[inline]
     pub(crate) fn lookup_lod_a(&self, uv: Vec2, level: f32) -> Vec3A {
+        self.lod_lookup(level).at(uv)
+    }
+
+    /// Trilinear lookups at `level` (finite, in [0, levels - 1]) with the levels resolved once.
+    #[inline(always)]
+    pub(crate) fn lod_lookup(&self, level: f32) -> LodLookup<'_> {
         debug_assert!(level >= 0.0 && level <= (self.levels.len() - 1) as f32);
-        let l0 = level as usize;
+        // `level` is finite and in [0, levels - 1], so truncation is floor.
+        let l0 = level as u32 as usize;
         let t = level - l0 as f32;
-        let a = self.lookup_level_a(l0, uv);
-        if t <= 0.0 || l0 + 1 >= self.levels.len() {
-            return a;
+        let blend = !(t <= 0.0 || l0 + 1 >= self.levels.len());
+        LodLookup {
+            mip: self,
+            level,
+            wrap: self.wrap,
+            lo: self.packed.get(l0),
+            hi: if blend { self.packed.get(l0 + 1) } else { None },
+            t,
         }
-        a * (1.0 - t) + self.lookup_level_a(l0 + 1, uv) * t
+    }
+
+    /// [`MipMap::lookup_lod`] as a [`Vec3A`]: where the packed texels cannot answer.
+    #[cold]
+    #[inline(never)]
+    pub(crate) fn lookup_lod_slow(&self, uv: Vec2, level: f32) -> Vec3A {
+        self.lookup_lod(uv, level).into()
     }
 
     /// Trilinear lookup at a continuous pyramid `level`, finite and in [0, levels - 1].

@@ -9,7 +9,7 @@
 use glam::{Vec2, Vec3A};
 
 use crate::image::Image;
-use crate::mipmap::{floor_i32, WrapMode, TWO_POW_23};
+use crate::mipmap::{floor_i32, MipMap, WrapMode, TWO_POW_23};
 
 /// A pyramid level as 16-byte texels, with what its bilinear lookup precomputes.
 #[derive(Clone, Debug)]
@@ -80,5 +80,38 @@ fn pair(wrap: WrapMode, i: i32, n: u32, mask: Option<i32>) -> (usize, usize) {
         // |i| < 2^23, so i + 1 cannot overflow.
         Some(m) => ((i & m) as usize, ((i + 1) & m) as usize),
         None => wrap.apply_pair(i, n),
+    }
+}
+
+/// Trilinear lookups at one continuous pyramid level with the two levels and their blend weight
+/// resolved once: what the probes of one anisotropic lookup share. `at` gives
+/// `MipMap::lookup_lod`'s value to the bit.
+pub(crate) struct LodLookup<'a> {
+    pub(crate) mip: &'a MipMap,
+    pub(crate) level: f32,
+    pub(crate) wrap: WrapMode,
+    /// The finer level's packed texels (None: the pyramid has none; every lookup takes the
+    /// general path).
+    pub(crate) lo: Option<&'a PackedLevel>,
+    /// The coarser level's, when it is blended in (weight `t > 0`).
+    pub(crate) hi: Option<&'a PackedLevel>,
+    pub(crate) t: f32,
+}
+
+impl LodLookup<'_> {
+    /// The trilinear value at `uv`.
+    #[inline(always)]
+    pub(crate) fn at(&self, uv: Vec2) -> Vec3A {
+        if let Some(a) = self.lo.and_then(|lo| lo.bilinear(self.wrap, uv)) {
+            match self.hi {
+                None => return a,
+                Some(hi) => {
+                    if let Some(b) = hi.bilinear(self.wrap, uv) {
+                        return a * (1.0 - self.t) + b * self.t;
+                    }
+                }
+            }
+        }
+        self.mip.lookup_lod_slow(uv, self.level)
     }
 }
