@@ -353,11 +353,7 @@ impl MipMap {
     /// (bilinear filter, coordinates below 2^23 texels): the same value to the bit.
     #[inline(always)]
     pub(crate) fn lookup_level_a(&self, level: usize, uv: Vec2) -> Vec3A {
-        if let Some(v) = self
-            .packed
-            .get(level)
-            .and_then(|p| p.bilinear(self.wrap, uv))
-        {
+        if let Some(v) = self.packed.get(level).and_then(|p| p.bilinear(uv)) {
             return v;
         }
         self.lookup_level_slow(level, uv)
@@ -387,7 +383,6 @@ impl MipMap {
         LodLookup {
             mip: self,
             level,
-            wrap: self.wrap,
             lo: self.packed.get(l0),
             hi: if blend { self.packed.get(l0 + 1) } else { None },
             t,
