@@ -86,7 +86,8 @@ impl RayCone {
     /// point. Never NaN.
     ///
     /// In `Vec3A`s (whole-vector multiplies; glam's SSE dot and cross add in the scalar
-    /// order, so the result is the same to the bit as with `Vec3`).
+    /// order, so the result is the same to the bit as with `Vec3`, as long as the build does not
+    /// enable the `fma` target feature, with which glam fuses the cross product).
     pub fn footprint(&self, ray_dir: Vec3A, normal: Vec3A, dpdu: Vec3A, dpdv: Vec3A) -> Footprint {
         let r = self.width.abs() * RADIUS_PER_WIDTH;
         if !(r.is_finite() && r > 0.0) {
