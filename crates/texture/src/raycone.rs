@@ -52,8 +52,8 @@ impl RayCone {
     /// [`crate::centre_weight`]) of the way towards where the ray through the pixel centre, in
     /// direction `centre_dir` from the same origin, meets the hit's tangent plane. Only the first
     /// hit moves; a zero weight or an unusable direction leaves the cone as it was.
-    pub fn toward_pixel_centre(self, centre_dir: Vec3A, weight: f32) -> Self {
-        let centre = match Vec3::from(centre_dir).try_normalize() {
+    pub fn toward_pixel_centre(self, centre_dir: Vec3, weight: f32) -> Self {
+        let centre = match centre_dir.try_normalize() {
             Some(dir) if weight > 0.0 && weight.is_finite() => Centre::Pending { dir, weight },
             _ => Centre::None,
         };
@@ -244,7 +244,7 @@ mod tests {
         // Camera at the origin looking down -z at the plane z = -2 (normal +z, uv = (x, y)).
         let (du, dv) = (Vec3A::X, Vec3A::Y);
         let sample_dir = Vec3A::new(0.01, 0.0, -1.0);
-        let centre_dir = Vec3A::new(0.0, 0.0, -1.0);
+        let centre_dir = Vec3::new(0.0, 0.0, -1.0);
         let t = 2.0 * sample_dir.length();
         let d = sample_dir.normalize();
         for weight in [1.0, 0.25] {
@@ -262,10 +262,10 @@ mod tests {
         // A centre ray that misses the plane (parallel or behind) leaves the lookup in place, and
         // a far intersection is kept within two semi-axes.
         let cone = RayCone::from_pixel(0.01)
-            .toward_pixel_centre(Vec3A::X, 1.0)
+            .toward_pixel_centre(Vec3::X, 1.0)
             .at_distance(t);
         assert_eq!(cone.footprint(d, Vec3A::Z, du, dv).shift, Vec2::ZERO);
-        let grazing = Vec3A::new(1.0, 0.0, -1e-4);
+        let grazing = Vec3::new(1.0, 0.0, -1e-4);
         let cone = RayCone::from_pixel(0.01)
             .toward_pixel_centre(grazing, 1.0)
             .at_distance(t);
