@@ -167,12 +167,7 @@ pub fn radiance(
         cone = cone.at_distance(hit.t);
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
-            cone.footprint(
-                ray.dir.into(),
-                hit.ng.into(),
-                hit.dpdu.into(),
-                hit.dpdv.into(),
-            )
+            cone.footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
         } else {
             Footprint::POINT
         };
