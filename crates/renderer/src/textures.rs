@@ -33,7 +33,7 @@ impl Texture {
     #[inline(never)]
     pub fn eval(&self, uv: Vec2, footprint: Footprint) -> Vec3A {
         match self {
-            Texture::Bitmap(b) => b.eval(uv, footprint).into(),
+            Texture::Bitmap(b) => b.eval(uv, footprint),
             Texture::Checkerboard {
                 color0,
                 color1,

@@ -19,7 +19,7 @@
 //! constant and the filter integrates to one. Every lookup costs at most [`MAX_PROBES`] trilinear
 //! probes, whatever the footprint.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3A};
 
 use crate::footprint::Footprint;
 use crate::mipmap::{FilterType, MipMap};
@@ -36,53 +36,56 @@ pub const MAX_PROBES: usize = 2 * MAX_ANISOTROPY as usize + 1;
 impl MipMap {
     /// The texture filtered over the elliptical footprint `fp` (uv units) centred at
     /// `uv + fp.shift`; see the module documentation. [`FilterType::Nearest`] ignores the footprint.
-    pub fn lookup_aniso(&self, uv: Vec2, fp: Footprint) -> Vec3 {
+    pub fn lookup_aniso(&self, uv: Vec2, fp: Footprint) -> Vec3A {
         let uv = uv + fp.shift;
         if self.filter() == FilterType::Nearest || fp.is_point() {
-            return self.lookup_level(0, uv);
+            return self.lookup_level_a(0, uv);
         }
         let size = Vec2::new(self.width() as f32, self.height() as f32);
         let top = self.levels() - 1;
         let texels = Footprint::new(fp.a * size, fp.b * size);
         if texels.is_point() {
             // Only a footprint so large that it overflowed in texels gets here.
-            return self.lookup_level(top, uv);
+            return self.lookup_level_a(top, uv);
         }
         // The major semi-axis is at most sqrt(|a|^2 + |b|^2): most lookups at high sample
         // counts stop here without the eigen-decomposition.
         if texels.a.length_squared() + texels.b.length_squared() <= 1.0 {
-            return self.lookup_level(0, uv);
+            return self.lookup_level_a(0, uv);
         }
         let (major, minor) = texels.principal_axes();
         let major_len = major.length();
         if major_len.is_nan() || major_len <= 1.0 {
             // Within a texel (NaN too): bilinear.
-            return self.lookup_level(0, uv);
+            return self.lookup_level_a(0, uv);
         }
         let minor_len = minor.length().max(major_len / MAX_ANISOTROPY);
         let rho = minor_len.max(1.0);
-        let lod = rho.log2();
+        // rho = 1 (a minor axis within a texel, the usual anisotropic case) is level 0 exactly,
+        // without the libm call.
+        let lod = if rho == 1.0 { 0.0 } else { rho.log2() };
         if lod >= top as f32 {
             // Wider than the whole image: the coarsest level (1x1, the mean).
-            return self.lookup_level(top, uv);
+            return self.lookup_level_a(top, uv);
         }
         let spread = (major_len * major_len - rho * rho).max(0.0).sqrt();
         // Probes every rho texels from the centre out to the spread; a probe enters at the ends
         // with zero weight, so the result is continuous as the footprint grows.
         let m = ((spread / rho) as usize).min(MAX_PROBES / 2);
         if m == 0 {
-            return self.lookup_lod(uv, lod);
+            return self.lookup_lod_a(uv, lod);
         }
         // One probe step (rho texels along the major axis) in uv units, and in units of spread.
         let step = major * (rho / major_len) / size;
         let dt = rho / spread;
-        let mut sum = self.lookup_lod(uv, lod);
+        let probe = self.lod_lookup(lod);
+        let mut sum = probe.at(uv);
         let mut weights = 1.0;
         for k in 1..=m {
             let t = k as f32 * dt;
             let w = (1.0 - t * t) * (1.0 - t * t);
             let off = step * k as f32;
-            sum += (self.lookup_lod(uv + off, lod) + self.lookup_lod(uv - off, lod)) * w;
+            sum += (probe.at(uv + off) + probe.at(uv - off)) * w;
             weights += 2.0 * w;
         }
         sum / weights
@@ -94,6 +97,18 @@ mod tests {
     use super::*;
     use crate::image::Image;
     use crate::mipmap::WrapMode;
+    use glam::Vec3;
+
+    /// `lookup_aniso` as a `Vec3`, from the packed texels: what the renderer's bitmaps read.
+    trait Aniso3 {
+        fn aniso(&self, uv: Vec2, fp: Footprint) -> Vec3;
+    }
+
+    impl Aniso3 for MipMap {
+        fn aniso(&self, uv: Vec2, fp: Footprint) -> Vec3 {
+            self.lookup_aniso(uv, fp).into()
+        }
+    }
 
     fn pattern(w: u32, h: u32) -> Image {
         let px = (0..w * h)
@@ -122,6 +137,7 @@ mod tests {
             })
             .collect();
         MipMap::new(Image::new(n, n, px), WrapMode::Repeat, FilterType::Bilinear)
+            .with_packed_texels()
     }
 
     fn random_footprint(rng: &mut torrey_testkit::Rng, scale: f32) -> Footprint {
@@ -137,11 +153,12 @@ mod tests {
         let c = Vec3::new(0.25, 0.5, 0.75);
         let mut rng = torrey_testkit::Rng::new(1);
         for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
-            let mip = MipMap::new(Image::filled(37, 20, c), wrap, FilterType::Bilinear);
+            let mip = MipMap::new(Image::filled(37, 20, c), wrap, FilterType::Bilinear)
+                .with_packed_texels();
             for k in 0..2000 {
                 let fp = random_footprint(&mut rng, [0.01, 0.1, 1.0, 100.0][k % 4]);
                 let uv = Vec2::new(rng.range(-2.0, 3.0), rng.range(-2.0, 3.0));
-                let v = mip.lookup_aniso(uv, fp);
+                let v = mip.aniso(uv, fp);
                 assert!(v.abs_diff_eq(c, 1e-5), "{wrap:?} {fp:?} {uv}: {v}");
             }
         }
@@ -149,7 +166,8 @@ mod tests {
 
     #[test]
     fn footprint_within_a_texel_is_the_bilinear_lookup() {
-        let mip = MipMap::new(pattern(64, 32), WrapMode::Repeat, FilterType::Bilinear);
+        let mip = MipMap::new(pattern(64, 32), WrapMode::Repeat, FilterType::Bilinear)
+            .with_packed_texels();
         let mut rng = torrey_testkit::Rng::new(2);
         for _ in 0..2000 {
             let uv = Vec2::new(rng.range(-1.0, 2.0), rng.range(-1.0, 2.0));
@@ -159,13 +177,10 @@ mod tests {
                 dir * Vec2::new(1.0 / 64.0, 1.0 / 32.0) * rng.f32(),
                 dir.perp() * Vec2::new(1.0 / 64.0, 1.0 / 32.0) * rng.f32(),
             );
-            assert_eq!(mip.lookup_aniso(uv, fp), mip.lookup_level(0, uv), "{fp:?}");
+            assert_eq!(mip.aniso(uv, fp), mip.lookup_level(0, uv), "{fp:?}");
         }
         let uv = Vec2::new(0.3, 0.4);
-        assert_eq!(
-            mip.lookup_aniso(uv, Footprint::POINT),
-            mip.lookup_level(0, uv)
-        );
+        assert_eq!(mip.aniso(uv, Footprint::POINT), mip.lookup_level(0, uv));
     }
 
     #[test]
@@ -182,12 +197,12 @@ mod tests {
             );
             // Stripes that vary along u only: filtering along v changes nothing.
             let across = stripes(n, true);
-            let got = across.lookup_aniso(uv, fp);
+            let got = across.aniso(uv, fp);
             let want = across.lookup_level(0, uv);
             assert!(got.abs_diff_eq(want, 1e-5), "{k}: {got} vs {want}");
             // Stripes that vary along v are averaged towards their mean 0.5.
             let along = stripes(n, false);
-            let got = along.lookup_aniso(uv, fp).x;
+            let got = along.aniso(uv, fp).x;
             let plain = along.lookup_level(0, uv).x;
             assert!(
                 (got - 0.5).abs() <= (plain - 0.5).abs() + 1e-5,
@@ -205,7 +220,7 @@ mod tests {
         // texel's total weight, integrated over all lookup positions, is one texel's area.
         let mut img = Image::filled(16, 16, Vec3::ZERO);
         img.pixels[5 * 16 + 9] = Vec3::ONE;
-        let mip = MipMap::new(img, WrapMode::Repeat, FilterType::Bilinear);
+        let mip = MipMap::new(img, WrapMode::Repeat, FilterType::Bilinear).with_packed_texels();
         let m = 1.0 / 256.0;
         for fp in [
             Footprint::new(Vec2::new(0.2, 0.05), Vec2::new(-0.01, 0.02)),
@@ -218,7 +233,7 @@ mod tests {
             for j in 0..g {
                 for i in 0..g {
                     let uv = Vec2::new((i as f32 + 0.5) / g as f32, (j as f32 + 0.5) / g as f32);
-                    sum += mip.lookup_aniso(uv, fp).x as f64;
+                    sum += mip.aniso(uv, fp).x as f64;
                 }
             }
             let mean = sum / (g * g) as f64;
@@ -228,10 +243,11 @@ mod tests {
 
     #[test]
     fn isotropic_footprint_is_trilinear() {
-        let mip = MipMap::new(pattern(64, 64), WrapMode::Repeat, FilterType::Bilinear);
+        let mip = MipMap::new(pattern(64, 64), WrapMode::Repeat, FilterType::Bilinear)
+            .with_packed_texels();
         for r in [2.0f32, 3.0, 7.5, 20.0] {
             let uv = Vec2::new(0.31, 0.62);
-            let got = mip.lookup_aniso(uv, Footprint::circle(r / 64.0));
+            let got = mip.aniso(uv, Footprint::circle(r / 64.0));
             let want = mip.lookup_lod(uv, r.log2());
             assert!(got.abs_diff_eq(want, 1e-5), "{r}: {got} vs {want}");
         }
@@ -239,17 +255,18 @@ mod tests {
 
     #[test]
     fn continuous_in_uv_and_footprint() {
-        let mip = MipMap::new(pattern(37, 20), WrapMode::Repeat, FilterType::Bilinear);
+        let mip = MipMap::new(pattern(37, 20), WrapMode::Repeat, FilterType::Bilinear)
+            .with_packed_texels();
         let uv = Vec2::new(0.41, 0.27);
         let dir = Vec2::from_angle(0.3);
         // Grow the major axis from 0.5 to 200 texels, the minor from 0.1 to 3 texels.
-        let mut prev = mip.lookup_aniso(uv, Footprint::POINT);
+        let mut prev = mip.aniso(uv, Footprint::POINT);
         let steps = 4000;
         for k in 0..=steps {
             let t = k as f32 / steps as f32;
             let major = 0.5 * 400f32.powf(t) / 37.0;
             let minor = 0.1 * 30f32.powf(t) / 37.0;
-            let cur = mip.lookup_aniso(uv, Footprint::new(dir * major, dir.perp() * minor));
+            let cur = mip.aniso(uv, Footprint::new(dir * major, dir.perp() * minor));
             assert!(
                 (cur - prev).abs().max_element() < 0.03,
                 "step {k}: {prev} -> {cur}"
@@ -260,26 +277,58 @@ mod tests {
 
     #[test]
     fn huge_and_non_finite_footprints_stay_finite() {
-        let mip = MipMap::new(pattern(5, 3), WrapMode::Clamp, FilterType::Bilinear);
+        let mip =
+            MipMap::new(pattern(5, 3), WrapMode::Clamp, FilterType::Bilinear).with_packed_texels();
         let top = mip.level(mip.levels() - 1).pixels[0];
         let huge = Footprint::new(Vec2::new(1e30, 0.0), Vec2::new(0.0, 1e29));
-        assert!(mip
-            .lookup_aniso(Vec2::new(0.5, 0.5), huge)
-            .abs_diff_eq(top, 1e-6));
+        assert!(mip.aniso(Vec2::new(0.5, 0.5), huge).abs_diff_eq(top, 1e-6));
         let inf = Footprint::new(Vec2::new(1e38, 0.0), Vec2::ZERO);
-        assert!(mip
-            .lookup_aniso(Vec2::new(0.5, 0.5), inf)
-            .abs_diff_eq(top, 1e-6));
+        assert!(mip.aniso(Vec2::new(0.5, 0.5), inf).abs_diff_eq(top, 1e-6));
         let long = Footprint::new(Vec2::new(1e30, 0.0), Vec2::ZERO);
-        assert!(mip.lookup_aniso(Vec2::new(0.5, 0.5), long).is_finite());
+        assert!(mip.aniso(Vec2::new(0.5, 0.5), long).is_finite());
         for uv in [Vec2::NAN, Vec2::new(1e30, -1e30), Vec2::INFINITY] {
-            let _ = mip.lookup_aniso(uv, Footprint::circle(0.3));
+            let _ = mip.aniso(uv, Footprint::circle(0.3));
         }
         let nearest = MipMap::new(pattern(8, 8), WrapMode::Repeat, FilterType::Nearest);
         let uv = Vec2::new(0.3, 0.6);
         assert_eq!(
-            nearest.lookup_aniso(uv, Footprint::circle(0.5)),
+            nearest.aniso(uv, Footprint::circle(0.5)),
             nearest.lookup_level(0, uv)
         );
+    }
+
+    /// The packed texels give the pyramid's own values to the bit, through every branch of the
+    /// filter (point, within a texel, one trilinear probe, probes along the axis, the coarsest
+    /// level), for power-of-two and other sizes, every wrap mode, inside and far outside [0, 1].
+    #[test]
+    fn packed_texels_give_the_same_bits() {
+        let mut rng = torrey_testkit::Rng::new(21);
+        for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            for (w, h) in [(64, 32), (37, 20), (256, 256), (1, 1), (1, 8), (768, 3)] {
+                let plain = MipMap::new(pattern(w, h), wrap, FilterType::Bilinear);
+                let packed = plain.clone().with_packed_texels();
+                for k in 0..3000 {
+                    let span = [1.0, 5.0, 1e5][k % 3];
+                    let uv = Vec2::new(rng.range(-span, span), rng.range(-span, span));
+                    let scale = [0.0, 0.3 / w as f32, 4.0 / w as f32, 0.1, 10.0][k % 5];
+                    let fp = random_footprint(&mut rng, scale)
+                        .with_shift(Vec2::new(rng.range(-0.01, 0.01), 0.0));
+                    let (a, b) = (plain.lookup_aniso(uv, fp), packed.lookup_aniso(uv, fp));
+                    assert_eq!(
+                        Vec3::from(a).to_array().map(f32::to_bits),
+                        Vec3::from(b).to_array().map(f32::to_bits),
+                        "{wrap:?} {w}x{h} {uv} {fp:?}"
+                    );
+                }
+                for uv in [Vec2::NAN, Vec2::new(1e30, -3e9), Vec2::INFINITY] {
+                    let fp = Footprint::circle(0.2);
+                    let (a, b) = (plain.lookup_aniso(uv, fp), packed.lookup_aniso(uv, fp));
+                    assert_eq!(
+                        Vec3::from(a).to_array().map(f32::to_bits),
+                        Vec3::from(b).to_array().map(f32::to_bits)
+                    );
+                }
+            }
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! The scene's `bitmap` texture: a mip pyramid plus the uv transform from the scene file.
 
-use glam::{Affine2, Vec2, Vec3};
+use glam::{Affine2, Vec2, Vec3A};
 
 use crate::footprint::Footprint;
 use crate::mipmap::MipMap;
@@ -14,9 +14,13 @@ pub struct BitmapTexture {
 }
 
 impl BitmapTexture {
-    /// Wraps a pyramid with its uv transform.
+    /// Wraps a pyramid with its uv transform; lookups read a packed copy of its texels
+    /// ([`MipMap::with_packed_texels`]).
     pub fn new(mip: MipMap, to_uv: Affine2) -> Self {
-        Self { mip, to_uv }
+        Self {
+            mip: mip.with_packed_texels(),
+            to_uv,
+        }
     }
 
     /// The pyramid, e.g. for a renderer that wants the mean colour (the 1x1 level).
@@ -32,7 +36,7 @@ impl BitmapTexture {
     /// The texture filtered over `fp`, an ellipse in the surface's own uv units (before to_uv):
     /// its axes go through to_uv's linear part, so scales, rotations and shears of the uv
     /// transform stretch the footprint exactly as they stretch the texture.
-    pub fn eval(&self, uv: Vec2, fp: Footprint) -> Vec3 {
+    pub fn eval(&self, uv: Vec2, fp: Footprint) -> Vec3A {
         let st = self.to_uv.transform_point2(uv);
         self.mip
             .lookup_aniso(st, fp.transformed(self.to_uv.matrix2))
@@ -60,6 +64,7 @@ mod tests {
     use super::*;
     use crate::image::Image;
     use crate::mipmap::{FilterType, WrapMode};
+    use glam::Vec3;
 
     fn stripes() -> MipMap {
         // 8x8 vertical stripes 0/1: level 0 alternates, level 1 and coarser are 0.5.
@@ -126,7 +131,7 @@ mod tests {
             Vec2::new(-0.2, 0.9),
             Vec2::new(0.77, 0.13),
         ] {
-            let f = |uv: Vec2| lum(tex.eval(uv, Footprint::POINT));
+            let f = |uv: Vec2| lum(tex.eval(uv, Footprint::POINT).into());
             let fd = Vec2::new(
                 f(uv + Vec2::X * eps) - f(uv - Vec2::X * eps),
                 f(uv + Vec2::Y * eps) - f(uv - Vec2::Y * eps),

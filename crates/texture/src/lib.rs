@@ -13,6 +13,7 @@ pub mod footprint;
 pub mod image;
 pub mod io;
 pub mod mipmap;
+mod packed;
 pub mod raycone;
 
 pub use aniso::{MAX_ANISOTROPY, MAX_PROBES};

@@ -1,7 +1,7 @@
 //! Ray cones (Akenine-Möller et al., "Texture level of detail strategies for real-time ray
 //! tracing", Ray Tracing Gems, 2019): a cheap texture-filter width for any hit along a path.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 
 use crate::footprint::Footprint;
 
@@ -84,7 +84,11 @@ impl RayCone {
     /// Where dpdu and dpdv are (nearly) parallel or zero (sphere poles) the footprint falls back
     /// to a circle of radius |major| / max(|dpdu|, |dpdv|); with no usable derivatives it is a
     /// point. Never NaN.
-    pub fn footprint(&self, ray_dir: Vec3, normal: Vec3, dpdu: Vec3, dpdv: Vec3) -> Footprint {
+    ///
+    /// In `Vec3A`s (whole-vector multiplies; glam's SSE dot and cross add in the scalar
+    /// order, so the result is the same to the bit as with `Vec3`, as long as the build does not
+    /// enable the `fma` target feature, with which glam fuses the cross product).
+    pub fn footprint(&self, ray_dir: Vec3A, normal: Vec3A, dpdu: Vec3A, dpdv: Vec3A) -> Footprint {
         let r = self.width.abs() * RADIUS_PER_WIDTH;
         if !(r.is_finite() && r > 0.0) {
             return Footprint::POINT;
@@ -96,7 +100,10 @@ impl RayCone {
         // Across the plane of incidence, and the ray's direction within the surface.
         let (across, along) = match n.cross(d).try_normalize() {
             Some(across) => (across, n.cross(across)),
-            None => n.any_orthonormal_pair(),
+            None => {
+                let (a, b) = Vec3::from(n).any_orthonormal_pair();
+                (a.into(), b.into())
+            }
         };
         let major = along * (r / cos.abs().max(MIN_COS));
         let minor = across * r;
@@ -104,7 +111,7 @@ impl RayCone {
         let det = uu * vv - uv * uv;
         if det > 1e-6 * uu * vv && det.is_finite() && det > 0.0 {
             let inv_det = 1.0 / det;
-            let to_uv = |w: Vec3| {
+            let to_uv = |w: Vec3A| {
                 let (pu, pv) = (dpdu.dot(w), dpdv.dot(w));
                 Vec2::new(vv * pu - uv * pv, uu * pv - uv * pu) * inv_det
             };
@@ -127,10 +134,11 @@ impl RayCone {
     /// ray's intersection with the tangent plane, kept within two semi-axes of the footprint
     /// ellipse (`major`, `minor`, perpendicular) so that a centre ray nearly parallel to the
     /// plane cannot throw the lookup far away. None when inactive or unusable.
-    fn centre_offset(&self, ray_dir: Vec3, n: Vec3, major: Vec3, minor: Vec3) -> Option<Vec3> {
+    fn centre_offset(&self, ray_dir: Vec3A, n: Vec3A, major: Vec3A, minor: Vec3A) -> Option<Vec3A> {
         let Centre::Active { dir, weight, t } = self.centre else {
             return None;
         };
+        let dir = Vec3A::from(dir);
         // Hit p = o + t ray_dir; the centre ray o + s dir meets the plane n.(x - p) = 0 at
         // s = t (n.ray_dir) / (n.dir).
         let (dn, cn) = (ray_dir.dot(n), dir.dot(n));
@@ -153,40 +161,41 @@ impl RayCone {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3A;
 
     #[test]
     fn ellipse_footprint_analytic_values() {
         // Width 0.01 at the hit, so r = 0.01 * RADIUS_PER_WIDTH world units.
         let c = RayCone::from_pixel(0.001).at_distance(10.0);
         let r = 0.01 * RADIUS_PER_WIDTH;
-        let (du, dv) = (Vec3::X * 2.0, Vec3::Y * 2.0);
+        let (du, dv) = (Vec3A::X * 2.0, Vec3A::Y * 2.0);
         // Head-on on a plane of side 2: a circle of radius r / 2 in uv.
-        let (ma, mi) = c.footprint(-Vec3::Z, Vec3::Z, du, dv).axis_lengths();
+        let (ma, mi) = c.footprint(-Vec3A::Z, Vec3A::Z, du, dv).axis_lengths();
         assert!(
             (ma - r / 2.0).abs() < 1e-7 && (mi - r / 2.0).abs() < 1e-7,
             "{ma} {mi}"
         );
         // 60 degrees from the normal in the y-z plane: stretched by 1 / cos 60 = 2 along v only.
         let a = 60f32.to_radians();
-        let dir = Vec3::new(0.0, a.sin(), -a.cos());
-        let fp = c.footprint(dir, Vec3::Z, du, dv);
+        let dir = Vec3A::new(0.0, a.sin(), -a.cos());
+        let fp = c.footprint(dir, Vec3A::Z, du, dv);
         let (major, minor) = fp.principal_axes();
         assert!((major.length() - r).abs() < 1e-6, "{fp:?}");
         assert!(major.x.abs() < 1e-7, "major along v: {major}");
         assert!((minor.length() - r / 2.0).abs() < 1e-6, "{fp:?}");
         // The back side gives the same ellipse.
-        let back = c.footprint(dir, -Vec3::Z, du, dv).axis_lengths();
+        let back = c.footprint(dir, -Vec3A::Z, du, dv).axis_lengths();
         assert!((back.0 - r).abs() < 1e-6 && (back.1 - r / 2.0).abs() < 1e-6);
         // Anisotropic parametrisation: |dpdu| = 1, |dpdv| = 4: head-on the ellipse is r along u
         // and r / 4 along v.
         let (major, minor) = c
-            .footprint(-Vec3::Z, Vec3::Z, Vec3::X, Vec3::Y * 4.0)
+            .footprint(-Vec3A::Z, Vec3A::Z, Vec3A::X, Vec3A::Y * 4.0)
             .principal_axes();
         assert!((major.length() - r).abs() < 1e-6 && major.y.abs() < 1e-7);
         assert!((minor.length() - r / 4.0).abs() < 1e-6 && minor.x.abs() < 1e-7);
         // Sheared parametrisation (dpdv not perpendicular to dpdu): axes map back exactly.
-        let (du, dv) = (Vec3::X, Vec3::new(1.0, 1.0, 0.0));
-        let fp = c.footprint(-Vec3::Z, Vec3::Z, du, dv);
+        let (du, dv) = (Vec3A::X, Vec3A::new(1.0, 1.0, 0.0));
+        let fp = c.footprint(-Vec3A::Z, Vec3A::Z, du, dv);
         for w in [fp.a, fp.b] {
             let world = du * w.x + dv * w.y;
             assert!((world.length() - r).abs() < 1e-6, "{w}");
@@ -205,7 +214,7 @@ mod tests {
         let r = 0.003 * RADIUS_PER_WIDTH;
         // Exactly grazing: the stretch is capped at 1 / MIN_COS.
         let (ma, mi) = c
-            .footprint(Vec3::X, Vec3::Z, Vec3::X, Vec3::Y)
+            .footprint(Vec3A::X, Vec3A::Z, Vec3A::X, Vec3A::Y)
             .axis_lengths();
         assert!(
             (ma - r / MIN_COS).abs() < 1e-5 && (mi - r).abs() < 1e-7,
@@ -214,27 +223,27 @@ mod tests {
         // Sphere pole: dpdu = 0 falls back to a circle of |major| / |dpdv|.
         let pi = std::f32::consts::PI;
         let (ma, mi) = c
-            .footprint(-Vec3::Z, Vec3::Z, Vec3::ZERO, Vec3::X * pi)
+            .footprint(-Vec3A::Z, Vec3A::Z, Vec3A::ZERO, Vec3A::X * pi)
             .axis_lengths();
         assert!((ma - r / pi).abs() < 1e-7 && (mi - r / pi).abs() < 1e-7);
         // No derivatives, no direction, NaN: a point or finite.
         assert!(c
-            .footprint(-Vec3::Z, Vec3::Z, Vec3::ZERO, Vec3::ZERO)
+            .footprint(-Vec3A::Z, Vec3A::Z, Vec3A::ZERO, Vec3A::ZERO)
             .is_point());
         assert!(c
-            .footprint(Vec3::ZERO, Vec3::Z, Vec3::X, Vec3::Y)
+            .footprint(Vec3A::ZERO, Vec3A::Z, Vec3A::X, Vec3A::Y)
             .is_point());
-        let nan = c.footprint(Vec3::splat(f32::NAN), Vec3::Z, Vec3::X, Vec3::Y);
+        let nan = c.footprint(Vec3A::splat(f32::NAN), Vec3A::Z, Vec3A::X, Vec3A::Y);
         assert!(nan.a.is_finite() && nan.b.is_finite());
-        let zero = RayCone::from_pixel(0.001).footprint(-Vec3::Z, Vec3::Z, Vec3::X, Vec3::Y);
+        let zero = RayCone::from_pixel(0.001).footprint(-Vec3A::Z, Vec3A::Z, Vec3A::X, Vec3A::Y);
         assert!(zero.is_point());
     }
 
     #[test]
     fn first_hit_lookups_move_toward_the_pixel_centre() {
         // Camera at the origin looking down -z at the plane z = -2 (normal +z, uv = (x, y)).
-        let (du, dv) = (Vec3::X, Vec3::Y);
-        let sample_dir = Vec3::new(0.01, 0.0, -1.0);
+        let (du, dv) = (Vec3A::X, Vec3A::Y);
+        let sample_dir = Vec3A::new(0.01, 0.0, -1.0);
         let centre_dir = Vec3::new(0.0, 0.0, -1.0);
         let t = 2.0 * sample_dir.length();
         let d = sample_dir.normalize();
@@ -242,12 +251,12 @@ mod tests {
             let cone = RayCone::from_pixel(0.01)
                 .toward_pixel_centre(centre_dir, weight)
                 .at_distance(t);
-            let fp = cone.footprint(d, Vec3::Z, du, dv);
+            let fp = cone.footprint(d, Vec3A::Z, du, dv);
             // The sample hits x = 0.02, the centre ray x = 0: the shift is -0.02 * weight in u.
             assert!((fp.shift.x + 0.02 * weight).abs() < 1e-6, "{fp:?}");
             assert!(fp.shift.y.abs() < 1e-7);
             // Only the first hit moves.
-            let next = cone.at_distance(1.0).footprint(d, Vec3::Z, du, dv);
+            let next = cone.at_distance(1.0).footprint(d, Vec3A::Z, du, dv);
             assert_eq!(next.shift, Vec2::ZERO);
         }
         // A centre ray that misses the plane (parallel or behind) leaves the lookup in place, and
@@ -255,18 +264,18 @@ mod tests {
         let cone = RayCone::from_pixel(0.01)
             .toward_pixel_centre(Vec3::X, 1.0)
             .at_distance(t);
-        assert_eq!(cone.footprint(d, Vec3::Z, du, dv).shift, Vec2::ZERO);
+        assert_eq!(cone.footprint(d, Vec3A::Z, du, dv).shift, Vec2::ZERO);
         let grazing = Vec3::new(1.0, 0.0, -1e-4);
         let cone = RayCone::from_pixel(0.01)
             .toward_pixel_centre(grazing, 1.0)
             .at_distance(t);
-        let fp = cone.footprint(d, Vec3::Z, du, dv);
+        let fp = cone.footprint(d, Vec3A::Z, du, dv);
         let (ma, _) = fp.axis_lengths();
         assert!(fp.shift.length() <= 2.0 * ma * 1.0001, "{fp:?}");
         // Without a centre nothing moves.
         let plain = RayCone::from_pixel(0.01)
             .at_distance(t)
-            .footprint(d, Vec3::Z, du, dv);
+            .footprint(d, Vec3A::Z, du, dv);
         assert_eq!(plain.shift, Vec2::ZERO);
     }
 

@@ -75,7 +75,7 @@ pub fn radiance(
     let cone = cone.at_distance(hit.t);
     let material = &scene.materials[shape.material as usize];
     let footprint = if settings.mipmapping && material.is_textured() {
-        cone.footprint(dir.into(), hit.ng.into(), hit.dpdu.into(), hit.dpdv.into())
+        cone.footprint(dir, hit.ng, hit.dpdu, hit.dpdv)
     } else {
         Footprint::POINT
     };

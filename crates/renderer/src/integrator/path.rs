@@ -178,12 +178,7 @@ pub fn radiance(
         }
         let material = &scene.materials[shape.material as usize];
         let footprint = if settings.mipmapping && material.is_textured() {
-            cone.footprint(
-                ray.dir.into(),
-                hit.ng.into(),
-                hit.dpdu.into(),
-                hit.dpdv.into(),
-            )
+            cone.footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
         } else {
             Footprint::POINT
         };

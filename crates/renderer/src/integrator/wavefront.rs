@@ -387,12 +387,7 @@ fn shade(
     path.cone = path.cone.at_distance(hit.t);
     let material = &scene.materials[shape.material as usize];
     let footprint = if settings.mipmapping && material.is_textured() {
-        path.cone.footprint(
-            ray.dir.into(),
-            hit.ng.into(),
-            hit.dpdu.into(),
-            hit.dpdv.into(),
-        )
+        path.cone.footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
     } else {
         Footprint::POINT
     };
