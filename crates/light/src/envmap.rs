@@ -495,16 +495,22 @@ impl EnvMap {
             }
             lanes.convert_to_uv_sin(simd);
             for k in 0..dirs.len() {
-                // A hint only: the top-left texel record of the bilinear lookup (the row remap of
-                // `bilinear_finest_with_density`).
-                let column = ((lanes.x[k] * self.size.x) as u32).min(self.width as u32 - 1);
-                let row = ((row_v(lanes.y[k], self.size.y) * self.size.y) as u32)
-                    .min(self.height as u32 - 1);
-                prefetch(
-                    self.texels
-                        .as_ptr()
-                        .wrapping_add(row as usize * self.width + column as usize),
-                );
+                // A hint only: the four texel records of the bilinear lookup, top-left at column
+                // floor(u W - 1/2) and row floor(v (H - 1)) (the row remap of
+                // `bilinear_finest_with_density`); the saturating casts and the clamps keep the
+                // address inside the table except at the seam and the nadir, where a neighbour
+                // is hinted instead (nothing is read).
+                let column = ((lanes.x[k] * self.size.x - 0.5) as u32).min(self.width as u32 - 1);
+                let row = ((lanes.y[k] * (self.size.y - 1.0)) as u32).min(self.height as u32 - 2);
+                let top = self
+                    .texels
+                    .as_ptr()
+                    .wrapping_add(row as usize * self.width + column as usize);
+                let bottom = top.wrapping_add(self.width);
+                prefetch(top);
+                prefetch(top.wrapping_add(1));
+                prefetch(bottom);
+                prefetch(bottom.wrapping_add(1));
             }
             for (k, &spread) in spreads.iter().enumerate() {
                 let uv = Vec2::new(lanes.x[k], lanes.y[k]);
@@ -528,7 +534,33 @@ impl EnvMap {
         let column = ((u.x * self.width as u32 as f32) as u32 as usize).min(self.width - 1);
         let cell = row * self.width + column;
         prefetch(self.column_slots.as_ptr().wrapping_add(cell));
+        // The patch's top and bottom texel records (those of the slot's own column).
         prefetch(self.texels.as_ptr().wrapping_add(cell));
+        prefetch(self.texels.as_ptr().wrapping_add(cell + self.width));
+    }
+
+    /// Starts loading the four texel records [`Self::sample`] will read for `u`, whichever
+    /// column the alias slot picks. It reads the row and column slots: call it once
+    /// [`Self::prefetch_sample`]'s loads have had time to arrive (after a traversal), so that
+    /// the sample finds its patch in cache. A hint only, like `prefetch_sample`.
+    #[inline]
+    pub fn prefetch_sample_patch(&self, u: Vec2) {
+        if !self.samplable {
+            return;
+        }
+        let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
+        let (row, _) = alias::pick(&self.row_slots, u.y);
+        let start = row * self.width;
+        let columns = &self.column_slots[start..start + self.width];
+        let (column, _) = alias::pick(columns, u.x);
+        let top = self.texels.as_ptr().wrapping_add(start + column);
+        let bottom = top.wrapping_add(self.width);
+        // column + 1 shares the cache line unless column ends one; the wrap to column 0 is
+        // not worth a branch.
+        prefetch(top);
+        prefetch(top.wrapping_add(1));
+        prefetch(bottom);
+        prefetch(bottom.wrapping_add(1));
     }
 
     /// Importance-samples a direction by luminance x sin(theta) (module doc). `None` for a black
