@@ -347,9 +347,9 @@ impl EnvMap {
             return self.bilinear_finest(uv);
         }
         let level = self.mip.level_for_footprint(footprint);
-        let l0 = level.floor();
-        let t = level - l0;
-        let l0 = l0 as usize;
+        // `level` is finite and in [0, levels - 1]: truncation is floor (without libm's call).
+        let l0 = level as usize;
+        let t = level - l0 as f32;
         let a = if l0 == 0 {
             self.bilinear_finest(uv)
         } else {
@@ -440,13 +440,14 @@ impl EnvMap {
             return (Vec3::ZERO, 0.0);
         }
         let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
-        self.eval_pdf_uv(uv, sin_theta, spread)
+        self.eval_pdf_uv(uv, sin_theta, spread, true)
     }
 
     /// [`Self::eval_pdf`] of the direction with local `uv` and `sin_theta` (a map whose scale is
     /// not 0): the part `eval_pdf_batch` shares with it.
+    /// With `want_pdf` false the density is not looked up (0 is returned in its place).
     #[inline]
-    fn eval_pdf_uv(&self, uv: Vec2, sin_theta: f32, spread: f32) -> (Vec3, f32) {
+    fn eval_pdf_uv(&self, uv: Vec2, sin_theta: f32, spread: f32, want_pdf: bool) -> (Vec3, f32) {
         let footprint = self.footprint(spread);
         if footprint <= 0.0 && self.samplable {
             // Radiance and density from the same four texel records.
@@ -457,6 +458,9 @@ impl EnvMap {
             );
         }
         let radiance = self.lookup(uv, footprint) * self.scale;
+        if !want_pdf {
+            return (radiance, 0.0);
+        }
         (radiance, self.pdf_uv(uv, sin_theta))
     }
 
@@ -471,14 +475,17 @@ impl EnvMap {
     }
 
     /// [`Self::eval_pdf`] of many escaped rays at once, bit for bit: `out[k]` is
-    /// `self.eval_pdf(dirs[k], spreads[k])`. The directions are turned into uv and sin(theta)
-    /// [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the CPU was found
-    /// to have), each lane's texel record is prefetched, then the texels are read lane by lane.
-    /// `out` is cleared first.
+    /// `self.eval_pdf(dirs[k], spreads[k])`, except that where `want_pdf[k]` is false (a path
+    /// that needs no MIS weight) the density may be skipped and read 0: it costs a second
+    /// lookup when the ray cone selects a coarser level. The directions are turned into uv and
+    /// sin(theta) [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the
+    /// CPU was found to have), each lane's texel records are prefetched, then the texels are read
+    /// lane by lane. `out` is cleared first.
     pub fn eval_pdf_batch(
         &self,
         dirs: &[Vec3],
         spreads: &[f32],
+        want_pdf: &[bool],
         simd: BatchSimd,
         out: &mut Vec<(Vec3, f32)>,
     ) {
@@ -487,7 +494,11 @@ impl EnvMap {
             out.resize(dirs.len(), (Vec3::ZERO, 0.0));
             return;
         }
-        for (dirs, spreads) in dirs.chunks(BATCH_LANES).zip(spreads.chunks(BATCH_LANES)) {
+        for ((dirs, spreads), want_pdf) in dirs
+            .chunks(BATCH_LANES)
+            .zip(spreads.chunks(BATCH_LANES))
+            .zip(want_pdf.chunks(BATCH_LANES))
+        {
             let mut lanes = UvLanes::default();
             for (k, d) in dirs.iter().enumerate() {
                 let local = self.to_local * *d;
@@ -512,9 +523,9 @@ impl EnvMap {
                 prefetch(bottom);
                 prefetch(bottom.wrapping_add(1));
             }
-            for (k, &spread) in spreads.iter().enumerate() {
+            for (k, (&spread, &want_pdf)) in spreads.iter().zip(want_pdf).enumerate() {
                 let uv = Vec2::new(lanes.x[k], lanes.y[k]);
-                out.push(self.eval_pdf_uv(uv, lanes.z[k], spread));
+                out.push(self.eval_pdf_uv(uv, lanes.z[k], spread, want_pdf));
             }
         }
     }
@@ -993,10 +1004,18 @@ mod tests {
                 Vec3::new(1e-30, 1.0, -1e-30),
             ]);
             let spreads: Vec<f32> = (0..dirs.len()).map(|k| [0.0, 0.02, 0.5][k % 3]).collect();
+            // Every combination of spread and wanted density (period 6 against period 3).
+            let want_pdf: Vec<bool> = (0..dirs.len()).map(|k| k % 6 < 3).collect();
             let mut out = Vec::new();
             for simd in [BatchSimd::Portable, BatchSimd::Avx2, BatchSimd::Avx512] {
                 for len in [dirs.len(), 16, 5, 1] {
-                    env.eval_pdf_batch(&dirs[..len], &spreads[..len], simd, &mut out);
+                    env.eval_pdf_batch(
+                        &dirs[..len],
+                        &spreads[..len],
+                        &want_pdf[..len],
+                        simd,
+                        &mut out,
+                    );
                     assert_eq!(out.len(), len);
                     for (k, &(l, p)) in out.iter().enumerate() {
                         let (el, ep) = env.eval_pdf(dirs[k], spreads[k]);
@@ -1004,7 +1023,9 @@ mod tests {
                             l.to_array().map(f32::to_bits),
                             el.to_array().map(f32::to_bits)
                         );
-                        assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
+                        if want_pdf[k] {
+                            assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
+                        }
                     }
                 }
             }

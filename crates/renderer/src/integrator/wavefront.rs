@@ -101,6 +101,7 @@ pub struct Wavefront {
     env_sums: Vec<Vec3A>,
     env_dirs: Vec<Vec3>,
     env_spreads: Vec<f32>,
+    env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
 }
 
@@ -284,6 +285,7 @@ impl Wavefront {
             if let (Light::Env(env), true) = (light, batched_env()) {
                 self.env_dirs.clear();
                 self.env_spreads.clear();
+                self.env_want_pdf.clear();
                 for &i in &self.escaped {
                     let path = &self.paths[i as usize];
                     self.env_dirs.push(path.ray.dir.into());
@@ -293,10 +295,15 @@ impl Wavefront {
                         } else {
                             0.0
                         });
+                    // Only a BSDF-sampled (non-delta) bounce weighs the sky by MIS below.
+                    self.env_want_pdf.push(
+                        !path.prev_delta && settings.env_strategy == EnvStrategy::ImportanceMis,
+                    );
                 }
                 env.map.eval_pdf_batch(
                     &self.env_dirs,
                     &self.env_spreads,
+                    &self.env_want_pdf,
                     batch_simd(),
                     &mut self.env_values,
                 );
