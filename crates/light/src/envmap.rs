@@ -550,30 +550,6 @@ impl EnvMap {
         prefetch(self.texels.as_ptr().wrapping_add(cell + self.width));
     }
 
-    /// Starts loading the four texel records [`Self::sample`] will read for `u`, whichever
-    /// column the alias slot picks. It reads the row and column slots: call it once
-    /// [`Self::prefetch_sample`]'s loads have had time to arrive (after a traversal), so that
-    /// the sample finds its patch in cache. A hint only, like `prefetch_sample`.
-    #[inline]
-    pub fn prefetch_sample_patch(&self, u: Vec2) {
-        if !self.samplable {
-            return;
-        }
-        let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
-        let (row, _) = alias::pick(&self.row_slots, u.y);
-        let start = row * self.width;
-        let columns = &self.column_slots[start..start + self.width];
-        let (column, _) = alias::pick(columns, u.x);
-        let top = self.texels.as_ptr().wrapping_add(start + column);
-        let bottom = top.wrapping_add(self.width);
-        // column + 1 shares the cache line unless column ends one; the wrap to column 0 is
-        // not worth a branch.
-        prefetch(top);
-        prefetch(top.wrapping_add(1));
-        prefetch(bottom);
-        prefetch(bottom.wrapping_add(1));
-    }
-
     /// Importance-samples a direction by luminance x sin(theta) (module doc). `None` for a black
     /// map or a sample that lands exactly on a pole.
     #[inline]

@@ -213,17 +213,7 @@ impl Wavefront {
                 };
                 match hit {
                     None => self.escaped.push(i),
-                    Some(_) => {
-                        // The environment map's slots, prefetched by the draw, have arrived
-                        // during the traversal: start loading the patch the light sample of
-                        // stage 4 will read.
-                        if let Some((li, LightDraw::Deferred(u))) = path.light_draw {
-                            if let Light::Env(env) = &scene.lights[li] {
-                                env.map.prefetch_sample_patch(u);
-                            }
-                        }
-                        self.surfaced.push(i)
-                    }
+                    Some(_) => self.surfaced.push(i),
                 }
                 self.hits[i as usize] = hit;
             }
