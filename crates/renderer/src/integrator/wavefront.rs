@@ -268,8 +268,15 @@ impl Wavefront {
         settings: PathSettings,
         light_select_pdf: f32,
     ) {
-        self.env_sums.clear();
-        self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+        // With one light at infinity (the usual case) each path's sum is that light's term, added
+        // to the path at once; with several, the terms are summed per path in the lights' order
+        // first. Either way the bits of the scalar loop: its sum starts at zero too.
+        let single = scene.infinite_lights.len() == 1;
+        if !single {
+            self.env_sums.clear();
+            self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+        }
+        let mis = settings.env_strategy == EnvStrategy::ImportanceMis;
         for &li in &scene.infinite_lights {
             let light = &scene.lights[li as usize];
             if let (Light::Env(env), true) = (light, batched_env()) {
@@ -286,9 +293,7 @@ impl Wavefront {
                             0.0
                         });
                     // Only a BSDF-sampled (non-delta) bounce weighs the sky by MIS below.
-                    self.env_want_pdf.push(
-                        !path.prev_delta && settings.env_strategy == EnvStrategy::ImportanceMis,
-                    );
+                    self.env_want_pdf.push(!path.prev_delta && mis);
                 }
                 env.map.eval_pdf_batch(
                     &self.env_dirs,
@@ -297,27 +302,49 @@ impl Wavefront {
                     batch_simd(),
                     &mut self.env_values,
                 );
-                for (j, &i) in self.escaped.iter().enumerate() {
-                    let path = &self.paths[i as usize];
-                    let (le, pdf) = self.env_values[j];
+                let term = |path: &PathState, (le, pdf): (Vec3, f32)| {
                     let le = Vec3A::from(le);
-                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
-                        None => le,
-                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
-                        Some(bsdf_pdf) => le * power_heuristic(bsdf_pdf, pdf * light_select_pdf),
-                    };
+                    match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                        None => Some(le),
+                        Some(_) if !mis => None,
+                        Some(bsdf_pdf) => {
+                            Some(le * power_heuristic(bsdf_pdf, pdf * light_select_pdf))
+                        }
+                    }
+                };
+                if single {
+                    for (&i, &value) in self.escaped.iter().zip(&self.env_values) {
+                        let path = &mut self.paths[i as usize];
+                        let sum = Vec3A::ZERO + term(path, value).unwrap_or(Vec3A::ZERO);
+                        path.result += path.throughput * sum;
+                    }
+                    return;
+                }
+                for ((&i, &value), sum) in self
+                    .escaped
+                    .iter()
+                    .zip(&self.env_values)
+                    .zip(&mut self.env_sums)
+                {
+                    if let Some(t) = term(&self.paths[i as usize], value) {
+                        *sum += t;
+                    }
                 }
             } else {
-                for (j, &i) in self.escaped.iter().enumerate() {
+                if single {
+                    self.env_sums.clear();
+                    self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+                }
+                for (&i, sum) in self.escaped.iter().zip(&mut self.env_sums) {
                     let path = &self.paths[i as usize];
                     let spread = if path.specular_chain && settings.mipmapping {
                         path.cone.spread
                     } else {
                         0.0
                     };
-                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                    *sum += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
                         None => light.radiance_infinite(path.ray.dir, spread),
-                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
+                        Some(_) if !mis => continue,
                         Some(bsdf_pdf) => {
                             let (le, pdf) = light.eval_infinite(path.ray.dir, spread);
                             le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
@@ -326,9 +353,9 @@ impl Wavefront {
                 }
             }
         }
-        for (j, &i) in self.escaped.iter().enumerate() {
+        for (&i, &sum) in self.escaped.iter().zip(&self.env_sums) {
             let path = &mut self.paths[i as usize];
-            path.result += path.throughput * self.env_sums[j];
+            path.result += path.throughput * sum;
         }
     }
 }
