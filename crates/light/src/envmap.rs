@@ -377,9 +377,12 @@ impl EnvMap {
         let Some(t) = BilinearTaps::new(uv, self.size, half, self.width, self.height) else {
             return self.lookup_level_texel_centred(0, uv).extend(0.0);
         };
-        let px = &self.texels;
-        let top = px[t.index[0]] * (1.0 - t.fx) + px[t.index[1]] * t.fx;
-        let bottom = px[t.index[2]] * (1.0 - t.fx) + px[t.index[3]] * t.fx;
+        debug_assert!(t.index.iter().all(|&k| k < self.texels.len()));
+        // SAFETY: `BilinearTaps::new` gives rows in [0, height) and columns in [0, width), and
+        // `texels` holds width x height records (one per texel of the validated image).
+        let texel = |k: usize| unsafe { *self.texels.get_unchecked(t.index[k]) };
+        let top = texel(0) * (1.0 - t.fx) + texel(1) * t.fx;
+        let bottom = texel(2) * (1.0 - t.fx) + texel(3) * t.fx;
         top * (1.0 - t.fy) + bottom * t.fy
     }
 
@@ -567,13 +570,18 @@ impl EnvMap {
             column + 1
         };
         let (top, bottom) = (row * self.width, (row + 1) * self.width);
+        debug_assert!(row + 1 < self.height && column < self.width && column1 < self.width);
+        // SAFETY: the row table has height - 1 slots and a row's table width, and an alias
+        // table's pick is below its length (its own index, clamped, or an alias `build_slots`
+        // took from the same range); so both rows are below height, both columns below width,
+        // and `texels` holds width x height records.
+        let texel_w = |k: usize| unsafe { self.texels.get_unchecked(k).w };
         let [w00, w10, w01, w11] = [
-            self.texels[top + column],
-            self.texels[top + column1],
-            self.texels[bottom + column],
-            self.texels[bottom + column1],
-        ]
-        .map(|t| t.w);
+            texel_w(top + column),
+            texel_w(top + column1),
+            texel_w(bottom + column),
+            texel_w(bottom + column1),
+        ];
         // The bilinear warp: the row position by the marginal (linear in t), then the column
         // position given it.
         let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
@@ -729,17 +737,15 @@ impl BilinearTaps {
         let (i, fx) = floor_frac(x);
         let (j, fy) = floor_frac(y);
         let (w, h) = (width as i32, height as i32);
-        let wrap = |k: i32, n: i32| {
-            if k < 0 {
-                n - 1
-            } else if k >= n {
-                0
-            } else {
-                k
-            }
-        };
-        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
-        let (r0, r1) = (wrap(j, h) as usize * width, wrap(j + 1, h) as usize * width);
+        // x in [-1, W) puts i in [-1, W - 1]: only i can fall off the left edge and only i + 1 off
+        // the right one (the same for rows); a tap is at most one texel outside.
+        let first = |k: i32, n: i32| if k < 0 { n - 1 } else { k };
+        let second = |k: i32, n: i32| if k >= n { 0 } else { k };
+        let (c0, c1) = (first(i, w) as usize, second(i + 1, w) as usize);
+        let (r0, r1) = (
+            first(j, h) as usize * width,
+            second(j + 1, h) as usize * width,
+        );
         Some(Self {
             index: [r0 + c0, r0 + c1, r1 + c0, r1 + c1],
             fx,
