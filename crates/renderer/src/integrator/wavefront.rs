@@ -196,26 +196,29 @@ impl Wavefront {
             for &i in &self.live {
                 let path = &mut self.paths[i as usize];
                 let last_segment = path.depth + 1 >= max_depth;
-                let hit = if path.traced {
+                // Each hit is written once, into its path's slot (no copy out and back).
+                let slot = &mut self.hits[i as usize];
+                if path.traced {
+                    // The camera ray's hit, traced by the caller, is in its slot already.
                     path.traced = false;
                     rays.closest += 1;
-                    // SAFETY: `hits` has one entry per path.
-                    unsafe { *self.hits.get_unchecked(i as usize) }
                 } else if last_segment && !scene.has_area_lights {
+                    // The slot keeps the last bounce's hit, which no stage reads again: the
+                    // path ends here either way.
                     rays.shadow += 1;
-                    if !scene.visible(path.ray.origin, path.ray.dir, path.ray.tmax) {
-                        continue;
+                    if scene.visible(path.ray.origin, path.ray.dir, path.ray.tmax) {
+                        self.escaped.push(i);
                     }
-                    None
+                    continue;
                 } else {
                     rays.closest += 1;
-                    scene.intersect(&path.ray)
-                };
-                match hit {
-                    None => self.escaped.push(i),
-                    Some(_) => self.surfaced.push(i),
+                    *slot = scene.intersect(&path.ray);
                 }
-                self.hits[i as usize] = hit;
+                if slot.is_some() {
+                    self.surfaced.push(i);
+                } else {
+                    self.escaped.push(i);
+                }
             }
 
             // Stage 3: escaped rays see the lights at infinity; their paths end. Environment maps
