@@ -545,7 +545,8 @@ impl EnvMap {
         }
         let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
         let (row, _) = alias::pick(&self.row_slots, u.y);
-        let column = ((u.x * self.width as u32 as f32) as u32 as usize).min(self.width - 1);
+        // u.x is in [0, 1): the own slot of the column pick (`size.x` is the width as f32).
+        let column = ((u.x * self.size.x) as u32 as usize).min(self.width - 1);
         let cell = row * self.width + column;
         prefetch(self.column_slots.as_ptr().wrapping_add(cell));
         // The patch's top and bottom texel records (those of the slot's own column).
