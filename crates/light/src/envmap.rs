@@ -572,10 +572,10 @@ impl EnvMap {
         };
         let (top, bottom) = (row * self.width, (row + 1) * self.width);
         debug_assert!(row + 1 < self.height && column < self.width && column1 < self.width);
-        // SAFETY: the row table has height - 1 slots and a row's table width, and an alias
-        // table's pick is below its length (its own index, clamped, or an alias `build_slots`
-        // took from the same range); so both rows are below height, both columns below width,
-        // and `texels` holds width x height records.
+        // SAFETY: the row table has height - 1 slots and each row's column table width slots,
+        // and an alias table's pick is below its length (its own index, clamped, or an alias
+        // that `build_slots` took from the same range); so both rows are below height, both
+        // columns below width, and `texels` holds width x height records.
         let texel_w = |k: usize| unsafe { self.texels.get_unchecked(k).w };
         let [w00, w10, w01, w11] = [
             texel_w(top + column),
