@@ -347,9 +347,9 @@ impl EnvMap {
             return self.bilinear_finest(uv);
         }
         let level = self.mip.level_for_footprint(footprint);
-        let l0 = level.floor();
-        let t = level - l0;
-        let l0 = l0 as usize;
+        // `level` is finite and in [0, levels - 1]: truncation is floor (without libm's call).
+        let l0 = level as usize;
+        let t = level - l0 as f32;
         let a = if l0 == 0 {
             self.bilinear_finest(uv)
         } else {
@@ -377,9 +377,12 @@ impl EnvMap {
         let Some(t) = BilinearTaps::new(uv, self.size, half, self.width, self.height) else {
             return self.lookup_level_texel_centred(0, uv).extend(0.0);
         };
-        let px = &self.texels;
-        let top = px[t.index[0]] * (1.0 - t.fx) + px[t.index[1]] * t.fx;
-        let bottom = px[t.index[2]] * (1.0 - t.fx) + px[t.index[3]] * t.fx;
+        debug_assert!(t.index.iter().all(|&k| k < self.texels.len()));
+        // SAFETY: `BilinearTaps::new` gives rows in [0, height) and columns in [0, width), and
+        // `texels` holds width x height records (one per texel of the validated image).
+        let texel = |k: usize| unsafe { *self.texels.get_unchecked(t.index[k]) };
+        let top = texel(0) * (1.0 - t.fx) + texel(1) * t.fx;
+        let bottom = texel(2) * (1.0 - t.fx) + texel(3) * t.fx;
         top * (1.0 - t.fy) + bottom * t.fy
     }
 
@@ -440,13 +443,14 @@ impl EnvMap {
             return (Vec3::ZERO, 0.0);
         }
         let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
-        self.eval_pdf_uv(uv, sin_theta, spread)
+        self.eval_pdf_uv(uv, sin_theta, spread, true)
     }
 
     /// [`Self::eval_pdf`] of the direction with local `uv` and `sin_theta` (a map whose scale is
     /// not 0): the part `eval_pdf_batch` shares with it.
+    /// With `want_pdf` false the density is not looked up (0 is returned in its place).
     #[inline]
-    fn eval_pdf_uv(&self, uv: Vec2, sin_theta: f32, spread: f32) -> (Vec3, f32) {
+    fn eval_pdf_uv(&self, uv: Vec2, sin_theta: f32, spread: f32, want_pdf: bool) -> (Vec3, f32) {
         let footprint = self.footprint(spread);
         if footprint <= 0.0 && self.samplable {
             // Radiance and density from the same four texel records.
@@ -457,6 +461,9 @@ impl EnvMap {
             );
         }
         let radiance = self.lookup(uv, footprint) * self.scale;
+        if !want_pdf {
+            return (radiance, 0.0);
+        }
         (radiance, self.pdf_uv(uv, sin_theta))
     }
 
@@ -471,14 +478,17 @@ impl EnvMap {
     }
 
     /// [`Self::eval_pdf`] of many escaped rays at once, bit for bit: `out[k]` is
-    /// `self.eval_pdf(dirs[k], spreads[k])`. The directions are turned into uv and sin(theta)
-    /// [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the CPU was found
-    /// to have), each lane's texel record is prefetched, then the texels are read lane by lane.
-    /// `out` is cleared first.
+    /// `self.eval_pdf(dirs[k], spreads[k])`, except that where `want_pdf[k]` is false (a path
+    /// that needs no MIS weight) the density may be skipped and read 0: it costs a second
+    /// lookup when the ray cone selects a coarser level. The directions are turned into uv and
+    /// sin(theta) [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the
+    /// CPU was found to have), each lane's texel records are prefetched, then the texels are read
+    /// lane by lane. `out` is cleared first.
     pub fn eval_pdf_batch(
         &self,
         dirs: &[Vec3],
         spreads: &[f32],
+        want_pdf: &[bool],
         simd: BatchSimd,
         out: &mut Vec<(Vec3, f32)>,
     ) {
@@ -487,7 +497,11 @@ impl EnvMap {
             out.resize(dirs.len(), (Vec3::ZERO, 0.0));
             return;
         }
-        for (dirs, spreads) in dirs.chunks(BATCH_LANES).zip(spreads.chunks(BATCH_LANES)) {
+        for ((dirs, spreads), want_pdf) in dirs
+            .chunks(BATCH_LANES)
+            .zip(spreads.chunks(BATCH_LANES))
+            .zip(want_pdf.chunks(BATCH_LANES))
+        {
             let mut lanes = UvLanes::default();
             for (k, d) in dirs.iter().enumerate() {
                 let local = self.to_local * *d;
@@ -495,20 +509,26 @@ impl EnvMap {
             }
             lanes.convert_to_uv_sin(simd);
             for k in 0..dirs.len() {
-                // A hint only: the top-left texel record of the bilinear lookup (the row remap of
-                // `bilinear_finest_with_density`).
-                let column = ((lanes.x[k] * self.size.x) as u32).min(self.width as u32 - 1);
-                let row = ((row_v(lanes.y[k], self.size.y) * self.size.y) as u32)
-                    .min(self.height as u32 - 1);
-                prefetch(
-                    self.texels
-                        .as_ptr()
-                        .wrapping_add(row as usize * self.width + column as usize),
-                );
+                // A hint only: the four texel records of the bilinear lookup, top-left at column
+                // floor(u W - 1/2) and row floor(v (H - 1)) (the row remap of
+                // `bilinear_finest_with_density`); the saturating casts and the clamps keep the
+                // address inside the table except at the seam and the nadir, where a neighbour
+                // is hinted instead (nothing is read).
+                let column = ((lanes.x[k] * self.size.x - 0.5) as u32).min(self.width as u32 - 1);
+                let row = ((lanes.y[k] * (self.size.y - 1.0)) as u32).min(self.height as u32 - 2);
+                let top = self
+                    .texels
+                    .as_ptr()
+                    .wrapping_add(row as usize * self.width + column as usize);
+                let bottom = top.wrapping_add(self.width);
+                prefetch(top);
+                prefetch(top.wrapping_add(1));
+                prefetch(bottom);
+                prefetch(bottom.wrapping_add(1));
             }
-            for (k, &spread) in spreads.iter().enumerate() {
+            for (k, (&spread, &want_pdf)) in spreads.iter().zip(want_pdf).enumerate() {
                 let uv = Vec2::new(lanes.x[k], lanes.y[k]);
-                out.push(self.eval_pdf_uv(uv, lanes.z[k], spread));
+                out.push(self.eval_pdf_uv(uv, lanes.z[k], spread, want_pdf));
             }
         }
     }
@@ -525,10 +545,13 @@ impl EnvMap {
         }
         let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
         let (row, _) = alias::pick(&self.row_slots, u.y);
-        let column = ((u.x * self.width as u32 as f32) as u32 as usize).min(self.width - 1);
+        // u.x is in [0, 1): the own slot of the column pick (`size.x` is the width as f32).
+        let column = ((u.x * self.size.x) as u32 as usize).min(self.width - 1);
         let cell = row * self.width + column;
         prefetch(self.column_slots.as_ptr().wrapping_add(cell));
+        // The patch's top and bottom texel records (those of the slot's own column).
         prefetch(self.texels.as_ptr().wrapping_add(cell));
+        prefetch(self.texels.as_ptr().wrapping_add(cell + self.width));
     }
 
     /// Importance-samples a direction by luminance x sin(theta) (module doc). `None` for a black
@@ -548,13 +571,18 @@ impl EnvMap {
             column + 1
         };
         let (top, bottom) = (row * self.width, (row + 1) * self.width);
+        debug_assert!(row + 1 < self.height && column < self.width && column1 < self.width);
+        // SAFETY: the row table has height - 1 slots and each row's column table width slots,
+        // and an alias table's pick is below its length (its own index, clamped, or an alias
+        // that `build_slots` took from the same range); so both rows are below height, both
+        // columns below width, and `texels` holds width x height records.
+        let texel_w = |k: usize| unsafe { self.texels.get_unchecked(k).w };
         let [w00, w10, w01, w11] = [
-            self.texels[top + column],
-            self.texels[top + column1],
-            self.texels[bottom + column],
-            self.texels[bottom + column1],
-        ]
-        .map(|t| t.w);
+            texel_w(top + column),
+            texel_w(top + column1),
+            texel_w(bottom + column),
+            texel_w(bottom + column1),
+        ];
         // The bilinear warp: the row position by the marginal (linear in t), then the column
         // position given it.
         let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
@@ -710,17 +738,15 @@ impl BilinearTaps {
         let (i, fx) = floor_frac(x);
         let (j, fy) = floor_frac(y);
         let (w, h) = (width as i32, height as i32);
-        let wrap = |k: i32, n: i32| {
-            if k < 0 {
-                n - 1
-            } else if k >= n {
-                0
-            } else {
-                k
-            }
-        };
-        let (c0, c1) = (wrap(i, w) as usize, wrap(i + 1, w) as usize);
-        let (r0, r1) = (wrap(j, h) as usize * width, wrap(j + 1, h) as usize * width);
+        // x in [-1, W) puts i in [-1, W - 1]: only i can fall off the left edge and only i + 1 off
+        // the right one (the same for rows); a tap is at most one texel outside.
+        let first = |k: i32, n: i32| if k < 0 { n - 1 } else { k };
+        let second = |k: i32, n: i32| if k >= n { 0 } else { k };
+        let (c0, c1) = (first(i, w) as usize, second(i + 1, w) as usize);
+        let (r0, r1) = (
+            first(j, h) as usize * width,
+            second(j + 1, h) as usize * width,
+        );
         Some(Self {
             index: [r0 + c0, r0 + c1, r1 + c0, r1 + c1],
             fx,
@@ -961,10 +987,18 @@ mod tests {
                 Vec3::new(1e-30, 1.0, -1e-30),
             ]);
             let spreads: Vec<f32> = (0..dirs.len()).map(|k| [0.0, 0.02, 0.5][k % 3]).collect();
+            // Every combination of spread and wanted density (period 6 against period 3).
+            let want_pdf: Vec<bool> = (0..dirs.len()).map(|k| k % 6 < 3).collect();
             let mut out = Vec::new();
             for simd in [BatchSimd::Portable, BatchSimd::Avx2, BatchSimd::Avx512] {
                 for len in [dirs.len(), 16, 5, 1] {
-                    env.eval_pdf_batch(&dirs[..len], &spreads[..len], simd, &mut out);
+                    env.eval_pdf_batch(
+                        &dirs[..len],
+                        &spreads[..len],
+                        &want_pdf[..len],
+                        simd,
+                        &mut out,
+                    );
                     assert_eq!(out.len(), len);
                     for (k, &(l, p)) in out.iter().enumerate() {
                         let (el, ep) = env.eval_pdf(dirs[k], spreads[k]);
@@ -972,7 +1006,9 @@ mod tests {
                             l.to_array().map(f32::to_bits),
                             el.to_array().map(f32::to_bits)
                         );
-                        assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
+                        if want_pdf[k] {
+                            assert_eq!(p.to_bits(), ep.to_bits(), "{simd:?} {}", dirs[k]);
+                        }
                     }
                 }
             }

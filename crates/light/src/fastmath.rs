@@ -88,8 +88,12 @@ pub fn sin_cos_2pi(t: f32) -> (f32, f32) {
         return (2.0 * PI * t).sin_cos();
     }
     // The nearest quarter turn (0..=4); the remainder is at most an eighth of a turn.
-    let q = (4.0 * t + 0.5) as u32;
+    // SAFETY: t is in [0, 1] (checked above, which NaN fails), so 4 t + 1/2 is finite and in
+    // [0.5, 4.5]: its truncation fits an i32 (the unchecked conversion is one instruction, the
+    // saturating `as` half a dozen).
+    let q = unsafe { (4.0 * t + 0.5).to_int_unchecked::<i32>() };
     let (s, c) = sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * PI));
+    let q = q as u32;
     // Rotate by q quarter turns without branches: odd q swaps sin and cos, and the signs follow
     // (s, c), (c, -s), (-s, -c), (-c, s).
     let (a, b) = swap_if(q & 1 != 0, s, c);

@@ -101,6 +101,7 @@ pub struct Wavefront {
     env_sums: Vec<Vec3A>,
     env_dirs: Vec<Vec3>,
     env_spreads: Vec<f32>,
+    env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
 }
 
@@ -129,6 +130,8 @@ impl Wavefront {
             return;
         }
         let light_count = scene.lights.len();
+        // Converted once (usize to f32 is several instructions on x86-64; the same value).
+        let light_count_f32 = light_count as f32;
         let light_select_pdf = if light_count > 0 {
             1.0 / light_count as f32
         } else {
@@ -183,7 +186,7 @@ impl Wavefront {
                 let last_segment = path.depth + 1 >= max_depth;
                 path.light_draw = (!last_segment && light_count > 0).then(|| {
                     let index =
-                        ((light_rr.x * light_count as f32) as u32 as usize).min(light_count - 1);
+                        ((light_rr.x * light_count_f32) as u32 as usize).min(light_count - 1);
                     (index, scene.lights[index].draw(u_pos))
                 });
             }
@@ -195,26 +198,29 @@ impl Wavefront {
             for &i in &self.live {
                 let path = &mut self.paths[i as usize];
                 let last_segment = path.depth + 1 >= max_depth;
-                let hit = if path.traced {
+                // Each hit is written once, into its path's slot (no copy out and back).
+                let slot = &mut self.hits[i as usize];
+                if path.traced {
+                    // The camera ray's hit, traced by the caller, is in its slot already.
                     path.traced = false;
                     rays.closest += 1;
-                    // SAFETY: `hits` has one entry per path.
-                    unsafe { *self.hits.get_unchecked(i as usize) }
                 } else if last_segment && !scene.has_area_lights {
+                    // The slot keeps the last bounce's hit, which no stage reads again: the
+                    // path ends here either way.
                     rays.shadow += 1;
-                    if !scene.visible(path.ray.origin, path.ray.dir, path.ray.tmax) {
-                        continue;
+                    if scene.visible(path.ray.origin, path.ray.dir, path.ray.tmax) {
+                        self.escaped.push(i);
                     }
-                    None
+                    continue;
                 } else {
                     rays.closest += 1;
-                    scene.intersect(&path.ray)
-                };
-                match hit {
-                    None => self.escaped.push(i),
-                    Some(_) => self.surfaced.push(i),
+                    *slot = scene.intersect(&path.ray);
                 }
-                self.hits[i as usize] = hit;
+                if slot.is_some() {
+                    self.surfaced.push(i);
+                } else {
+                    self.escaped.push(i);
+                }
             }
 
             // Stage 3: escaped rays see the lights at infinity; their paths end. Environment maps
@@ -267,13 +273,21 @@ impl Wavefront {
         settings: PathSettings,
         light_select_pdf: f32,
     ) {
-        self.env_sums.clear();
-        self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+        // With one light at infinity (the usual case) each path's sum is that light's term, added
+        // to the path at once; with several, the terms are summed per path in the lights' order
+        // first. Either way the bits of the scalar loop: its sum starts at zero too.
+        let single = scene.infinite_lights.len() == 1;
+        if !single {
+            self.env_sums.clear();
+            self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+        }
+        let mis = settings.env_strategy == EnvStrategy::ImportanceMis;
         for &li in &scene.infinite_lights {
             let light = &scene.lights[li as usize];
             if let (Light::Env(env), true) = (light, batched_env()) {
                 self.env_dirs.clear();
                 self.env_spreads.clear();
+                self.env_want_pdf.clear();
                 for &i in &self.escaped {
                     let path = &self.paths[i as usize];
                     self.env_dirs.push(path.ray.dir.into());
@@ -283,34 +297,59 @@ impl Wavefront {
                         } else {
                             0.0
                         });
+                    // Only a BSDF-sampled (non-delta) bounce weighs the sky by MIS below.
+                    self.env_want_pdf.push(!path.prev_delta && mis);
                 }
                 env.map.eval_pdf_batch(
                     &self.env_dirs,
                     &self.env_spreads,
+                    &self.env_want_pdf,
                     batch_simd(),
                     &mut self.env_values,
                 );
-                for (j, &i) in self.escaped.iter().enumerate() {
-                    let path = &self.paths[i as usize];
-                    let (le, pdf) = self.env_values[j];
+                let term = |path: &PathState, (le, pdf): (Vec3, f32)| {
                     let le = Vec3A::from(le);
-                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
-                        None => le,
-                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
-                        Some(bsdf_pdf) => le * power_heuristic(bsdf_pdf, pdf * light_select_pdf),
-                    };
+                    match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                        None => Some(le),
+                        Some(_) if !mis => None,
+                        Some(bsdf_pdf) => {
+                            Some(le * power_heuristic(bsdf_pdf, pdf * light_select_pdf))
+                        }
+                    }
+                };
+                if single {
+                    for (&i, &value) in self.escaped.iter().zip(&self.env_values) {
+                        let path = &mut self.paths[i as usize];
+                        let sum = Vec3A::ZERO + term(path, value).unwrap_or(Vec3A::ZERO);
+                        path.result += path.throughput * sum;
+                    }
+                    return;
+                }
+                for ((&i, &value), sum) in self
+                    .escaped
+                    .iter()
+                    .zip(&self.env_values)
+                    .zip(&mut self.env_sums)
+                {
+                    if let Some(t) = term(&self.paths[i as usize], value) {
+                        *sum += t;
+                    }
                 }
             } else {
-                for (j, &i) in self.escaped.iter().enumerate() {
+                if single {
+                    self.env_sums.clear();
+                    self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
+                }
+                for (&i, sum) in self.escaped.iter().zip(&mut self.env_sums) {
                     let path = &self.paths[i as usize];
                     let spread = if path.specular_chain && settings.mipmapping {
                         path.cone.spread
                     } else {
                         0.0
                     };
-                    self.env_sums[j] += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                    *sum += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
                         None => light.radiance_infinite(path.ray.dir, spread),
-                        Some(_) if settings.env_strategy != EnvStrategy::ImportanceMis => continue,
+                        Some(_) if !mis => continue,
                         Some(bsdf_pdf) => {
                             let (le, pdf) = light.eval_infinite(path.ray.dir, spread);
                             le * power_heuristic(bsdf_pdf, pdf * light_select_pdf)
@@ -319,9 +358,9 @@ impl Wavefront {
                 }
             }
         }
-        for (j, &i) in self.escaped.iter().enumerate() {
+        for (&i, &sum) in self.escaped.iter().zip(&self.env_sums) {
             let path = &mut self.paths[i as usize];
-            path.result += path.throughput * self.env_sums[j];
+            path.result += path.throughput * sum;
         }
     }
 }
