@@ -156,6 +156,10 @@ impl Embree {
                     spheres.push(center.extend(radius));
                     prims[1].push(i);
                 }
+                // The bench scenes have none; Embree's user geometry would be needed for them.
+                PrimGeom::Disk { .. } | PrimGeom::Cylinder { .. } => {
+                    panic!("the Embree comparison handles triangles and spheres only")
+                }
             }
         }
         // SAFETY: the buffers Embree allocates are written within their item counts and
