@@ -1,7 +1,7 @@
 //! The leaves of a BVH, whatever its node width: blocks of four triangles, spheres, disks and
 //! cylinders, and the records of leaves that hold anything but triangles.
 
-use super::traversal::{ChildRef, LEAF, LEAF_COUNT_SHIFT, LEAF_INDEX_MASK};
+use super::traversal::{reciprocal, ChildRef, LEAF, LEAF_COUNT_SHIFT, LEAF_INDEX_MASK};
 use super::triangle4::{Ray4, Triangle4};
 use super::{ClosestHit, PrimGeom};
 use crate::ray::Ray;
@@ -162,21 +162,28 @@ impl Leaves {
     }
 
     /// Closest hit in (0, tmax) among the triangles, spheres, disks and cylinders of leaf `r`
-    /// of `leaves`. Kept out of line: leaves with analytic shapes are rare, and inlining the sphere test into the
-    /// traversal loops costs every ray registers and set-up.
+    /// of `leaves`. Kept out of line: leaves with analytic shapes are rare, and inlining the
+    /// sphere test into the traversal loops costs every ray registers and set-up. It builds the
+    /// triangle test's constants itself, only for a leaf with triangle blocks: taking the
+    /// caller's by reference made every call spill them to memory, most leaves here having no
+    /// triangles (spheres, rectangles).
     #[inline(never)]
     pub(crate) fn intersect_general(
         &self,
         r: ChildRef,
         ray: &Ray,
-        ray4: &Ray4,
         tmax: f32,
     ) -> Option<ClosestHit> {
         let leaf = &self.leaves[(r & LEAF_INDEX_MASK) as usize];
-        let blocks = leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
+        let mut best = None;
+        let mut tmax = tmax;
+        if leaf.block_count > 0 {
+            let blocks = leaf.first_block as usize..(leaf.first_block + leaf.block_count) as usize;
+            let ray4 = Ray4::for_ray(ray, reciprocal(ray));
+            best = closest_in_blocks(&self.blocks[blocks], &ray4, ray, tmax);
+            tmax = best.map_or(tmax, |h| h.t);
+        }
         let spheres = leaf.first_sphere as usize..(leaf.first_sphere + leaf.sphere_count) as usize;
-        let mut best = closest_in_blocks(&self.blocks[blocks], ray4, ray, tmax);
-        let mut tmax = best.map_or(tmax, |h| h.t);
         for s in &self.spheres[spheres] {
             if let Some(t) = intersect_sphere(ray, s.center, s.radius, 0.0, tmax) {
                 tmax = t;

@@ -159,7 +159,7 @@ pub(crate) unsafe fn closest_hit<N: InnerNodes>(
             |leaf, tmax| {
                 let hit = match leaves.packed_blocks(leaf) {
                     Some(blocks) => closest_in_blocks(blocks, &ray4, ray, tmax),
-                    None => leaves.intersect_general(leaf, ray, &ray4, tmax),
+                    None => leaves.intersect_general(leaf, ray, tmax),
                 };
                 match hit {
                     Some(hit) => {
@@ -322,10 +322,7 @@ pub(crate) unsafe fn any_hit<N: InnerNodes>(
                     return true;
                 }
             }
-        } else if leaves
-            .intersect_general(current, ray, &ray4, tmax)
-            .is_some()
-        {
+        } else if leaves.intersect_general(current, ray, tmax).is_some() {
             return true;
         }
         if top == 0 {

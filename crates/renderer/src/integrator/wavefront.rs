@@ -433,7 +433,7 @@ fn shade(
     let (frame, perturbation) = material.shading_frame(&scene.textures, hit, wo, footprint);
     let wo_local = frame.to_local(wo);
     let attribute_point = scene.attribute_point(hit);
-    let bsdf = material.bsdf(
+    let bsdf = material.bsdf_facing(
         &TextureQuery {
             textures: &scene.textures,
             at: attribute_point.as_ref(),
@@ -441,12 +441,12 @@ fn shade(
             footprint,
         },
         perturbation,
+        wo_local,
     );
     let bsdf_sample = bsdf.sample(wo_local, path.u_dir, path.u_lobe);
 
     let mut shadow = None;
-    if let (true, Some((light_index, draw))) = (bsdf.flags(wo_local).has_smooth(), path.light_draw)
-    {
+    if let (true, Some((light_index, draw))) = (bsdf.flags().has_smooth(), path.light_draw) {
         let light = &scene.lights[light_index];
         let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
         if let Some(ls) = light.connect(draw, hit.p, uniform_env, &scene.textures) {
@@ -482,7 +482,7 @@ fn shade(
     path.throughput *= bs.weight;
     let wi = frame.to_world(bs.wi);
     if !bs.is_delta() {
-        path.cone.spread += bsdf.roughness(wo_local) * settings.footprint_scale;
+        path.cone.spread += bsdf.roughness() * settings.footprint_scale;
         path.specular_chain = false;
     }
     path.eta *= bs.eta;

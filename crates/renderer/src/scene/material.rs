@@ -107,7 +107,9 @@ impl Material {
     }
 
     /// The BSDF at a hit, its textured parameters looked up through `q`.
-    /// `perturbation` is what [`Material::shading_frame`] returned with the frame.
+    /// `perturbation` is what [`Material::shading_frame`] returned with the frame. The loops
+    /// shade with [`Material::bsdf_facing`]; this is the tests' reference.
+    #[cfg_attr(not(test), allow(dead_code))]
     #[inline(always)]
     pub fn bsdf<'a>(
         &'a self,

@@ -135,9 +135,9 @@ macro_rules! packet_kernel {
                         None => {
                             // Leaves with spheres: each ray on its own.
                             for (k, &dir) in dirs.iter().enumerate() {
-                                let (ray, ray4) = single_ray(origin, dir);
+                                let (ray, _) = single_ray(origin, dir);
                                 let tmax = hits.t_of(k);
-                                if let Some(h) = leaves.intersect_general(leaf, &ray, &ray4, tmax) {
+                                if let Some(h) = leaves.intersect_general(leaf, &ray, tmax) {
                                     hits.set(k, h.t, h.prim, h.b1, h.b2);
                                 }
                             }
