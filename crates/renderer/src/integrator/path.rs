@@ -185,9 +185,9 @@ pub fn radiance(
         } else {
             Footprint::POINT
         };
-        let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
+        let (frame, perturbation) = material.shading_frame(&scene.textures, hit, wo, footprint);
         let wo_local = frame.to_local(wo);
-        let attribute_point = scene.attribute_point(&hit);
+        let attribute_point = scene.attribute_point(hit);
         let bsdf = material.bsdf_facing(
             &TextureQuery {
                 textures: &scene.textures,
