@@ -400,7 +400,7 @@ fn render_pixel<S: Sampler>(
         if inside {
             let first_hit = clipped_first_hit(scene, o, d, first_hit);
             let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
-            film.add_sample((x, y), offset, l);
+            film.add_inside_sample((x, y), offset, l);
         }
     }
 }

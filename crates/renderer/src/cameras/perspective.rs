@@ -14,6 +14,8 @@ pub struct PerspectiveCamera {
     tan_half: Vec2,
     width: u32,
     height: u32,
+    /// The film's size in pixels as floats, kept so that each ray does not convert it.
+    film_size: Vec2,
     /// Angle one pixel subtends at the image centre: the ray cone's initial spread.
     pixel_spread: f32,
     /// Mitsuba's `principal_point_offset_x/_y`: the film position's fractions of the film are
@@ -59,6 +61,7 @@ impl PerspectiveCamera {
             tan_half,
             width,
             height,
+            film_size: Vec2::new(w, h),
             pixel_spread: (2.0 * tan_half.y / h).atan(),
             principal_point: Vec2::ZERO,
             axis: to_world.transform_vector3a(Vec3A::Z).normalize(),
@@ -111,8 +114,8 @@ impl PerspectiveCamera {
     /// normalised), shared with [`super::ThinLensCamera`].
     #[inline(always)]
     pub(crate) fn local_direction(&self, film: Vec2) -> Vec3A {
-        let sx = film.x / self.width as f32 + self.principal_point.x;
-        let sy = film.y / self.height as f32 + self.principal_point.y;
+        let sx = film.x / self.film_size.x + self.principal_point.x;
+        let sy = film.y / self.film_size.y + self.principal_point.y;
         Vec3A::new(
             (1.0 - 2.0 * sx) * self.tan_half.x,
             (1.0 - 2.0 * sy) * self.tan_half.y,

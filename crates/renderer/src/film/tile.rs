@@ -74,10 +74,16 @@ impl TileFilm {
     /// infinite value is counted and added as zero.
     #[inline]
     pub fn add_sample(&mut self, pixel: (u32, u32), offset: Vec2, value: Vec3A) {
-        let (film, inside) = self.film_position(pixel, offset);
-        if !inside {
-            return;
+        if self.film_position(pixel, offset).1 {
+            self.add_inside_sample(pixel, offset, value);
         }
+    }
+
+    /// [`TileFilm::add_sample`] for a sample whose film position the caller found inside
+    /// ([`TileFilm::film_position`]): the render loop checks it before tracing, so the check is
+    /// not made twice per sample.
+    #[inline]
+    pub fn add_inside_sample(&mut self, pixel: (u32, u32), offset: Vec2, value: Vec3A) {
         let value = if value.is_finite() {
             value
         } else {
@@ -92,6 +98,7 @@ impl TileFilm {
         }
         // Pixels whose centres (i + 0.5) lie within the radius of the sample, as Mitsuba's
         // ImageBlock::put picks them, clipped to the window.
+        let film = self.film_position(pixel, offset).0;
         let r = self.filter.radius();
         let lo = (film - Vec2::splat(0.5 + r))
             .ceil()

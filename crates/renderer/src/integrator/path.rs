@@ -111,9 +111,11 @@ pub fn radiance(
             let index = ((u_light * light_count as f32) as u32 as usize).min(light_count - 1);
             (index, scene.lights[index].draw(u_pos))
         });
+        // A reference, to the camera ray's hit or this segment's: the camera ray's is not copied.
+        let traced;
         let hit = if depth == 0 {
             rays.closest += 1;
-            first_hit
+            first_hit.as_ref()
         } else if last_segment && !scene.has_area_lights {
             // Without area lights a hit on the last segment adds nothing: only whether the ray
             // escapes to the lights at infinity matters, which an any-hit query answers sooner.
@@ -124,7 +126,8 @@ pub fn radiance(
             None
         } else {
             rays.closest += 1;
-            scene.intersect(&ray)
+            traced = scene.intersect(&ray);
+            traced.as_ref()
         };
         // `hide_emitters`: the camera's own rays see no emitter.
         let emitters_visible = depth > 0 || !scene.hide_emitters;
@@ -182,9 +185,9 @@ pub fn radiance(
         } else {
             Footprint::POINT
         };
-        let (frame, perturbation) = material.shading_frame(&scene.textures, &hit, wo, footprint);
+        let (frame, perturbation) = material.shading_frame(&scene.textures, hit, wo, footprint);
         let wo_local = frame.to_local(wo);
-        let attribute_point = scene.attribute_point(&hit);
+        let attribute_point = scene.attribute_point(hit);
         let bsdf = material.bsdf_facing(
             &TextureQuery {
                 textures: &scene.textures,

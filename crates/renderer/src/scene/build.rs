@@ -366,6 +366,12 @@ impl RenderScene {
         let accel = Accel::build(&world_geoms, bvh_width);
         let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
+        let any_uv = shapes.iter().any(|s| {
+            materials
+                .get(s.material as usize)
+                .is_none_or(|m| m.is_textured() || m.anisotropic)
+                || s.textured_emission
+        });
         let uses_cones = materials.iter().any(Material::is_textured)
             || lights.iter().any(|l| matches!(l, Light::Env(_)));
         let i = &scene.integrator;
@@ -389,6 +395,7 @@ impl RenderScene {
             infinite_lights,
             has_area_lights,
             uses_cones,
+            any_uv,
             hide_emitters: scene.integrator.hide_emitters,
             // The crop window counts only for the film it was written for (not under `--size`).
             direct_samples: {

@@ -45,6 +45,9 @@ pub struct RenderScene {
     /// Whether ray cones filter anything: a material reads a texture, or a light at infinity is
     /// an environment map. Without, the path loop does not track them.
     pub(crate) uses_cones: bool,
+    /// Whether any shape's hits need uv (a textured or anisotropic material, a textured
+    /// emission). Without, hits skip the material look-up that decides it.
+    pub(crate) any_uv: bool,
     /// The integrator's `hide_emitters`: camera rays see no emission (neither emitting shapes
     /// nor the lights at infinity), as Mitsuba's path integrator; emitters seen after a bounce,
     /// even a mirror's, and the light they cast stay.
@@ -157,9 +160,11 @@ impl RenderScene {
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = &self.prims[hit.prim as usize];
         let shape = &self.shapes[prim.shape as usize];
-        let material = &self.materials[shape.material as usize];
         // Anisotropic BSDFs need dp/du for their tangent frame.
-        let needs_uv = material.is_textured() || material.anisotropic || shape.textured_emission;
+        let needs_uv = self.any_uv && {
+            let material = &self.materials[shape.material as usize];
+            material.is_textured() || material.anisotropic || shape.textured_emission
+        };
         shape.surface(&self.mesh, prim, ray, hit, needs_uv)
     }
 
