@@ -596,7 +596,7 @@ impl BsdfParams {
 }
 
 /// What a viewer behind a surface (wo.z < 0) sees.
-#[cfg_attr(not(test), allow(dead_code))]
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 pub enum BackSide<'a> {
     /// The front BSDF itself decides (black for the reflection-only models; a dielectric
@@ -609,9 +609,9 @@ pub enum BackSide<'a> {
     Other(Bsdf<'a>),
 }
 
-/// A BSDF at a hit with its sidedness. Both loops now shade with [`SidedBsdf`]; this whole
-/// surface stays as the reference the tests check [`SidedBsdf`] against.
-#[cfg_attr(not(test), allow(dead_code))]
+/// A BSDF at a hit with its sidedness. Both loops shade with [`SidedBsdf`]; this whole
+/// surface is compiled for the tests only, as the reference they check [`SidedBsdf`] against.
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceBsdf<'a> {
     pub front: Bsdf<'a>,
@@ -626,7 +626,7 @@ fn flip_z(w: Vec3A) -> Vec3A {
     Vec3A::new(w.x, w.y, -w.z)
 }
 
-#[cfg_attr(not(test), allow(dead_code))]
+#[cfg(test)]
 impl<'a> SurfaceBsdf<'a> {
     /// The BSDF facing `wo`, and whether directions must be mirrored for it.
     #[inline(always)]

@@ -3,7 +3,9 @@
 //! (Mitsuba's `normalmap` / `bumpmap`, see [`MitsubaPerturb`]).
 
 use super::perturb::{MitsubaPerturb, PerturbSource};
-use crate::bsdfs::{BackSide, BsdfParams, Perturbation, SidedBsdf, SurfaceBsdf};
+#[cfg(test)]
+use crate::bsdfs::{BackSide, SurfaceBsdf};
+use crate::bsdfs::{BsdfParams, Perturbation, SidedBsdf};
 use crate::sampling::Frame;
 use crate::shapes::SurfaceHit;
 use crate::textures::{Texture, TextureQuery};
@@ -109,7 +111,7 @@ impl Material {
     /// The BSDF at a hit, its textured parameters looked up through `q`.
     /// `perturbation` is what [`Material::shading_frame`] returned with the frame. The loops
     /// shade with [`Material::bsdf_facing`]; this is the tests' reference.
-    #[cfg_attr(not(test), allow(dead_code))]
+    #[cfg(test)]
     #[inline(always)]
     pub fn bsdf<'a>(
         &'a self,
