@@ -317,7 +317,7 @@ impl<'a> PixelCamera<'a> {
         }
     }
 
-    /// One sample's camera ray: origin, direction, filter offset and whether its film position
+    /// One sample's camera ray: origin, direction, film position and whether that position
     /// counts. Samples whose film position leaves the film do not count (see
     /// `TileFilm::film_position`) and are not traced.
     #[inline(always)]
@@ -333,7 +333,7 @@ impl<'a> PixelCamera<'a> {
             film: position,
             lens,
         });
-        (o, d, offset, inside)
+        (o, d, position, inside)
     }
 }
 
@@ -366,18 +366,18 @@ fn render_pixel<S: Sampler>(
     };
     let mut origin = Vec3A::ZERO;
     let mut dirs = [Vec3A::ZERO; MAX_PACKET];
-    let mut offsets = [Vec2::ZERO; MAX_PACKET];
+    let mut positions = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut resume = [[0u64; 2]; MAX_PACKET];
     let mut packed = false;
     for s in samples.clone() {
-        let (o, d, first_hit, offset, inside) = if in_packet(s, lanes, &samples) {
+        let (o, d, first_hit, position, inside) = if in_packet(s, lanes, &samples) {
             let lane = (s % lanes as u32) as usize;
             if lane == 0 {
                 for k in 0..lanes {
                     sampler.start_sample(s + k as u32);
-                    (origin, dirs[k], offsets[k], insides[k]) = camera_ray(sampler, film);
+                    (origin, dirs[k], positions[k], insides[k]) = camera_ray(sampler, film);
                     resume[k] = sampler.checkpoint();
                 }
                 packed = scene
@@ -389,18 +389,18 @@ fn render_pixel<S: Sampler>(
                 origin,
                 dirs[lane],
                 packed.then_some(hits[lane]),
-                offsets[lane],
+                positions[lane],
                 insides[lane],
             )
         } else {
             sampler.start_sample(s);
-            let (o, d, offset, inside) = camera_ray(sampler, film);
-            (o, d, None, offset, inside)
+            let (o, d, position, inside) = camera_ray(sampler, film);
+            (o, d, None, position, inside)
         };
         if inside {
             let first_hit = clipped_first_hit(scene, o, d, first_hit);
             let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
-            film.add_inside_sample((x, y), offset, l);
+            film.add_sample((x, y), position, l);
         }
     }
 }
@@ -458,7 +458,7 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
         radiance,
     } = wavefront;
     let mut dirs = [Vec3A::ZERO; MAX_PACKET];
-    let mut offsets = [Vec2::ZERO; MAX_PACKET];
+    let mut positions = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut start = samples.start;
@@ -482,7 +482,7 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                         sampler.start_sample(index);
                         &mut *sampler
                     };
-                    (origin, dirs[k], offsets[k], insides[k]) = camera_ray(lane_sampler, film);
+                    (origin, dirs[k], positions[k], insides[k]) = camera_ray(lane_sampler, film);
                 }
                 let packed =
                     scene
@@ -502,7 +502,7 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                         sample: s + k as u32,
                         origin,
                         dir: dirs[k],
-                        offset: offsets[k],
+                        position: positions[k],
                         cone,
                         first_hit: clipped_first_hit(scene, origin, dirs[k], traced),
                     });
@@ -521,13 +521,13 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                     sampler.start_sample(s);
                     &mut *sampler
                 };
-                let (o, d, offset, inside) = camera_ray(lane_sampler, film);
+                let (o, d, position, inside) = camera_ray(lane_sampler, film);
                 if inside {
                     cameras.push(CameraPath {
                         sample: s,
                         origin: o,
                         dir: d,
-                        offset,
+                        position,
                         cone,
                         first_hit: clipped_first_hit(scene, o, d, None),
                     });
@@ -552,7 +552,7 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
             radiance,
         );
         for (camera, &l) in cameras.iter().zip(radiance.iter()) {
-            film.add_sample((x, y), camera.offset, l);
+            film.add_sample((x, y), camera.position, l);
         }
         start = end;
     }

@@ -265,6 +265,9 @@ impl Ray4 {
         }
     }
 
+    /// The constants from a [`WatertightRay`]: the reference [`Ray4::for_ray`] is tested against
+    /// (the traversals build theirs with `for_ray`).
+    #[cfg(test)]
     #[inline(always)]
     pub(crate) fn new(wr: &WatertightRay, origin: Vec3A) -> Self {
         let axes = wr.axes();

@@ -180,7 +180,10 @@ mod tests {
                     for x in x0..x1 {
                         for k in 0..16 {
                             let u = Vec2::new((k % 4) as f32 + 0.5, (k / 4) as f32 + 0.5) / 4.0;
-                            t.add_sample((x, y), f.offset(u), Vec3A::splat(2.5));
+                            let (position, inside) = t.film_position((x, y), f.offset(u));
+                            if inside {
+                                t.add_sample((x, y), position, Vec3A::splat(2.5));
+                            }
                         }
                     }
                 }

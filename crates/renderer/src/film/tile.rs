@@ -67,23 +67,14 @@ impl TileFilm {
         (film, inside)
     }
 
-    /// Adds the radiance `value` of a sample drawn `offset` (from [`Filter::offset`]) from the
-    /// centre of `pixel` (which must lie in the tile). Importance-sampled filters add it with
-    /// weight one to `pixel` if it lies on the film; splatted filters add it to every pixel of the
-    /// window whose centre is within the filter's radius, weighted by the filter. A NaN or
-    /// infinite value is counted and added as zero.
+    /// Adds the radiance `value` of a sample of `pixel` (which must lie in the tile) at film
+    /// position `film`, which [`TileFilm::film_position`] found on the film (the render loops
+    /// check it before tracing, so neither the position nor the check is computed twice).
+    /// Importance-sampled filters add it with weight one to `pixel`; splatted filters add it to
+    /// every pixel of the window whose centre is within the filter's radius, weighted by the
+    /// filter. A NaN or infinite value is counted and added as zero.
     #[inline]
-    pub fn add_sample(&mut self, pixel: (u32, u32), offset: Vec2, value: Vec3A) {
-        if self.film_position(pixel, offset).1 {
-            self.add_inside_sample(pixel, offset, value);
-        }
-    }
-
-    /// [`TileFilm::add_sample`] for a sample whose film position the caller found inside
-    /// ([`TileFilm::film_position`]): the render loop checks it before tracing, so the check is
-    /// not made twice per sample.
-    #[inline]
-    pub fn add_inside_sample(&mut self, pixel: (u32, u32), offset: Vec2, value: Vec3A) {
+    pub fn add_sample(&mut self, pixel: (u32, u32), film: Vec2, value: Vec3A) {
         let value = if value.is_finite() {
             value
         } else {
@@ -98,7 +89,6 @@ impl TileFilm {
         }
         // Pixels whose centres (i + 0.5) lie within the radius of the sample, as Mitsuba's
         // ImageBlock::put picks them, clipped to the window.
-        let film = self.film_position(pixel, offset).0;
         let r = self.filter.radius();
         let lo = (film - Vec2::splat(0.5 + r))
             .ceil()

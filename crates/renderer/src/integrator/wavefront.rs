@@ -35,8 +35,8 @@ pub struct CameraPath {
     pub sample: u32,
     pub origin: Vec3A,
     pub dir: Vec3A,
-    /// The sample's offset from the pixel centre (for the film; the loop does not read it).
-    pub offset: Vec2,
+    /// The sample's film position, inside the film (for the film; the loop does not read it).
+    pub position: Vec2,
     pub cone: RayCone,
     /// The camera ray's closest hit between the camera's clip planes (traced by the caller, as
     /// the scalar loop's camera rays are).

@@ -34,6 +34,9 @@ impl WatertightRay {
 
     /// [`WatertightRay::new`] for a ray whose reciprocal direction `inv` is at hand (the box test
     /// computes it): 1/d along the largest axis is one of its lanes, so the division is shared.
+    /// With [`WatertightRay::axes`] and [`WatertightRay::shear`], the reference the SIMD tests'
+    /// constants (`Ray4::for_ray`) are checked against.
+    #[cfg(test)]
     #[inline]
     pub fn with_reciprocal(ray: &Ray, inv: Vec3A) -> Self {
         let kz = largest_axis(ray.dir);
@@ -58,12 +61,14 @@ impl WatertightRay {
     }
 
     /// The source axes of the permuted x, y and z: `permute(v) == (v[axes[0]], v[axes[1]], v[axes[2]])`.
+    #[cfg(test)]
     #[inline(always)]
     pub fn axes(&self) -> [usize; 3] {
         PERMUTATION[self.kz as usize & 3]
     }
 
     /// The shear (sx, sy, sz) that maps the permuted direction to +z.
+    #[cfg(test)]
     #[inline(always)]
     pub fn shear(&self) -> Vec3A {
         self.shear

@@ -19,7 +19,7 @@ use crate::accel::triangle4::{Ray4, Triangle4};
 use crate::accel::x86_64::avx512::Nodes16;
 use crate::accel::ClosestHit;
 use crate::ray::Ray;
-use crate::shapes::triangle::{WatertightRay, PERMUTATION};
+use crate::shapes::triangle::PERMUTATION;
 use glam::Vec3A;
 use std::{arch::x86_64::*, mem::MaybeUninit};
 
@@ -267,18 +267,16 @@ unsafe fn lanes(v: __m256) -> [f32; PACKET] {
     a
 }
 
-/// One lane's ray and its constants for the single-ray tests (the rare fallbacks).
+/// One lane's ray and its constants for the single-ray tests (the rare fallbacks of the eight-
+/// and sixteen-ray packets).
 #[cold]
-fn single_ray(origin: Vec3A, dir: Vec3A) -> (Ray, Ray4) {
+pub(crate) fn single_ray(origin: Vec3A, dir: Vec3A) -> (Ray, Ray4) {
     let ray = Ray {
         origin,
         dir,
         tmax: f32::INFINITY,
     };
-    let ray4 = Ray4::new(
-        &WatertightRay::with_reciprocal(&ray, reciprocal(&ray)),
-        origin,
-    );
+    let ray4 = Ray4::for_ray(&ray, reciprocal(&ray));
     (ray, ray4)
 }
 

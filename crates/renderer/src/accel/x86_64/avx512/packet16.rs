@@ -8,13 +8,12 @@
 //! can differ, as between node widths).
 
 use crate::accel::leaves::Leaves;
-use crate::accel::traversal::{nearest_first, reciprocal, ChildRef, NEAR_FAR, STACK_SIZE};
-use crate::accel::triangle4::{Ray4, Triangle4};
-use crate::accel::x86_64::avx2::packet::PacketBox;
+use crate::accel::traversal::{nearest_first, ChildRef, NEAR_FAR, STACK_SIZE};
+use crate::accel::triangle4::Triangle4;
+use crate::accel::x86_64::avx2::packet::{single_ray, PacketBox};
 use crate::accel::x86_64::avx2::Nodes8;
 use crate::accel::x86_64::avx512::Nodes16;
 use crate::accel::ClosestHit;
-use crate::ray::Ray;
 use crate::shapes::triangle::PERMUTATION;
 use glam::Vec3A;
 use std::{arch::x86_64::*, mem::MaybeUninit};
@@ -265,18 +264,6 @@ unsafe fn lanes(v: __m512) -> [f32; PACKET16] {
     let mut a = [0.0; PACKET16];
     _mm512_storeu_ps(a.as_mut_ptr(), v);
     a
-}
-
-/// One lane's ray and its constants for the single-ray tests (the rare fallbacks).
-#[cold]
-fn single_ray(origin: Vec3A, dir: Vec3A) -> (Ray, Ray4) {
-    let ray = Ray {
-        origin,
-        dir,
-        tmax: f32::INFINITY,
-    };
-    let ray4 = Ray4::for_ray(&ray, reciprocal(&ray));
-    (ray, ray4)
 }
 
 /// The packet's constants of the watertight triangle test: the shared axis permutation and
