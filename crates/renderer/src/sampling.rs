@@ -157,6 +157,47 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     }
 }
 
+/// [`power_heuristic`] written with selects instead of early returns, for loops over SIMD lanes
+/// (a branch per lane would keep them scalar). Every case computes the same operations in the
+/// same order as the scalar function, so the bits agree for every input (tested), NaN included.
+#[inline(always)]
+pub fn power_heuristic_select(pdf_a: f32, pdf_b: f32) -> f32 {
+    let ge = pdf_a >= pdf_b;
+    // r = b / a or a / b: one division of selected operands.
+    let r = if ge { pdf_b } else { pdf_a } / if ge { pdf_a } else { pdf_b };
+    let r2 = r * r;
+    let w = if ge { 1.0 } else { r2 } / (1.0 + r2);
+    let w = if !(pdf_b > 0.0) { 1.0 } else { w };
+    let w = if pdf_b.is_infinite() || !(pdf_a > 0.0) {
+        0.0
+    } else {
+        w
+    };
+    let inf_a = if pdf_b.is_infinite() { 0.5 } else { 1.0 };
+    if pdf_a.is_infinite() {
+        inf_a
+    } else {
+        w
+    }
+}
+
+/// [`square_to_cosine_hemisphere`] on plain floats with selects for its branches, for loops
+/// over SIMD lanes: the same operations in the same order (the bits agree, tested).
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_select(ux: f32, uy: f32) -> [f32; 3] {
+    let a = 2.0 * ux - 1.0;
+    let b = 2.0 * uy - 1.0;
+    let centre = a == 0.0 && b == 0.0;
+    let wide = a.abs() > b.abs();
+    let (r, other) = (if wide { a } else { b }, if wide { b } else { a });
+    let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (other / r));
+    // swap_if(wide, sin, cos).
+    let (x, y) = (if wide { cos } else { sin }, if wide { sin } else { cos });
+    let (dx, dy) = if centre { (0.0, 0.0) } else { (r * x, r * y) };
+    let z = (1.0 - (dx * dx + dy * dy)).max(0.0).sqrt();
+    [dx, dy, z]
+}
+
 /// Helpers shared by the sampling and BSDF tests: quadrature of densities over cells and the
 /// sphere, plus the RNG and chi-square test of `torrey-testkit`.
 #[cfg(test)]

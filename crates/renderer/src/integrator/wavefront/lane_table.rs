@@ -1,0 +1,102 @@
+//! Which surfaces the wavefront shades in SIMD lanes, decided once per scene: a shape whose
+//! material is a plain `diffuse` of constant reflectance (no texture, no normal or bump map, no
+//! second BSDF behind) and which emits nothing or a constant radiance sampled by area (a mesh,
+//! disk or cylinder emitter). The lane path repeats the scalar shading of exactly these cases;
+//! every other BSDF and light keeps the scalar `shade` (BSDFs move to lanes one by one).
+
+use crate::bsdfs::{BsdfParams, DiffuseParams};
+use crate::lights::{AreaEmitter, Light};
+use crate::scene::Material;
+use crate::shapes::Shape;
+use crate::textures::ColorSource;
+
+/// A shape shaded in lanes: its reflectance and sidedness, and what it emits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct LaneShape {
+    pub reflectance: [f32; 3],
+    /// Shades its back as its front (mirrored), as [`Material::bsdf_facing`] does.
+    pub two_sided: bool,
+    /// The emitter's (constant) radiance and area, if the shape emits.
+    pub emitter: Option<LaneEmitter>,
+}
+
+/// A constant-radiance area light sampled uniformly by area: what its `connect_point` and
+/// `pdf_hit` read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct LaneEmitter {
+    pub radiance: [f32; 3],
+    pub area: f32,
+}
+
+/// Per shape and per light, whether (and with what) the lanes shade it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct LaneTable {
+    /// Indexed by shape; None: the scalar `shade`.
+    pub shapes: Vec<Option<LaneShape>>,
+    /// Indexed by light: the emitters whose drawn points ([`crate::lights::LightDraw::MeshPoint`])
+    /// the lanes connect to.
+    pub lights: Vec<Option<LaneEmitter>>,
+    /// Any shape takes the lanes.
+    pub any: bool,
+}
+
+impl LaneTable {
+    pub fn new(shapes: &[Shape], materials: &[Material], lights: &[Light]) -> Self {
+        let lights: Vec<Option<LaneEmitter>> = lights.iter().map(lane_emitter).collect();
+        let shapes: Vec<Option<LaneShape>> = shapes
+            .iter()
+            .map(|shape| {
+                let reflectance = materials
+                    .get(shape.material as usize)
+                    .and_then(lane_reflectance)?;
+                let emitter = match shape.area_light {
+                    None => None,
+                    Some(li) => Some((*lights.get(li as usize)?)?),
+                };
+                Some(LaneShape {
+                    reflectance,
+                    two_sided: materials[shape.material as usize].two_sided,
+                    emitter,
+                })
+            })
+            .collect();
+        let any = shapes.iter().any(Option::is_some);
+        LaneTable {
+            shapes,
+            lights,
+            any,
+        }
+    }
+}
+
+/// The reflectance of a material the lanes shade: a constant, finite `diffuse` without a second
+/// BSDF, normal map or perturbation.
+fn lane_reflectance(m: &Material) -> Option<[f32; 3]> {
+    let BsdfParams::Diffuse(DiffuseParams {
+        reflectance: ColorSource::Constant(c),
+    }) = m.bsdf
+    else {
+        return None;
+    };
+    (m.back.is_none()
+        && m.normal_map.is_none()
+        && m.perturb.is_none()
+        && !m.anisotropic
+        && c.is_finite())
+    .then_some(c.to_array())
+}
+
+/// The constant radiance and area of an untextured area light sampled by area (what
+/// `AreaLight::draw` turns into mesh points); spheres (solid angle) and textures stay scalar.
+fn lane_emitter(light: &Light) -> Option<LaneEmitter> {
+    let Light::Area(area) = light else {
+        return None;
+    };
+    if area.texture.is_some() || matches!(area.emitter, AreaEmitter::Sphere(_)) {
+        return None;
+    }
+    Some(LaneEmitter {
+        radiance: area.radiance.to_array(),
+        area: area.area(),
+    })
+}
