@@ -289,6 +289,7 @@ impl Wavefront {
                     hide_emitters: scene.hide_emitters,
                     light_select_pdf,
                     footprint_scale: settings.footprint_scale,
+                    infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
                 };
                 if self.scalar_paths.is_empty() {
                     lanes::shade_lanes(

@@ -12,7 +12,10 @@
 // Comparisons are written `!(x > 0.0)` on purpose, as the scalar code's: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::sampling::{power_heuristic_select, square_to_cosine_hemisphere_select};
+use crate::sampling::{
+    power_heuristic_select, square_to_cosine_hemisphere_select, square_to_uniform_sphere_select,
+    uniform_sphere_pdf,
+};
 use std::f32::consts::FRAC_1_PI;
 
 /// Three coordinates, one array of lanes each.
@@ -48,8 +51,10 @@ pub(super) struct Chunk<const N: usize> {
     pub emits: [bool; N],
     pub le: Lanes3<N>,
     pub le_area: [f32; N],
-    // In: the drawn light point (`has_light` false: no light sample).
+    // In: the drawn light point (`has_light` false: no light sample), or with `infinite` the
+    // constant background's numbers (in `q`'s x and y).
     pub has_light: [bool; N],
+    pub infinite: [bool; N],
     pub q: Lanes3<N>,
     pub nq: Lanes3<N>,
     pub l_radiance: Lanes3<N>,
@@ -96,6 +101,7 @@ impl<const N: usize> Default for Chunk<N> {
             le: z3,
             le_area: [1.0; N],
             has_light: [false; N],
+            infinite: [false; N],
             q: z3,
             nq: z3,
             l_radiance: z3,
@@ -177,10 +183,10 @@ fn offset_origin(p: [f32; 3], ng: [f32; 3], dir: [f32; 3]) -> [f32; 3] {
     ]
 }
 
-/// The surface stage for every lane of `c` (see the module's documentation); `light_select_pdf`
-/// and `footprint`-free constants are the scene's.
+/// The surface stage for every lane of `c` (see the module's documentation): `light_select_pdf`
+/// is the scene's, `infinite_mis` whether lights at infinity are weighed by MIS.
 #[inline(always)]
-pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32) {
+pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, infinite_mis: bool) {
     for l in 0..N {
         let p = get(&c.p, l);
         let ng = get(&c.ng, l);
@@ -232,13 +238,23 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32) {
 
         // The light sample (`AreaLight::connect_point`, `Diffuse::eval` and `pdf`, MIS, and
         // `path::shadow_ray`).
+        // A point on an area light (`AreaLight::connect_point`) or a direction to the constant
+        // background (`ConstantLight::sample`).
+        let infinite = c.infinite[l];
         let q = get(&c.q, l);
         let dq = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
         let dist2 = dot(dq, dq);
-        let dist = dist2.sqrt();
-        let wi = [dq[0] / dist, dq[1] / dist, dq[2] / dist];
-        let cos_light = -dot(get(&c.nq, l), wi);
-        let pdf_l = dist2 / (cos_light * c.l_area[l]);
+        let dist_q = dist2.sqrt();
+        let wi_q = [dq[0] / dist_q, dq[1] / dist_q, dq[2] / dist_q];
+        let cos_light = -dot(get(&c.nq, l), wi_q);
+        let wi_sphere = square_to_uniform_sphere_select(q[0], q[1]);
+        let wi = select3(infinite, wi_sphere, wi_q);
+        let dist = if infinite { f32::INFINITY } else { dist_q };
+        let pdf_l = if infinite {
+            uniform_sphere_pdf()
+        } else {
+            dist2 / (cos_light * c.l_area[l])
+        };
         let wi_z = dot(wi, n);
         let wi_bz = if mirrored { -wi_z } else { wi_z };
         let both = front && wi_bz > 0.0;
@@ -251,8 +267,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32) {
         };
         let connects = shading
             && c.has_light[l]
-            && dist != 0.0
-            && !(cos_light <= 0.0)
+            && (infinite || (dist != 0.0 && !(cos_light <= 0.0)))
             && max_element(f) > 0.0
             && pdf_l > 0.0;
         let origin = offset_origin(p, ng, wi);
@@ -277,7 +292,12 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32) {
             len * (1.0 - 2e-4)
         };
         let light_pdf = pdf_l * light_select_pdf;
-        let w = power_heuristic_select(light_pdf, bsdf_pdf);
+        // Lights at infinity without MIS count their samples alone.
+        let w = if infinite && !infinite_mis {
+            1.0
+        } else {
+            power_heuristic_select(light_pdf, bsdf_pdf)
+        };
         let contribution = scale3(
             mul3(mul3(throughput, f), get(&c.l_radiance, l)),
             w / light_pdf,
@@ -332,8 +352,8 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32) {
 /// The CPU must have AVX-512 F, BW and VL, AVX2 and FMA (`accel::Simd::Avx512`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
-pub(super) unsafe fn shade_avx512(c: &mut Chunk<16>, light_select_pdf: f32) {
-    shade(c, light_select_pdf)
+pub(super) unsafe fn shade_avx512(c: &mut Chunk<16>, light_select_pdf: f32, infinite_mis: bool) {
+    shade(c, light_select_pdf, infinite_mis)
 }
 
 /// [`shade`] over eight lanes with AVX2.
@@ -342,13 +362,13 @@ pub(super) unsafe fn shade_avx512(c: &mut Chunk<16>, light_select_pdf: f32) {
 /// The CPU must have AVX2 and FMA (`accel::Simd::Avx2` or better).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn shade_avx2(c: &mut Chunk<8>, light_select_pdf: f32) {
-    shade(c, light_select_pdf)
+pub(super) unsafe fn shade_avx2(c: &mut Chunk<8>, light_select_pdf: f32, infinite_mis: bool) {
+    shade(c, light_select_pdf, infinite_mis)
 }
 
 /// [`shade`] over eight lanes with the baseline instruction set (SSE2 on x86-64: two vectors
 /// of four).
 #[inline(never)]
-pub(super) fn shade_portable(c: &mut Chunk<8>, light_select_pdf: f32) {
-    shade(c, light_select_pdf)
+pub(super) fn shade_portable(c: &mut Chunk<8>, light_select_pdf: f32, infinite_mis: bool) {
+    shade(c, light_select_pdf, infinite_mis)
 }

@@ -1,7 +1,8 @@
 //! Which surfaces the wavefront shades in SIMD lanes, decided once per scene: a shape whose
 //! material is a plain `diffuse` of constant reflectance (no texture, no normal or bump map, no
 //! second BSDF behind) and which emits nothing or a constant radiance sampled by area (a mesh,
-//! disk or cylinder emitter). The lane path repeats the scalar shading of exactly these cases;
+//! disk or cylinder emitter), with light samples of such emitters or of a constant background.
+//! The lane path repeats the scalar shading of exactly these cases;
 //! every other BSDF and light keeps the scalar `shade` (BSDFs move to lanes one by one).
 
 use crate::bsdfs::{BsdfParams, DiffuseParams};
@@ -33,16 +34,15 @@ pub(crate) struct LaneEmitter {
 pub(crate) struct LaneTable {
     /// Indexed by shape; None: the scalar `shade`.
     pub shapes: Vec<Option<LaneShape>>,
-    /// Indexed by light: the emitters whose drawn points ([`crate::lights::LightDraw::MeshPoint`])
-    /// the lanes connect to.
-    pub lights: Vec<Option<LaneEmitter>>,
+    /// Indexed by light: the lights whose samples the lanes take.
+    pub lights: Vec<Option<LaneLight>>,
     /// Any shape takes the lanes.
     pub any: bool,
 }
 
 impl LaneTable {
     pub fn new(shapes: &[Shape], materials: &[Material], lights: &[Light]) -> Self {
-        let lights: Vec<Option<LaneEmitter>> = lights.iter().map(lane_emitter).collect();
+        let lights: Vec<Option<LaneLight>> = lights.iter().map(lane_light).collect();
         let shapes: Vec<Option<LaneShape>> = shapes
             .iter()
             .map(|shape| {
@@ -51,7 +51,10 @@ impl LaneTable {
                     .and_then(lane_reflectance)?;
                 let emitter = match shape.area_light {
                     None => None,
-                    Some(li) => Some((*lights.get(li as usize)?)?),
+                    Some(li) => match lights.get(li as usize)? {
+                        Some(LaneLight::Area(e)) => Some(*e),
+                        _ => return None,
+                    },
                 };
                 Some(LaneShape {
                     reflectance,
@@ -86,17 +89,30 @@ fn lane_reflectance(m: &Material) -> Option<[f32; 3]> {
     .then_some(c.to_array())
 }
 
-/// The constant radiance and area of an untextured area light sampled by area (what
-/// `AreaLight::draw` turns into mesh points); spheres (solid angle) and textures stay scalar.
-fn lane_emitter(light: &Light) -> Option<LaneEmitter> {
-    let Light::Area(area) = light else {
-        return None;
-    };
-    if area.texture.is_some() || matches!(area.emitter, AreaEmitter::Sphere(_)) {
-        return None;
+/// A light whose samples the lanes take.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum LaneLight {
+    /// An untextured area light sampled by area: its draws are points
+    /// ([`crate::lights::LightDraw::MeshPoint`]).
+    Area(LaneEmitter),
+    /// A constant background (`ConstantLight`): its draws are deferred, a direction uniform
+    /// over the sphere; the radiance.
+    Constant([f32; 3]),
+}
+
+/// The lanes' form of `light`: area lights of constant radiance sampled by area (spheres sample
+/// by solid angle, textures by texel: scalar), and constant backgrounds.
+fn lane_light(light: &Light) -> Option<LaneLight> {
+    match light {
+        Light::Area(area)
+            if area.texture.is_none() && !matches!(area.emitter, AreaEmitter::Sphere(_)) =>
+        {
+            Some(LaneLight::Area(LaneEmitter {
+                radiance: area.radiance.to_array(),
+                area: area.area(),
+            }))
+        }
+        Light::Constant(c) => Some(LaneLight::Constant(c.radiance.to_array())),
+        _ => None,
     }
-    Some(LaneEmitter {
-        radiance: area.radiance.to_array(),
-        area: area.area(),
-    })
 }

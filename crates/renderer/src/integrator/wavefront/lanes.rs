@@ -6,7 +6,7 @@
 //! the order of the surfaced list (it ascends, as the live list it comes from).
 
 use super::lane_kernel::{self, Chunk};
-use super::lane_table::LaneTable;
+use super::lane_table::{LaneLight, LaneTable};
 use super::{PathState, ShadowRay};
 use crate::accel::Simd;
 use crate::lights::LightDraw;
@@ -32,8 +32,14 @@ pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -
     table.shapes[hit.shape as usize].is_some()
         && match path.light_draw {
             None => true,
-            Some((li, LightDraw::MeshPoint { .. })) => table.lights[li].is_some(),
-            Some((_, LightDraw::Deferred(_))) => false,
+            Some((li, LightDraw::MeshPoint { .. })) => {
+                matches!(table.lights[li], Some(LaneLight::Area(_)))
+            }
+            // The lanes' sphere sampling assumes u.y in [0, 1], as the sampler's numbers are.
+            Some((li, LightDraw::Deferred(u))) => {
+                matches!(table.lights[li], Some(LaneLight::Constant(_)))
+                    && (0.0..=1.0).contains(&u.y)
+            }
         }
 }
 
@@ -46,6 +52,8 @@ pub(super) struct LaneParams<'a> {
     pub hide_emitters: bool,
     pub light_select_pdf: f32,
     pub footprint_scale: f32,
+    /// Lights at infinity are weighed by MIS (`EnvStrategy::ImportanceMis`).
+    pub infinite_mis: bool,
 }
 
 /// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
@@ -74,16 +82,16 @@ pub(super) fn shade_lanes_at(
 ) -> usize {
     match simd {
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => run::<16>(paths, hits, indices, params, live, shadow, |c, lsp| {
+        Simd::Avx512 => run::<16>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
             // SAFETY: Simd::Avx512 is only detected (or given by the tests) on CPUs with
             // AVX-512 F, BW and VL, AVX2 and FMA.
-            unsafe { lane_kernel::shade_avx512(c, lsp) }
+            unsafe { lane_kernel::shade_avx512(c, lsp, mis) }
         }),
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => run::<8>(paths, hits, indices, params, live, shadow, |c, lsp| {
+        Simd::Avx2 => run::<8>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
             // SAFETY: Simd::Avx2 is only detected (or given by the tests) on CPUs with AVX2
             // and FMA.
-            unsafe { lane_kernel::shade_avx2(c, lsp) }
+            unsafe { lane_kernel::shade_avx2(c, lsp, mis) }
         }),
         _ => run::<8>(
             paths,
@@ -106,7 +114,7 @@ fn run<const N: usize>(
     params: LaneParams,
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
-    kernel: impl Fn(&mut Chunk<N>, f32),
+    kernel: impl Fn(&mut Chunk<N>, f32, bool),
 ) -> usize {
     let mut c = Chunk::<N>::default();
     let mut chunks = 0;
@@ -120,7 +128,7 @@ fn run<const N: usize>(
                 params,
             );
         }
-        kernel(&mut c, params.light_select_pdf);
+        kernel(&mut c, params.light_select_pdf, params.infinite_mis);
         for (l, &i) in group.iter().enumerate() {
             scatter(&c, l, i, &mut paths[i as usize], params, live, shadow);
         }
@@ -179,14 +187,23 @@ fn gather<const N: usize>(
         }
         _ => c.emits[l] = false,
     }
-    match path.light_draw {
-        Some((li, LightDraw::MeshPoint { q, n })) => {
-            let e = params.table.lights[li].expect("lane-able light");
-            c.has_light[l] = true;
+    c.has_light[l] = true;
+    match (
+        path.light_draw,
+        params.table.lights.get(path.light_draw.map_or(0, |d| d.0)),
+    ) {
+        (Some((_, LightDraw::MeshPoint { q, n })), Some(Some(LaneLight::Area(e)))) => {
+            c.infinite[l] = false;
             put(&mut c.q, l, q);
             put(&mut c.nq, l, n);
             put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
             c.l_area[l] = e.area;
+        }
+        (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
+            c.infinite[l] = true;
+            c.q[0][l] = u.x;
+            c.q[1][l] = u.y;
+            put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
         }
         _ => c.has_light[l] = false,
     }
@@ -274,8 +291,9 @@ mod tests {
     use torrey_texture::RayCone;
 
     /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), two emitters sampled by
-    /// area (a one-sided rectangle and a two-sided disk), a point light (its draws are deferred:
-    /// scalar) and a plastic box (scalar), inside a closed room so random rays hit from both sides.
+    /// area (a one-sided rectangle and a two-sided disk), a constant background, a point light
+    /// (scalar) and a plastic box (scalar), inside a closed room so random rays hit from both
+    /// sides.
     fn scene() -> RenderScene {
         let xml = r#"<scene version="3.0.0">
             <sensor type="perspective">
@@ -298,6 +316,7 @@ mod tests {
                 <emitter type="area"><rgb name="radiance" value="1, 2, 5"/></emitter><ref id="both"/>
             </shape>
             <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3, 3, 3"/></emitter>
+            <emitter type="constant"><rgb name="radiance" value="0.3, 0.4, 0.5"/></emitter>
         </scene>"#;
         let desc = torrey_parser::parse_scene_str(
             xml,
@@ -339,18 +358,24 @@ mod tests {
                 levels.push(Simd::Avx512);
             }
         }
+        for env_strategy in [EnvStrategy::ImportanceMis, EnvStrategy::Uniform] {
+            check_lanes(&scene, &levels, env_strategy);
+        }
+    }
+
+    fn check_lanes(scene: &RenderScene, levels: &[Simd], env_strategy: EnvStrategy) {
         let max_depth = 6;
         let settings = PathSettings {
             max_depth: max_depth as i32,
             rr_depth: 3,
             mipmapping: true,
             footprint_scale: 0.25,
-            env_strategy: EnvStrategy::default(),
+            env_strategy,
         };
         let light_select_pdf = 1.0 / scene.lights.len() as f32;
         let mut rng = Rng::new(21);
         let (mut paths, mut hits) = (Vec::new(), Vec::new());
-        let (mut lane_count, mut back_views, mut emitted) = (0, 0, 0);
+        let (mut lane_count, mut back_views, mut emitted, mut background) = (0, 0, 0, 0);
         while paths.len() < 3000 {
             let origin = Vec3A::new(
                 rng.f32() * 5.8 - 2.9,
@@ -398,14 +423,16 @@ mod tests {
                 lane_count += 1;
                 back_views += (hit.ns.dot(dir) > 0.0) as u32;
                 emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
+                background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
             }
             paths.push(path);
             hits.push(Some(hit));
         }
-        // Enough of each case: lane paths, paths seeing a back, emitters hit.
+        // Enough of each case: lane paths, paths seeing a back, emitters hit, background
+        // samples.
         assert!(
-            lane_count > 1500 && back_views > 300 && emitted > 50,
-            "{lane_count} {back_views} {emitted}"
+            lane_count > 1500 && back_views > 300 && emitted > 50 && background > 300,
+            "{lane_count} {back_views} {emitted} {background}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
             .filter(|&i| {
@@ -422,7 +449,7 @@ mod tests {
         for &i in &indices {
             let hit = hits[i as usize].as_ref().unwrap();
             want_shadow.extend(shade(
-                &scene,
+                scene,
                 &mut want[i as usize],
                 hit,
                 settings,
@@ -440,8 +467,9 @@ mod tests {
             hide_emitters: scene.hide_emitters,
             light_select_pdf,
             footprint_scale: settings.footprint_scale,
+            infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
         };
-        for simd in levels {
+        for &simd in levels {
             let mut got = paths.clone();
             let (mut live, mut shadow) = (Vec::new(), Vec::new());
             shade_lanes_at(
