@@ -22,7 +22,8 @@ use std::f32::consts::FRAC_1_PI;
 pub(super) type Lanes3<const N: usize> = [[f32; N]; 3];
 
 /// One chunk of paths: what the kernel reads (the hit, the path's state and draws, the shape's
-/// material and emitter, the drawn light point) and what it writes.
+/// material and emitter, the drawn light point) and what it writes. Flags are `u32` (0 or 1),
+/// not `bool`: with byte-wide flags LLVM's cost model keeps the AVX2 loop scalar.
 #[derive(Clone, Copy)]
 pub(super) struct Chunk<const N: usize> {
     // In: the hit.
@@ -35,26 +36,26 @@ pub(super) struct Chunk<const N: usize> {
     // In: the path.
     pub throughput: Lanes3<N>,
     pub prev_pdf: [f32; N],
-    pub prev_delta: [bool; N],
+    pub prev_delta: [u32; N],
     pub prev_p: Lanes3<N>,
     pub eta: [f32; N],
     pub u_dir: [[f32; N]; 2],
     pub u_rr: [f32; N],
     /// This hit ends the path (its last segment): emission only.
-    pub last: [bool; N],
+    pub last: [u32; N],
     /// The continuation faces Russian roulette (its depth reaches `rr_depth`).
-    pub roulette: [bool; N],
+    pub roulette: [u32; N],
     // In: the material and the hit shape's emission (radiance zero: nothing added).
     pub reflectance: Lanes3<N>,
-    pub two_sided: [bool; N],
+    pub two_sided: [u32; N],
     /// The shape emits and emitters are visible at this depth.
-    pub emits: [bool; N],
+    pub emits: [u32; N],
     pub le: Lanes3<N>,
     pub le_area: [f32; N],
     // In: the drawn light point (`has_light` false: no light sample), or with `infinite` the
     // constant background's numbers (in `q`'s x and y).
-    pub has_light: [bool; N],
-    pub infinite: [bool; N],
+    pub has_light: [u32; N],
+    pub infinite: [u32; N],
     pub q: Lanes3<N>,
     pub nq: Lanes3<N>,
     pub l_radiance: Lanes3<N>,
@@ -62,15 +63,15 @@ pub(super) struct Chunk<const N: usize> {
     // In and out: the path's radiance (emission added).
     pub result: Lanes3<N>,
     // Out: the shadow ray.
-    pub shadow: [bool; N],
+    pub shadow: [u32; N],
     pub s_origin: Lanes3<N>,
     pub s_dir: Lanes3<N>,
     pub s_tmax: [f32; N],
     pub s_contribution: Lanes3<N>,
     // Out: the continuation (`cont` false: the path ends here; `alive` false: roulette ended it
     // after the continuation was set up).
-    pub cont: [bool; N],
-    pub alive: [bool; N],
+    pub cont: [u32; N],
+    pub alive: [u32; N],
     pub new_throughput: Lanes3<N>,
     pub new_pdf: [f32; N],
     pub new_origin: Lanes3<N>,
@@ -88,32 +89,32 @@ impl<const N: usize> Default for Chunk<N> {
             dir: z3,
             throughput: z3,
             prev_pdf: [0.0; N],
-            prev_delta: [true; N],
+            prev_delta: [1; N],
             prev_p: z3,
             eta: [1.0; N],
             u_dir: [[0.5; N]; 2],
             u_rr: [0.0; N],
-            last: [true; N],
-            roulette: [false; N],
+            last: [1; N],
+            roulette: [0; N],
             reflectance: z3,
-            two_sided: [false; N],
-            emits: [false; N],
+            two_sided: [0; N],
+            emits: [0; N],
             le: z3,
             le_area: [1.0; N],
-            has_light: [false; N],
-            infinite: [false; N],
+            has_light: [0; N],
+            infinite: [0; N],
             q: z3,
             nq: z3,
             l_radiance: z3,
             l_area: [1.0; N],
             result: z3,
-            shadow: [false; N],
+            shadow: [0; N],
             s_origin: z3,
             s_dir: z3,
             s_tmax: [0.0; N],
             s_contribution: z3,
-            cont: [false; N],
-            alive: [false; N],
+            cont: [0; N],
+            alive: [0; N],
             new_throughput: z3,
             new_pdf: [0.0; N],
             new_origin: z3,
@@ -196,7 +197,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
 
         // Emission of the hit shape, weighted against the light sample that could have found it
         // (`AreaLight::pdf_hit` of an area-sampled emitter).
-        let emitted = c.emits[l] && dot(ng, wo) > 0.0;
+        let emitted = (c.emits[l] != 0) && dot(ng, wo) > 0.0;
         let cos_e = dot(ng, d).abs();
         let t = c.t[l];
         let pdf_e = if cos_e == 0.0 {
@@ -204,7 +205,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         } else {
             t * t / (cos_e * c.le_area[l])
         } * light_select_pdf;
-        let w_e = if c.prev_delta[l] {
+        let w_e = if c.prev_delta[l] != 0 {
             1.0
         } else {
             power_heuristic_select(c.prev_pdf[l], pdf_e)
@@ -220,7 +221,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
                 result,
             ),
         );
-        let shading = !c.last[l];
+        let shading = !(c.last[l] != 0);
 
         // The shading frame (`Frame::from_normal`) and wo in it.
         let n = get(&c.ns, l);
@@ -231,7 +232,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         let tt = [b, sign + n[1] * n[1] * a, -n[1]];
         let wo_z = dot(wo, n);
         // The side seen: a two-sided material mirrors a back view to its front.
-        let mirrored = c.two_sided[l] && wo_z < 0.0;
+        let mirrored = (c.two_sided[l] != 0) && wo_z < 0.0;
         let wo_bz = if mirrored { -wo_z } else { wo_z };
         let front = wo_bz > 0.0;
         let reflectance = get(&c.reflectance, l);
@@ -240,7 +241,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         // `path::shadow_ray`).
         // A point on an area light (`AreaLight::connect_point`) or a direction to the constant
         // background (`ConstantLight::sample`).
-        let infinite = c.infinite[l];
+        let infinite = c.infinite[l] != 0;
         let q = get(&c.q, l);
         let dq = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
         let dist2 = dot(dq, dq);
@@ -266,7 +267,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
             0.0
         };
         let connects = shading
-            && c.has_light[l]
+            && (c.has_light[l] != 0)
             && (infinite || (dist != 0.0 && !(cos_light <= 0.0)))
             && max_element(f) > 0.0
             && pdf_l > 0.0;
@@ -302,7 +303,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
             mul3(mul3(throughput, f), get(&c.l_radiance, l)),
             w / light_pdf,
         );
-        c.shadow[l] = connects;
+        c.shadow[l] = (connects) as u32;
         set(&mut c.s_origin, l, origin);
         set(&mut c.s_dir, l, s_dir);
         c.s_tmax[l] = s_tmax;
@@ -325,7 +326,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         let new_origin = offset_origin(p, ng, dir);
         let eta = c.eta[l];
         let rr_q = (max_element(new_throughput) * eta * eta).min(0.95);
-        let roulette = c.roulette[l];
+        let roulette = c.roulette[l] != 0;
         let survives = !roulette || !(c.u_rr[l] >= rr_q);
         // A path that roulette ends keeps the undivided throughput, as the scalar code's.
         let kept = select3(
@@ -337,8 +338,8 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
             ],
             new_throughput,
         );
-        c.cont[l] = cont;
-        c.alive[l] = cont && survives;
+        c.cont[l] = (cont) as u32;
+        c.alive[l] = (cont && survives) as u32;
         set(&mut c.new_throughput, l, kept);
         c.new_pdf[l] = pdf;
         set(&mut c.new_origin, l, new_origin);

@@ -15,13 +15,19 @@ use crate::shapes::SurfaceHit;
 use glam::Vec3A;
 use std::sync::OnceLock;
 
-/// Whether the surface stage uses the lanes (the default); the environment variable
-/// `TORREY_WAVEFRONT_LANES=off` makes every path take the scalar `shade` (the same bits; for
-/// measuring what the lanes gain).
+/// Whether the surface stage uses the lanes: with AVX2 or AVX-512 ([`Simd::detect`]), where the
+/// kernel is vectorised. The portable (SSE2) build of the kernel stays scalar (LLVM's cost model
+/// declines to vectorise it) and is slower than the scalar `shade`, so it is only run by the
+/// tests, or with `TORREY_WAVEFRONT_LANES=on`. `TORREY_WAVEFRONT_LANES=off` makes every path take
+/// the scalar `shade` (the same bits; for measuring what the lanes gain).
 pub(super) fn lanes_enabled() -> bool {
     static ON: OnceLock<bool> = OnceLock::new();
     *ON.get_or_init(|| {
-        !std::env::var("TORREY_WAVEFRONT_LANES").is_ok_and(|v| v.eq_ignore_ascii_case("off"))
+        let var = std::env::var("TORREY_WAVEFRONT_LANES").unwrap_or_default();
+        if var.eq_ignore_ascii_case("off") {
+            return false;
+        }
+        var.eq_ignore_ascii_case("on") || Simd::detect() != Simd::Portable
     })
 }
 
@@ -168,44 +174,44 @@ fn gather<const N: usize>(
     put(&mut c.throughput, l, path.throughput);
     put(&mut c.result, l, path.result);
     c.prev_pdf[l] = path.prev_bsdf_pdf;
-    c.prev_delta[l] = path.prev_delta;
+    c.prev_delta[l] = path.prev_delta as u32;
     put(&mut c.prev_p, l, path.prev_p);
     c.eta[l] = path.eta;
     c.u_dir[0][l] = path.u_dir.x;
     c.u_dir[1][l] = path.u_dir.y;
     c.u_rr[l] = path.u_rr;
-    c.last[l] = path.depth + 1 >= params.max_depth;
-    c.roulette[l] = (path.depth + 1) as i32 >= params.rr_depth;
+    c.last[l] = (path.depth + 1 >= params.max_depth) as u32;
+    c.roulette[l] = ((path.depth + 1) as i32 >= params.rr_depth) as u32;
     put(&mut c.reflectance, l, Vec3A::from_array(shape.reflectance));
-    c.two_sided[l] = shape.two_sided;
+    c.two_sided[l] = shape.two_sided as u32;
     let visible = path.depth > 0 || !params.hide_emitters;
     match (shape.emitter, visible) {
         (Some(e), true) => {
-            c.emits[l] = true;
+            c.emits[l] = 1;
             put(&mut c.le, l, Vec3A::from_array(e.radiance));
             c.le_area[l] = e.area;
         }
-        _ => c.emits[l] = false,
+        _ => c.emits[l] = 0,
     }
-    c.has_light[l] = true;
+    c.has_light[l] = 1;
     match (
         path.light_draw,
         params.table.lights.get(path.light_draw.map_or(0, |d| d.0)),
     ) {
         (Some((_, LightDraw::MeshPoint { q, n })), Some(Some(LaneLight::Area(e)))) => {
-            c.infinite[l] = false;
+            c.infinite[l] = 0;
             put(&mut c.q, l, q);
             put(&mut c.nq, l, n);
             put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
             c.l_area[l] = e.area;
         }
         (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
-            c.infinite[l] = true;
+            c.infinite[l] = 1;
             c.q[0][l] = u.x;
             c.q[1][l] = u.y;
             put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
         }
-        _ => c.has_light[l] = false,
+        _ => c.has_light[l] = 0,
     }
 }
 
@@ -221,7 +227,7 @@ fn scatter<const N: usize>(
     shadow: &mut Vec<ShadowRay>,
 ) {
     path.result = take(&c.result, l);
-    if c.shadow[l] {
+    if c.shadow[l] != 0 {
         shadow.push(ShadowRay {
             path: index,
             origin: take(&c.s_origin, l),
@@ -230,7 +236,7 @@ fn scatter<const N: usize>(
             contribution: take(&c.s_contribution, l),
         });
     }
-    if !c.cont[l] {
+    if c.cont[l] == 0 {
         return;
     }
     // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1).
@@ -247,7 +253,7 @@ fn scatter<const N: usize>(
         tmax: f32::INFINITY,
     };
     path.depth += 1;
-    if c.alive[l] {
+    if c.alive[l] != 0 {
         live.push(index);
     }
 }
