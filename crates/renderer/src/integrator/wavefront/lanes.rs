@@ -537,6 +537,34 @@ mod tests {
         }
     }
 
+    /// The table admits the constant diffuse shapes (emitting or not) and not the plastic one,
+    /// the area and constant lights and not the point light; with a point light the lanes do
+    /// not cover the scene's lights (`PathLoop::Auto` keeps the scalar loop).
+    #[test]
+    fn the_table_admits_constant_diffuse_and_area_or_constant_lights() {
+        let scene = scene();
+        let admitted: Vec<bool> = scene.lanes.shapes.iter().map(Option::is_some).collect();
+        assert_eq!(admitted, [true, true, true, false, true, true]);
+        let emitting = scene
+            .lanes
+            .shapes
+            .iter()
+            .flatten()
+            .filter(|s| s.emitter.is_some());
+        assert_eq!(emitting.count(), 2);
+        let lights: Vec<bool> = scene
+            .lights
+            .iter()
+            .zip(&scene.lanes.lights)
+            .map(|(l, t)| {
+                assert_eq!(t.is_some(), !matches!(l, crate::lights::Light::Point(_)));
+                t.is_some()
+            })
+            .collect();
+        assert_eq!(lights.len(), 4);
+        assert!(scene.lanes.any && !scene.lanes.covers_lights);
+    }
+
     /// Merging keeps both lists' elements in ascending order.
     #[test]
     fn merge_interleaves_by_key() {
