@@ -197,7 +197,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
 
         // Emission of the hit shape, weighted against the light sample that could have found it
         // (`AreaLight::pdf_hit` of an area-sampled emitter).
-        let emitted = (c.emits[l] != 0) && dot(ng, wo) > 0.0;
+        let emitted = c.emits[l] != 0 && dot(ng, wo) > 0.0;
         let cos_e = dot(ng, d).abs();
         let t = c.t[l];
         let pdf_e = if cos_e == 0.0 {
@@ -221,7 +221,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
                 result,
             ),
         );
-        let shading = !(c.last[l] != 0);
+        let shading = c.last[l] == 0;
 
         // The shading frame (`Frame::from_normal`) and wo in it.
         let n = get(&c.ns, l);
@@ -232,7 +232,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         let tt = [b, sign + n[1] * n[1] * a, -n[1]];
         let wo_z = dot(wo, n);
         // The side seen: a two-sided material mirrors a back view to its front.
-        let mirrored = (c.two_sided[l] != 0) && wo_z < 0.0;
+        let mirrored = c.two_sided[l] != 0 && wo_z < 0.0;
         let wo_bz = if mirrored { -wo_z } else { wo_z };
         let front = wo_bz > 0.0;
         let reflectance = get(&c.reflectance, l);
@@ -267,7 +267,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
             0.0
         };
         let connects = shading
-            && (c.has_light[l] != 0)
+            && c.has_light[l] != 0
             && (infinite || (dist != 0.0 && !(cos_light <= 0.0)))
             && max_element(f) > 0.0
             && pdf_l > 0.0;
