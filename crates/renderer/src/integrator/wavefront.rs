@@ -289,6 +289,7 @@ impl Wavefront {
                     hide_emitters: scene.hide_emitters,
                     light_select_pdf,
                     footprint_scale: settings.footprint_scale,
+                    track_cones: settings.mipmapping && scene.uses_cones,
                     infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
                 };
                 if self.scalar_paths.is_empty() {
@@ -498,7 +499,11 @@ fn shade(
         return None;
     }
 
-    path.cone = path.cone.at_distance(hit.t);
+    // Cones only matter where they filter (textures, environment maps), as in `path::radiance`.
+    let track_cones = settings.mipmapping && scene.uses_cones;
+    if track_cones {
+        path.cone = path.cone.at_distance(hit.t);
+    }
     let material = &scene.materials[shape.material as usize];
     let footprint = if settings.mipmapping && material.is_textured() {
         path.cone.footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
@@ -557,7 +562,9 @@ fn shade(
     path.throughput *= bs.weight;
     let wi = frame.to_world(bs.wi);
     if !bs.is_delta() {
-        path.cone.spread += bsdf.roughness() * settings.footprint_scale;
+        if track_cones {
+            path.cone.spread += bsdf.roughness() * settings.footprint_scale;
+        }
         path.specular_chain = false;
     }
     path.eta *= bs.eta;

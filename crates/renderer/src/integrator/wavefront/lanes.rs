@@ -58,6 +58,8 @@ pub(super) struct LaneParams<'a> {
     pub hide_emitters: bool,
     pub light_select_pdf: f32,
     pub footprint_scale: f32,
+    /// Ray cones filter something (textures, environment maps): the paths' cones are updated.
+    pub track_cones: bool,
     /// Lights at infinity are weighed by MIS (`EnvStrategy::ImportanceMis`).
     pub infinite_mis: bool,
 }
@@ -240,8 +242,10 @@ fn scatter<const N: usize>(
         return;
     }
     // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1).
-    path.cone = path.cone.at_distance(c.t[l]);
-    path.cone.spread += params.footprint_scale;
+    if params.track_cones {
+        path.cone = path.cone.at_distance(c.t[l]);
+        path.cone.spread += params.footprint_scale;
+    }
     path.specular_chain = false;
     path.throughput = take(&c.new_throughput, l);
     path.prev_bsdf_pdf = c.new_pdf[l];
@@ -364,9 +368,13 @@ mod tests {
                 levels.push(Simd::Avx512);
             }
         }
+        let mut scene = scene;
         for env_strategy in [EnvStrategy::ImportanceMis, EnvStrategy::Uniform] {
             check_lanes(&scene, &levels, env_strategy);
         }
+        // Cones tracked (as with a texture or an environment map somewhere in the scene).
+        scene.uses_cones = true;
+        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis);
     }
 
     fn check_lanes(scene: &RenderScene, levels: &[Simd], env_strategy: EnvStrategy) {
@@ -473,6 +481,7 @@ mod tests {
             hide_emitters: scene.hide_emitters,
             light_select_pdf,
             footprint_scale: settings.footprint_scale,
+            track_cones: settings.mipmapping && scene.uses_cones,
             infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
         };
         for &simd in levels {
