@@ -66,7 +66,7 @@ pub(super) struct LaneParams<'a> {
 
 /// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
 /// pushing the continuing ones onto `live` and their shadow rays onto `shadow`, in `indices`'
-/// order. Returns the count of chunks run (for the occupancy statistics of the tests).
+/// order. Returns the count of chunks run.
 pub(super) fn shade_lanes(
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
@@ -90,17 +90,19 @@ pub(super) fn shade_lanes_at(
 ) -> usize {
     match simd {
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => run::<16>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
-            // SAFETY: Simd::Avx512 is only detected (or given by the tests) on CPUs with
-            // AVX-512 F, BW and VL, AVX2 and FMA.
-            unsafe { lane_kernel::shade_avx512(c, lsp, mis) }
-        }),
+        Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
+            run::<16>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
+                // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
+                unsafe { lane_kernel::shade_avx512(c, lsp, mis) }
+            })
+        }
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => run::<8>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
-            // SAFETY: Simd::Avx2 is only detected (or given by the tests) on CPUs with AVX2
-            // and FMA.
-            unsafe { lane_kernel::shade_avx2(c, lsp, mis) }
-        }),
+        Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
+            run::<8>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
+                // SAFETY: the CPU has AVX2 and FMA (checked).
+                unsafe { lane_kernel::shade_avx2(c, lsp, mis) }
+            })
+        }
         _ => run::<8>(
             paths,
             hits,
@@ -487,7 +489,7 @@ mod tests {
         for &simd in levels {
             let mut got = paths.clone();
             let (mut live, mut shadow) = (Vec::new(), Vec::new());
-            shade_lanes_at(
+            let chunks = shade_lanes_at(
                 simd,
                 &mut got,
                 &hits,
@@ -496,6 +498,8 @@ mod tests {
                 &mut live,
                 &mut shadow,
             );
+            let width = if simd == Simd::Avx512 { 16 } else { 8 };
+            assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
             assert_eq!(live, want_live, "{simd:?}");
             assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
             for (s, w) in shadow.iter().zip(&want_shadow) {
