@@ -39,7 +39,9 @@ pub struct RenderSettings {
     /// slower.
     pub packets: bool,
     /// Run the path tracer one path at a time or as a wavefront of a pixel's samples (`Auto`:
-    /// the wavefront where an environment map lights the scene): the same images, bit for bit.
+    /// the wavefront where an environment map lights the scene, or where its surface stage
+    /// shades diffuse surfaces in SIMD lanes and every light's samples too): the same images,
+    /// bit for bit.
     pub path_loop: PathLoop,
 }
 
@@ -166,7 +168,10 @@ pub fn render_slice(
         && match settings.path_loop {
             PathLoop::Scalar => false,
             PathLoop::Wavefront => true,
-            PathLoop::Auto => scene.lights.iter().any(|l| matches!(l, Light::Env(_))),
+            PathLoop::Auto => {
+                scene.lights.iter().any(|l| matches!(l, Light::Env(_)))
+                    || scene.lanes.wavefront_pays()
+            }
         };
 
     let rendered: Vec<TileFilm> = tiles

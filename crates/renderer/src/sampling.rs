@@ -157,6 +157,72 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     }
 }
 
+/// [`power_heuristic`] written with selects instead of early returns, for loops over SIMD lanes
+/// (a branch per lane would keep them scalar). Every case computes the same operations in the
+/// same order as the scalar function, so the bits agree for every input (tested), NaN included.
+#[inline(always)]
+pub fn power_heuristic_select(pdf_a: f32, pdf_b: f32) -> f32 {
+    let ge = pdf_a >= pdf_b;
+    // r = b / a or a / b: one division of selected operands.
+    let r = if ge { pdf_b } else { pdf_a } / if ge { pdf_a } else { pdf_b };
+    let r2 = r * r;
+    let w = if ge { 1.0 } else { r2 } / (1.0 + r2);
+    let w = if !(pdf_b > 0.0) { 1.0 } else { w };
+    let w = if pdf_b.is_infinite() || !(pdf_a > 0.0) {
+        0.0
+    } else {
+        w
+    };
+    let inf_a = if pdf_b.is_infinite() { 0.5 } else { 1.0 };
+    if pdf_a.is_infinite() {
+        inf_a
+    } else {
+        w
+    }
+}
+
+/// [`square_to_cosine_hemisphere`] on plain floats with selects for its branches, for loops
+/// over SIMD lanes: the same operations in the same order (the bits agree, tested).
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_select(ux: f32, uy: f32) -> [f32; 3] {
+    let a = 2.0 * ux - 1.0;
+    let b = 2.0 * uy - 1.0;
+    let centre = a == 0.0 && b == 0.0;
+    let wide = a.abs() > b.abs();
+    let (r, other) = (if wide { a } else { b }, if wide { b } else { a });
+    let (sin, cos) = sin_cos_eighth(FRAC_PI_4 * (other / r));
+    // swap_if(wide, sin, cos).
+    let (x, y) = (if wide { cos } else { sin }, if wide { sin } else { cos });
+    let (dx, dy) = if centre { (0.0, 0.0) } else { (r * x, r * y) };
+    let z = (1.0 - (dx * dx + dy * dy)).max(0.0).sqrt();
+    [dx, dy, z]
+}
+
+/// [`square_to_uniform_sphere`] on plain floats with selects, for loops over SIMD lanes, for
+/// `u.y` in [0, 1] (the caller checks: outside, the scalar function falls back to std). The
+/// same operations in the same order as the scalar function: the bits agree (tested).
+#[inline(always)]
+pub fn square_to_uniform_sphere_select(ux: f32, uy: f32) -> [f32; 3] {
+    let z = 1.0 - 2.0 * ux;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (sin, cos) = sin_cos_2pi_select(uy);
+    [r * cos, r * sin, z]
+}
+
+/// `fastmath::sin_cos_2pi` for `t` in [0, 1] with selects: the nearest quarter turn q by a
+/// truncation (exact, as the scalar's integer conversion), and its sign flips as negations
+/// (the scalar flips the sign bit: the same bits).
+#[inline(always)]
+fn sin_cos_2pi_select(t: f32) -> (f32, f32) {
+    let q = (4.0 * t + 0.5).trunc();
+    let (s, c) = sin_cos_eighth((t - q * 0.25) * (2.0 * PI));
+    let odd = q == 1.0 || q == 3.0;
+    let (a, b) = (if odd { c } else { s }, if odd { s } else { c });
+    let sin = if q == 2.0 || q == 3.0 { -a } else { a };
+    let cos = if q == 1.0 || q == 2.0 { -b } else { b };
+    (sin, cos)
+}
+
 /// Helpers shared by the sampling and BSDF tests: quadrature of densities over cells and the
 /// sphere, plus the RNG and chi-square test of `torrey-testkit`.
 #[cfg(test)]
@@ -231,6 +297,67 @@ pub(crate) mod testutil {
 mod tests {
     use super::testutil::*;
     use super::*;
+
+    /// The select-form twins give their scalar functions' bits on random and edge inputs.
+    #[test]
+    fn select_twins_match_the_scalar_functions() {
+        let edges = [
+            0.0,
+            -0.0,
+            1e-30,
+            0.5,
+            1.0,
+            3.0,
+            1e30,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NAN,
+            -1.0,
+        ];
+        let mut rng = Rng::new(13);
+        let mut pairs: Vec<(f32, f32)> = edges
+            .iter()
+            .flat_map(|&a| edges.iter().map(move |&b| (a, b)))
+            .collect();
+        pairs.extend((0..10_000).map(|_| (rng.f32() * 4.0, rng.f32() * 4.0)));
+        for (a, b) in pairs {
+            assert_eq!(
+                power_heuristic_select(a, b).to_bits(),
+                power_heuristic(a, b).to_bits(),
+                "{a} {b}"
+            );
+        }
+        let units = [
+            0.0,
+            0.5,
+            0.25,
+            0.75,
+            0.125,
+            1.0,
+            1.0f32.next_down(),
+            0.5f32.next_up(),
+            1e-30,
+        ];
+        let mut us: Vec<(f32, f32)> = units
+            .iter()
+            .flat_map(|&a| units.iter().map(move |&b| (a, b)))
+            .collect();
+        us.extend((0..100_000).map(|_| (rng.f32(), rng.f32())));
+        for (x, y) in us {
+            let u = Vec2::new(x, y);
+            let bits = |v: [f32; 3]| v.map(f32::to_bits);
+            assert_eq!(
+                bits(square_to_cosine_hemisphere_select(x, y)),
+                bits(square_to_cosine_hemisphere(u).to_array()),
+                "{u}"
+            );
+            assert_eq!(
+                bits(square_to_uniform_sphere_select(x, y)),
+                bits(square_to_uniform_sphere(u).to_array()),
+                "{u}"
+            );
+        }
+    }
 
     fn assert_orthonormal(f: &Frame) {
         for (a, b) in [(f.s, f.t), (f.t, f.n), (f.n, f.s)] {

@@ -13,6 +13,12 @@
 //! the batch buys is independent work between dependent chains (one path's traversal overlaps
 //! the next path's set-up) and one place per stage where lanes can be vectorised.
 
+mod lane_kernel;
+mod lane_table;
+mod lanes;
+
+pub(crate) use lane_table::LaneTable;
+
 use super::path::shadow_ray;
 use super::{EnvStrategy, PathSettings, RayCount};
 use crate::accel::Simd;
@@ -103,6 +109,14 @@ pub struct Wavefront {
     env_spreads: Vec<f32>,
     env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
+    // The surface stage's lane path: the paths it shades, and (when others take the scalar
+    // `shade`) its outputs before they are merged with the scalar ones.
+    lane_paths: Vec<u32>,
+    scalar_paths: Vec<u32>,
+    lane_live: Vec<u32>,
+    lane_shadow: Vec<ShadowRay>,
+    merge_live: Vec<u32>,
+    merge_shadow: Vec<ShadowRay>,
 }
 
 impl Wavefront {
@@ -235,7 +249,23 @@ impl Wavefront {
             // shadow ray) and the path's continuation.
             self.shadow.clear();
             self.live.clear();
-            for &i in &self.surfaced {
+            let use_lanes = scene.lanes.any && lanes::lanes_enabled();
+            // Without lanes, every surfaced path takes the scalar `shade`.
+            let mut scalar = &self.surfaced;
+            if use_lanes {
+                self.lane_paths.clear();
+                self.scalar_paths.clear();
+                for &i in &self.surfaced {
+                    let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
+                    if lanes::lane_able(&scene.lanes, &self.paths[i as usize], hit) {
+                        self.lane_paths.push(i);
+                    } else {
+                        self.scalar_paths.push(i);
+                    }
+                }
+                scalar = &self.scalar_paths;
+            }
+            for &i in scalar {
                 let path = &mut self.paths[i as usize];
                 let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
                 if let Some(shadow) = shade(
@@ -249,6 +279,52 @@ impl Wavefront {
                     &mut self.live,
                 ) {
                     self.shadow.push(shadow);
+                }
+            }
+            if use_lanes && !self.lane_paths.is_empty() {
+                let params = lanes::LaneParams {
+                    table: &scene.lanes,
+                    max_depth,
+                    rr_depth: settings.rr_depth,
+                    hide_emitters: scene.hide_emitters,
+                    light_select_pdf,
+                    footprint_scale: settings.footprint_scale,
+                    track_cones: settings.mipmapping && scene.uses_cones,
+                    infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
+                };
+                if self.scalar_paths.is_empty() {
+                    lanes::shade_lanes(
+                        &mut self.paths,
+                        &self.hits,
+                        &self.lane_paths,
+                        params,
+                        &mut self.live,
+                        &mut self.shadow,
+                    );
+                } else {
+                    self.lane_live.clear();
+                    self.lane_shadow.clear();
+                    lanes::shade_lanes(
+                        &mut self.paths,
+                        &self.hits,
+                        &self.lane_paths,
+                        params,
+                        &mut self.lane_live,
+                        &mut self.lane_shadow,
+                    );
+                    // Both lists ascend by path: merged, they are the scalar stage's order.
+                    lanes::merge_by(
+                        &mut self.live,
+                        &self.lane_live,
+                        &mut self.merge_live,
+                        |&i| i,
+                    );
+                    lanes::merge_by(
+                        &mut self.shadow,
+                        &self.lane_shadow,
+                        &mut self.merge_shadow,
+                        |r| r.path,
+                    );
                 }
             }
 
@@ -423,7 +499,11 @@ fn shade(
         return None;
     }
 
-    path.cone = path.cone.at_distance(hit.t);
+    // Cones only matter where they filter (textures, environment maps), as in `path::radiance`.
+    let track_cones = settings.mipmapping && scene.uses_cones;
+    if track_cones {
+        path.cone = path.cone.at_distance(hit.t);
+    }
     let material = &scene.materials[shape.material as usize];
     let footprint = if settings.mipmapping && material.is_textured() {
         path.cone.footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
@@ -482,7 +562,9 @@ fn shade(
     path.throughput *= bs.weight;
     let wi = frame.to_world(bs.wi);
     if !bs.is_delta() {
-        path.cone.spread += bsdf.roughness() * settings.footprint_scale;
+        if track_cones {
+            path.cone.spread += bsdf.roughness() * settings.footprint_scale;
+        }
         path.specular_chain = false;
     }
     path.eta *= bs.eta;

@@ -73,7 +73,7 @@ impl AreaLight {
 
     /// The surface area of a shape sampled uniformly by area (not of a sphere).
     #[inline(always)]
-    fn area(&self) -> f32 {
+    pub(crate) fn area(&self) -> f32 {
         match &self.emitter {
             AreaEmitter::Mesh(mesh) => mesh.total_area(),
             AreaEmitter::Disk(disk) => disk.area,

@@ -366,6 +366,7 @@ impl RenderScene {
         let accel = Accel::build(&world_geoms, bvh_width);
         let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
+        let lanes = crate::integrator::wavefront::LaneTable::new(&shapes, &materials, &lights);
         let any_uv = shapes.iter().any(|s| {
             materials
                 .get(s.material as usize)
@@ -394,6 +395,7 @@ impl RenderScene {
             lights,
             infinite_lights,
             has_area_lights,
+            lanes,
             uses_cones,
             any_uv,
             hide_emitters: scene.integrator.hide_emitters,

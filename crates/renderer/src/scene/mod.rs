@@ -42,6 +42,8 @@ pub struct RenderScene {
     /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
     /// path's last segment only needs to know whether it escapes (an any-hit query).
     pub(crate) has_area_lights: bool,
+    /// The shapes and lights the wavefront shades in SIMD lanes.
+    pub(crate) lanes: crate::integrator::wavefront::LaneTable,
     /// Whether ray cones filter anything: a material reads a texture, or a light at infinity is
     /// an environment map. Without, the path loop does not track them.
     pub(crate) uses_cones: bool,

@@ -1,0 +1,591 @@
+//! The surface stage's lane path: the bounce's surfaced paths whose shape [`LaneTable`] admits
+//! (and whose light draw, if any, is a point on an area-sampled emitter) are gathered in chunks
+//! of the SIMD width into [`Chunk`]s, shaded by [`lane_kernel::shade`], and scattered back into
+//! their path states, shadow rays and the live list in the order the scalar `shade` gives them.
+//! The other paths take the scalar `shade`; the two lists are merged by path index, which is
+//! the order of the surfaced list (it ascends, as the live list it comes from).
+
+use super::lane_kernel::{self, Chunk};
+use super::lane_table::{LaneLight, LaneTable};
+use super::{PathState, ShadowRay};
+use crate::accel::Simd;
+use crate::lights::LightDraw;
+use crate::ray::Ray;
+use crate::shapes::SurfaceHit;
+use glam::Vec3A;
+use std::sync::OnceLock;
+
+/// Whether the surface stage uses the lanes: with AVX2 or AVX-512 ([`Simd::detect`]), where the
+/// kernel is vectorised. The portable (SSE2) build of the kernel stays scalar (LLVM's cost model
+/// declines to vectorise it) and is slower than the scalar `shade`, so it is only run by the
+/// tests, or with `TORREY_WAVEFRONT_LANES=on`. `TORREY_WAVEFRONT_LANES=off` makes every path take
+/// the scalar `shade` (the same bits; for measuring what the lanes gain).
+pub(super) fn lanes_enabled() -> bool {
+    static ON: OnceLock<bool> = OnceLock::new();
+    *ON.get_or_init(|| {
+        let var = std::env::var("TORREY_WAVEFRONT_LANES").unwrap_or_default();
+        if var.eq_ignore_ascii_case("off") {
+            return false;
+        }
+        var.eq_ignore_ascii_case("on") || Simd::detect() != Simd::Portable
+    })
+}
+
+/// Whether the lanes shade path `path` at `hit`: its shape is in the table, and its light draw
+/// is none or a point on a lane emitter.
+#[inline(always)]
+pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
+    table.shapes[hit.shape as usize].is_some()
+        && match path.light_draw {
+            None => true,
+            Some((li, LightDraw::MeshPoint { .. })) => {
+                matches!(table.lights[li], Some(LaneLight::Area(_)))
+            }
+            // The lanes' sphere sampling assumes u.y in [0, 1], as the sampler's numbers are.
+            Some((li, LightDraw::Deferred(u))) => {
+                matches!(table.lights[li], Some(LaneLight::Constant(_)))
+                    && (0.0..=1.0).contains(&u.y)
+            }
+        }
+}
+
+/// What the lane path reads besides the paths.
+#[derive(Clone, Copy)]
+pub(super) struct LaneParams<'a> {
+    pub table: &'a LaneTable,
+    pub max_depth: u32,
+    pub rr_depth: i32,
+    pub hide_emitters: bool,
+    pub light_select_pdf: f32,
+    pub footprint_scale: f32,
+    /// Ray cones filter something (textures, environment maps): the paths' cones are updated.
+    pub track_cones: bool,
+    /// Lights at infinity are weighed by MIS (`EnvStrategy::ImportanceMis`).
+    pub infinite_mis: bool,
+}
+
+/// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
+/// pushing the continuing ones onto `live` and their shadow rays onto `shadow`, in `indices`'
+/// order. Returns the count of chunks run.
+pub(super) fn shade_lanes(
+    paths: &mut [PathState],
+    hits: &[Option<SurfaceHit>],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+) -> usize {
+    shade_lanes_at(Simd::detect(), paths, hits, indices, params, live, shadow)
+}
+
+/// [`shade_lanes`] at a given level (the tests run each level the CPU has).
+pub(super) fn shade_lanes_at(
+    simd: Simd,
+    paths: &mut [PathState],
+    hits: &[Option<SurfaceHit>],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+) -> usize {
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
+            run::<16>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
+                // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
+                unsafe { lane_kernel::shade_avx512(c, lsp, mis) }
+            })
+        }
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
+            run::<8>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
+                // SAFETY: the CPU has AVX2 and FMA (checked).
+                unsafe { lane_kernel::shade_avx2(c, lsp, mis) }
+            })
+        }
+        _ => run::<8>(
+            paths,
+            hits,
+            indices,
+            params,
+            live,
+            shadow,
+            lane_kernel::shade_portable,
+        ),
+    }
+}
+
+/// Gathers `indices` `N` at a time, runs `kernel`, scatters back.
+#[inline(always)]
+fn run<const N: usize>(
+    paths: &mut [PathState],
+    hits: &[Option<SurfaceHit>],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+    kernel: impl Fn(&mut Chunk<N>, f32, bool),
+) -> usize {
+    let mut c = Chunk::<N>::default();
+    let mut chunks = 0;
+    for group in indices.chunks(N) {
+        for (l, &i) in group.iter().enumerate() {
+            gather(
+                &mut c,
+                l,
+                &paths[i as usize],
+                hits[i as usize].as_ref(),
+                params,
+            );
+        }
+        kernel(&mut c, params.light_select_pdf, params.infinite_mis);
+        for (l, &i) in group.iter().enumerate() {
+            scatter(&c, l, i, &mut paths[i as usize], params, live, shadow);
+        }
+        chunks += 1;
+    }
+    chunks
+}
+
+#[inline(always)]
+fn put<const N: usize>(v: &mut [[f32; N]; 3], l: usize, x: Vec3A) {
+    v[0][l] = x.x;
+    v[1][l] = x.y;
+    v[2][l] = x.z;
+}
+
+#[inline(always)]
+fn take<const N: usize>(v: &[[f32; N]; 3], l: usize) -> Vec3A {
+    Vec3A::new(v[0][l], v[1][l], v[2][l])
+}
+
+/// Lane `l` of `c` from path `path` at `hit`.
+#[inline(always)]
+fn gather<const N: usize>(
+    c: &mut Chunk<N>,
+    l: usize,
+    path: &PathState,
+    hit: Option<&SurfaceHit>,
+    params: LaneParams,
+) {
+    let hit = hit.expect("surfaced paths hit");
+    let shape = params.table.shapes[hit.shape as usize].expect("lane-able shape");
+    put(&mut c.p, l, hit.p);
+    put(&mut c.ng, l, hit.ng);
+    put(&mut c.ns, l, hit.ns);
+    c.t[l] = hit.t;
+    put(&mut c.dir, l, path.ray.dir);
+    put(&mut c.throughput, l, path.throughput);
+    put(&mut c.result, l, path.result);
+    c.prev_pdf[l] = path.prev_bsdf_pdf;
+    c.prev_delta[l] = path.prev_delta as u32;
+    put(&mut c.prev_p, l, path.prev_p);
+    c.eta[l] = path.eta;
+    c.u_dir[0][l] = path.u_dir.x;
+    c.u_dir[1][l] = path.u_dir.y;
+    c.u_rr[l] = path.u_rr;
+    c.last[l] = (path.depth + 1 >= params.max_depth) as u32;
+    c.roulette[l] = ((path.depth + 1) as i32 >= params.rr_depth) as u32;
+    put(&mut c.reflectance, l, Vec3A::from_array(shape.reflectance));
+    c.two_sided[l] = shape.two_sided as u32;
+    let visible = path.depth > 0 || !params.hide_emitters;
+    match (shape.emitter, visible) {
+        (Some(e), true) => {
+            c.emits[l] = 1;
+            put(&mut c.le, l, Vec3A::from_array(e.radiance));
+            c.le_area[l] = e.area;
+        }
+        _ => c.emits[l] = 0,
+    }
+    c.has_light[l] = 1;
+    match (
+        path.light_draw,
+        params.table.lights.get(path.light_draw.map_or(0, |d| d.0)),
+    ) {
+        (Some((_, LightDraw::MeshPoint { q, n })), Some(Some(LaneLight::Area(e)))) => {
+            c.infinite[l] = 0;
+            put(&mut c.q, l, q);
+            put(&mut c.nq, l, n);
+            put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
+            c.l_area[l] = e.area;
+        }
+        (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
+            c.infinite[l] = 1;
+            c.q[0][l] = u.x;
+            c.q[1][l] = u.y;
+            put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
+        }
+        _ => c.has_light[l] = 0,
+    }
+}
+
+/// Lane `l` of `c` back into path `index`.
+#[inline(always)]
+fn scatter<const N: usize>(
+    c: &Chunk<N>,
+    l: usize,
+    index: u32,
+    path: &mut PathState,
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+) {
+    path.result = take(&c.result, l);
+    if c.shadow[l] != 0 {
+        shadow.push(ShadowRay {
+            path: index,
+            origin: take(&c.s_origin, l),
+            dir: take(&c.s_dir, l),
+            tmax: c.s_tmax[l],
+            contribution: take(&c.s_contribution, l),
+        });
+    }
+    if c.cont[l] == 0 {
+        return;
+    }
+    // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1).
+    if params.track_cones {
+        path.cone = path.cone.at_distance(c.t[l]);
+        path.cone.spread += params.footprint_scale;
+    }
+    path.specular_chain = false;
+    path.throughput = take(&c.new_throughput, l);
+    path.prev_bsdf_pdf = c.new_pdf[l];
+    path.prev_delta = false;
+    path.prev_p = take(&c.p, l);
+    path.ray = Ray {
+        origin: take(&c.new_origin, l),
+        dir: take(&c.new_dir, l),
+        tmax: f32::INFINITY,
+    };
+    path.depth += 1;
+    if c.alive[l] != 0 {
+        live.push(index);
+    }
+}
+
+/// Merges `b` into `a`, both ascending by `key`: the order the scalar stage gives.
+pub(super) fn merge_by<T: Copy>(
+    a: &mut Vec<T>,
+    b: &[T],
+    tmp: &mut Vec<T>,
+    key: impl Fn(&T) -> u32,
+) {
+    if b.is_empty() {
+        return;
+    }
+    tmp.clear();
+    tmp.reserve(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if key(&a[i]) <= key(&b[j]) {
+            tmp.push(a[i]);
+            i += 1;
+        } else {
+            tmp.push(b[j]);
+            j += 1;
+        }
+    }
+    tmp.extend_from_slice(&a[i..]);
+    tmp.extend_from_slice(&b[j..]);
+    std::mem::swap(a, tmp);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{shade, PathSettings};
+    use super::*;
+    use crate::integrator::EnvStrategy;
+    use crate::scene::RenderScene;
+    use glam::Vec2;
+    use std::path::Path;
+    use torrey_testkit::Rng;
+    use torrey_texture::RayCone;
+
+    /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), two emitters sampled by
+    /// area (a one-sided rectangle and a two-sided disk), a constant background, a point light
+    /// (scalar) and a plastic box (scalar), inside a closed room so random rays hit from both
+    /// sides.
+    fn scene() -> RenderScene {
+        let xml = r#"<scene version="3.0.0">
+            <sensor type="perspective">
+                <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+            </sensor>
+            <bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.5, 0.4, 0.3"/></bsdf>
+            <bsdf type="twosided" id="both"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.7, 0.1"/></bsdf></bsdf>
+            <shape type="cube"><transform name="toWorld"><scale value="3"/></transform><ref id="both"/></shape>
+            <shape type="obj"><string name="filename" value="meshes/torus.obj"/>
+                <transform name="toWorld"><scale value="0.6"/><translate x="-1" y="0.3"/></transform><ref id="grey"/></shape>
+            <shape type="sphere"><point name="center" x="1" y="-1" z="0.5"/><float name="radius" value="0.6"/><ref id="both"/></shape>
+            <shape type="cube"><transform name="toWorld"><scale value="0.4"/><translate x="1" y="1" z="-1"/></transform>
+                <bsdf type="plastic"/></shape>
+            <shape type="rectangle">
+                <transform name="toWorld"><rotate x="1" angle="90"/><translate y="2.5"/></transform>
+                <emitter type="area"><rgb name="radiance" value="4, 3, 2"/></emitter><ref id="grey"/>
+            </shape>
+            <shape type="disk">
+                <transform name="toWorld"><scale value="0.5"/><rotate y="1" angle="60"/><translate x="-2" z="1"/></transform>
+                <emitter type="area"><rgb name="radiance" value="1, 2, 5"/></emitter><ref id="both"/>
+            </shape>
+            <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3, 3, 3"/></emitter>
+            <emitter type="constant"><rgb name="radiance" value="0.3, 0.4, 0.5"/></emitter>
+        </scene>"#;
+        let desc = torrey_parser::parse_scene_str(
+            xml,
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
+            &[],
+        )
+        .unwrap();
+        RenderScene::build(&desc, 8, 8).unwrap()
+    }
+
+    /// An edge-biased number in [0, 1): exact 0, 1/2 (the disk map's centre), just under 1, or
+    /// uniform.
+    fn unit(rng: &mut Rng) -> f32 {
+        match rng.f32() {
+            x if x < 0.05 => 0.0,
+            x if x < 0.1 => 0.5,
+            x if x < 0.15 => 1.0f32.next_down(),
+            _ => rng.f32(),
+        }
+    }
+
+    fn bits(v: Vec3A) -> [u32; 3] {
+        v.to_array().map(f32::to_bits)
+    }
+
+    /// Random paths at random hits: the lanes give what the scalar `shade` gives, bit for bit
+    /// (path state, shadow rays, live list, in order), at every SIMD level the CPU runs.
+    #[test]
+    fn lanes_shade_as_the_scalar_stage() {
+        let scene = scene();
+        assert!(scene.lanes.any);
+        let mut levels = vec![Simd::Portable];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if crate::accel::x86_64::avx2::available() {
+                levels.push(Simd::Avx2);
+            }
+            if crate::accel::x86_64::avx512::available() {
+                levels.push(Simd::Avx512);
+            }
+        }
+        let mut scene = scene;
+        for env_strategy in [EnvStrategy::ImportanceMis, EnvStrategy::Uniform] {
+            check_lanes(&scene, &levels, env_strategy);
+        }
+        // Cones tracked (as with a texture or an environment map somewhere in the scene).
+        scene.uses_cones = true;
+        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis);
+    }
+
+    fn check_lanes(scene: &RenderScene, levels: &[Simd], env_strategy: EnvStrategy) {
+        let max_depth = 6;
+        let settings = PathSettings {
+            max_depth: max_depth as i32,
+            rr_depth: 3,
+            mipmapping: true,
+            footprint_scale: 0.25,
+            env_strategy,
+        };
+        let light_select_pdf = 1.0 / scene.lights.len() as f32;
+        let mut rng = Rng::new(21);
+        let (mut paths, mut hits) = (Vec::new(), Vec::new());
+        let (mut lane_count, mut back_views, mut emitted, mut background) = (0, 0, 0, 0);
+        while paths.len() < 3000 {
+            let origin = Vec3A::new(
+                rng.f32() * 5.8 - 2.9,
+                rng.f32() * 5.8 - 2.9,
+                rng.f32() * 5.8 - 2.9,
+            );
+            let dir = Vec3A::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5).normalize();
+            let ray = Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let Some(hit) = scene.intersect(&ray) else {
+                continue;
+            };
+            let light_index = (rng.f32() * scene.lights.len() as f32) as usize;
+            let depth = (rng.f32() * max_depth as f32) as u32;
+            let path = PathState {
+                sample: paths.len() as u32,
+                requests: 0,
+                ray,
+                cone: RayCone::from_pixel(0.01),
+                throughput: Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 2.0,
+                result: Vec3A::new(rng.f32(), rng.f32(), rng.f32()),
+                prev_bsdf_pdf: match rng.f32() {
+                    x if x < 0.1 => 0.0,
+                    x if x < 0.2 => f32::INFINITY,
+                    _ => rng.f32() * 3.0,
+                },
+                prev_delta: rng.f32() < 0.3,
+                prev_p: Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 4.0 - 2.0,
+                specular_chain: rng.f32() < 0.5,
+                eta: if rng.f32() < 0.2 { 1.5 } else { 1.0 },
+                depth,
+                traced: false,
+                u_dir: Vec2::new(unit(&mut rng), unit(&mut rng)),
+                u_lobe: rng.f32(),
+                u_rr: unit(&mut rng),
+                light_draw: (depth + 1 < max_depth && rng.f32() < 0.9).then(|| {
+                    let u = Vec2::new(unit(&mut rng), unit(&mut rng));
+                    (light_index, scene.lights[light_index].draw(u))
+                }),
+            };
+            if lane_able(&scene.lanes, &path, &hit) {
+                lane_count += 1;
+                back_views += (hit.ns.dot(dir) > 0.0) as u32;
+                emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
+                background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
+            }
+            paths.push(path);
+            hits.push(Some(hit));
+        }
+        // Enough of each case: lane paths, paths seeing a back, emitters hit, background
+        // samples.
+        assert!(
+            lane_count > 1500 && back_views > 300 && emitted > 50 && background > 300,
+            "{lane_count} {back_views} {emitted} {background}"
+        );
+        let indices: Vec<u32> = (0..paths.len() as u32)
+            .filter(|&i| {
+                lane_able(
+                    &scene.lanes,
+                    &paths[i as usize],
+                    hits[i as usize].as_ref().unwrap(),
+                )
+            })
+            .collect();
+
+        let mut want = paths.clone();
+        let (mut want_live, mut want_shadow) = (Vec::new(), Vec::new());
+        for &i in &indices {
+            let hit = hits[i as usize].as_ref().unwrap();
+            want_shadow.extend(shade(
+                scene,
+                &mut want[i as usize],
+                hit,
+                settings,
+                max_depth,
+                light_select_pdf,
+                i,
+                &mut want_live,
+            ));
+        }
+        assert!(want_shadow.len() > 300 && want_live.len() > 300);
+        let params = LaneParams {
+            table: &scene.lanes,
+            max_depth,
+            rr_depth: settings.rr_depth,
+            hide_emitters: scene.hide_emitters,
+            light_select_pdf,
+            footprint_scale: settings.footprint_scale,
+            track_cones: settings.mipmapping && scene.uses_cones,
+            infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
+        };
+        for &simd in levels {
+            let mut got = paths.clone();
+            let (mut live, mut shadow) = (Vec::new(), Vec::new());
+            let chunks = shade_lanes_at(
+                simd,
+                &mut got,
+                &hits,
+                &indices,
+                params,
+                &mut live,
+                &mut shadow,
+            );
+            let width = if simd == Simd::Avx512 { 16 } else { 8 };
+            assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
+            assert_eq!(live, want_live, "{simd:?}");
+            assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
+            for (s, w) in shadow.iter().zip(&want_shadow) {
+                assert_eq!(s.path, w.path, "{simd:?}");
+                assert_eq!(
+                    (
+                        bits(s.origin),
+                        bits(s.dir),
+                        s.tmax.to_bits(),
+                        bits(s.contribution)
+                    ),
+                    (
+                        bits(w.origin),
+                        bits(w.dir),
+                        w.tmax.to_bits(),
+                        bits(w.contribution)
+                    ),
+                    "{simd:?} path {}",
+                    s.path
+                );
+            }
+            for &i in &indices {
+                let (g, w) = (&got[i as usize], &want[i as usize]);
+                let what = format!("{simd:?} path {i}");
+                assert_eq!(bits(g.result), bits(w.result), "{what}");
+                assert_eq!(g.depth, w.depth, "{what}");
+                if g.depth == paths[i as usize].depth {
+                    continue; // ended here: only its radiance counts
+                }
+                assert_eq!(bits(g.throughput), bits(w.throughput), "{what}");
+                assert_eq!(bits(g.ray.origin), bits(w.ray.origin), "{what}");
+                assert_eq!(bits(g.ray.dir), bits(w.ray.dir), "{what}");
+                assert_eq!(g.ray.tmax, w.ray.tmax, "{what}");
+                assert_eq!(
+                    g.prev_bsdf_pdf.to_bits(),
+                    w.prev_bsdf_pdf.to_bits(),
+                    "{what}"
+                );
+                assert_eq!(
+                    (g.prev_delta, g.specular_chain),
+                    (w.prev_delta, w.specular_chain),
+                    "{what}"
+                );
+                assert_eq!(bits(g.prev_p), bits(w.prev_p), "{what}");
+                assert_eq!(g.eta.to_bits(), w.eta.to_bits(), "{what}");
+                assert_eq!(g.cone, w.cone, "{what}");
+            }
+        }
+    }
+
+    /// The table admits the constant diffuse shapes (emitting or not) and not the plastic one,
+    /// the area and constant lights and not the point light; with a point light the lanes do
+    /// not cover the scene's lights (`PathLoop::Auto` keeps the scalar loop).
+    #[test]
+    fn the_table_admits_constant_diffuse_and_area_or_constant_lights() {
+        let scene = scene();
+        let admitted: Vec<bool> = scene.lanes.shapes.iter().map(Option::is_some).collect();
+        assert_eq!(admitted, [true, true, true, false, true, true]);
+        let emitting = scene
+            .lanes
+            .shapes
+            .iter()
+            .flatten()
+            .filter(|s| s.emitter.is_some());
+        assert_eq!(emitting.count(), 2);
+        let lights: Vec<bool> = scene
+            .lights
+            .iter()
+            .zip(&scene.lanes.lights)
+            .map(|(l, t)| {
+                assert_eq!(t.is_some(), !matches!(l, crate::lights::Light::Point(_)));
+                t.is_some()
+            })
+            .collect();
+        assert_eq!(lights.len(), 4);
+        assert!(scene.lanes.any && !scene.lanes.covers_lights);
+    }
+
+    /// Merging keeps both lists' elements in ascending order.
+    #[test]
+    fn merge_interleaves_by_key() {
+        let mut a = vec![1u32, 4, 5, 9];
+        let mut tmp = Vec::new();
+        merge_by(&mut a, &[0, 2, 3, 10], &mut tmp, |&x| x);
+        assert_eq!(a, [0, 1, 2, 3, 4, 5, 9, 10]);
+        merge_by(&mut a, &[], &mut tmp, |&x| x);
+        assert_eq!(a.len(), 8);
+    }
+}
