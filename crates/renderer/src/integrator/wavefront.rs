@@ -25,7 +25,7 @@ use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
 use glam::{Vec2, Vec3, Vec3A};
 use std::sync::OnceLock;
-use torrey_light::BatchSimd;
+use torrey_light::{BatchSimd, EnvSample};
 use torrey_texture::{Footprint, RayCone};
 
 /// A camera ray that starts a path of the batch.
@@ -103,6 +103,10 @@ pub struct Wavefront {
     env_spreads: Vec<f32>,
     env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
+    // The surfaced paths' environment-map light samples.
+    env_draw_paths: Vec<u32>,
+    env_draw_us: Vec<Vec2>,
+    env_draws: Vec<Option<EnvSample>>,
 }
 
 impl Wavefront {
@@ -231,6 +235,12 @@ impl Wavefront {
                 self.escaped_radiance(scene, settings, light_select_pdf);
             }
 
+            // The environment-map light samples of the paths that reached a surface, drawn all at
+            // once in SIMD lanes (not in stage 1: an escaped path's would be wasted).
+            if !self.surfaced.is_empty() {
+                self.draw_env_lights(scene, settings);
+            }
+
             // Stage 4: surfaces: emission, the BSDF sample, the light connection (queued as a
             // shadow ray) and the path's continuation.
             self.shadow.clear();
@@ -265,6 +275,50 @@ impl Wavefront {
 }
 
 impl Wavefront {
+    /// Samples, for every surfaced path whose light draw is an environment map's, the map's
+    /// direction, radiance and density with [`torrey_light::EnvMap::sample_batch`] (the bits of
+    /// the one-sample code), and leaves them in the draw for [`Light::connect`] to read.
+    fn draw_env_lights(&mut self, scene: &RenderScene, settings: PathSettings) {
+        if settings.env_strategy == EnvStrategy::Uniform || !batched_env() {
+            return;
+        }
+        for &li in &scene.infinite_lights {
+            let Light::Env(env) = &scene.lights[li as usize] else {
+                continue;
+            };
+            self.env_draw_paths.clear();
+            self.env_draw_us.clear();
+            for &i in &self.surfaced {
+                if let Some((index, LightDraw::Deferred(u))) = self.paths[i as usize].light_draw {
+                    if index == li as usize {
+                        self.env_draw_paths.push(i);
+                        self.env_draw_us.push(u);
+                    }
+                }
+            }
+            if self.env_draw_paths.is_empty() {
+                continue;
+            }
+            env.map
+                .sample_batch(&self.env_draw_us, batch_simd(), &mut self.env_draws);
+            for (&i, s) in self.env_draw_paths.iter().zip(&self.env_draws) {
+                let draw = match s {
+                    Some(s) => LightDraw::EnvSampled {
+                        wi: s.direction.into(),
+                        radiance: s.radiance.into(),
+                        pdf: s.pdf,
+                    },
+                    None => LightDraw::EnvSampled {
+                        wi: Vec3A::ZERO,
+                        radiance: Vec3A::ZERO,
+                        pdf: 0.0,
+                    },
+                };
+                self.paths[i as usize].light_draw = Some((li as usize, draw));
+            }
+        }
+    }
+
     /// Adds to every escaped path (`self.escaped`) the radiance of the lights at infinity along
     /// its ray: what `path::infinite_radiance` gives each, summed over the lights in the same order.
     fn escaped_radiance(

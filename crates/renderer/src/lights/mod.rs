@@ -62,6 +62,14 @@ pub enum LightDraw {
     Deferred(Vec2),
     /// A point on an emitting triangle and the light's normal there (after `flipNormals`).
     MeshPoint { q: Vec3A, n: Vec3A },
+    /// An environment map's sample, drawn for many paths at once in SIMD lanes (the wavefront
+    /// loop's `EnvMap::sample_batch`): [`Light::connect`] only reads it. `pdf` 0: nothing was
+    /// drawn (the one-sample code's `None`).
+    EnvSampled {
+        wi: Vec3A,
+        radiance: Vec3A,
+        pdf: f32,
+    },
 }
 
 impl Light {
@@ -116,6 +124,16 @@ impl Light {
         match (draw, self) {
             (LightDraw::MeshPoint { q, n }, Light::Area(area)) => area.connect_point(q, n, p),
             (LightDraw::MeshPoint { .. }, _) => unreachable!("mesh points come from mesh lights"),
+            (LightDraw::EnvSampled { wi, radiance, pdf }, Light::Env(_)) => {
+                (pdf > 0.0).then_some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    radiance,
+                    pdf,
+                    is_delta: false,
+                })
+            }
+            (LightDraw::EnvSampled { .. }, _) => unreachable!("env samples come from env maps"),
             (LightDraw::Deferred(u), _) => self.sample_deferred(p, u, uniform_env, textures),
         }
     }

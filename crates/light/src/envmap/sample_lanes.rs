@@ -1,0 +1,325 @@
+//! [`EnvMap::sample_batch`]: [`EnvMap::sample`] for many random pairs at once, in SIMD lanes.
+//!
+//! The one-sample code is a chain of dependent steps (two alias picks, four density reads, two
+//! square-root warps, two sine/cosine polynomials, a bilinear radiance lookup) with little
+//! parallelism inside it. Run over [`BATCH_LANES`] samples side by side, each step is one
+//! vector instruction for all of them and the table reads become gathers. Every lane does the
+//! one-sample code's operations in its order (no fused multiply-adds, no approximate
+//! reciprocals), so the results are its bits; the rare lanes the lane code does not cover (a
+//! coordinate outside the unit square, which the sampler never produces) take the one-sample
+//! code itself.
+
+use super::{floor_frac, row_v, sample_linear, BatchSimd, EnvMap, EnvSample, BATCH_LANES};
+use crate::alias::AliasSlot;
+use crate::fastmath;
+use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
+use glam::{Vec2, Vec3};
+
+const LANES: usize = BATCH_LANES;
+
+/// One step of samples in structure-of-arrays form: the random pairs in, the samples out.
+#[derive(Default)]
+struct SampleLanes {
+    ux: [f32; LANES],
+    uy: [f32; LANES],
+    dir_x: [f32; LANES],
+    dir_y: [f32; LANES],
+    dir_z: [f32; LANES],
+    red: [f32; LANES],
+    green: [f32; LANES],
+    blue: [f32; LANES],
+    pdf: [f32; LANES],
+    /// The lane's result is not valid: the one-sample code decides it.
+    fallback: [bool; LANES],
+}
+
+/// [`crate::alias::pick`] on the table of `n` slots at `slots + base`, for a lane: the same
+/// arithmetic, with plain selects (which become blends across lanes).
+///
+/// # Safety
+/// `slots + base` must start a table of `n` >= 1 slots whose aliases are below `n` (as
+/// `build_slots` makes them).
+#[inline(always)]
+unsafe fn pick_lane(slots: *const AliasSlot, n: u32, base: u32, u: f32) -> (u32, f32) {
+    let t = u * n as f32;
+    // A compare and select rather than `Ord::min`, whose three-way compare the loop vectoriser
+    // does not take.
+    let k = t as u32;
+    let k = if k < n - 1 { k } else { n - 1 };
+    let frac = (t - k as f32).min(ONE_MINUS_EPSILON);
+    // SAFETY: k < n (clamped above), and the caller guarantees the table.
+    let slot = unsafe { *slots.add((base + k) as usize) };
+    let own = frac < slot.q;
+    let index = if own { k } else { slot.alias };
+    let lo = if own { 0.0 } else { slot.q };
+    let width = if own { slot.q } else { 1.0 - slot.q };
+    let rest = ((frac - lo) / width).clamp(0.0, ONE_MINUS_EPSILON);
+    (index, rest)
+}
+
+/// [`fastmath::sin_cos_2pi`] for `t` in [0, 1], and whether `t` was (other `t` give garbage).
+#[inline(always)]
+fn sin_cos_2pi_lane(t: f32) -> (f32, f32, bool) {
+    let inside = (0.0..=1.0).contains(&t);
+    // Saturating, so garbage in is garbage out, not undefined behaviour.
+    let q = (4.0 * t + 0.5) as i32;
+    let (s, c) = fastmath::sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * std::f32::consts::PI));
+    let q = q as u32;
+    let (a, b) = if q & 1 != 0 { (c, s) } else { (s, c) };
+    let sin_sign = (q & 2) << 30;
+    let cos_sign = ((q + 1) & 2) << 30;
+    (
+        f32::from_bits(a.to_bits() ^ sin_sign),
+        f32::from_bits(b.to_bits() ^ cos_sign),
+        inside,
+    )
+}
+
+impl SampleLanes {
+    /// [`EnvMap::sample`] on every lane (a samplable map), unused lanes included (they hold
+    /// (0, 0), a valid pair).
+    #[inline(always)]
+    fn body(&mut self, env: &EnvMap) {
+        let rows = env.row_slots.as_ptr();
+        let row_count = env.row_slots.len() as u32;
+        let columns = env.column_slots.as_ptr();
+        let width = env.width as u32;
+        // The records as plain floats: a `Vec4` is an SSE register type, which the loop
+        // vectoriser cannot put in lanes.
+        let texels = env.texels.as_ptr() as *const [f32; 4];
+        let half = 0.5 * env.inv_size.y;
+        let (w, h) = (env.width as i32, env.height as i32);
+        for k in 0..LANES {
+            let (ux, uy) = (clamp_unit(self.ux[k]), clamp_unit(self.uy[k]));
+            // SAFETY: `row_slots` is one table of `height - 1` slots; `column_slots` holds one
+            // table of `width` slots per band, and `row` (a pick of the row table) is a band.
+            let (row, v_in_patch) = unsafe { pick_lane(rows, row_count, 0, uy) };
+            let (column, u_in_patch) = unsafe { pick_lane(columns, width, row * width, ux) };
+            let column1 = if column + 1 == width { 0 } else { column + 1 };
+            let (top, bottom) = (row * width, (row + 1) * width);
+            // SAFETY: row + 1 < height and both columns < width (above), and `texels` holds
+            // width x height records.
+            let texel_w = |i: u32| unsafe { (*texels.add(i as usize))[3] };
+            let (w00, w10, w01, w11) = (
+                texel_w(top + column),
+                texel_w(top + column1),
+                texel_w(bottom + column),
+                texel_w(bottom + column1),
+            );
+            let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
+            let (left, right) = (w00 * (1.0 - t) + w01 * t, w10 * (1.0 - t) + w11 * t);
+            let s = sample_linear(left, right, u_in_patch);
+            let p_uv = left * (1.0 - s) + right * s;
+            let mut su = (column as f32 + 0.5 + s) * env.inv_size.x;
+            if su >= 1.0 {
+                su -= 1.0;
+            }
+            let uv =
+                Vec2::new(su, (row as f32 + t) * env.inv_bands).min(Vec2::splat(ONE_MINUS_EPSILON));
+            // `EnvMap::uv_to_local_dir_sin`.
+            let (sin_theta, cos_theta, theta_ok) = sin_cos_2pi_lane(0.5 * uv.y);
+            let (sin_phi, cos_phi, phi_ok) = sin_cos_2pi_lane(uv.x);
+            let local = Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
+            let pdf = EnvMap::solid_angle_pdf(p_uv, sin_theta);
+            let dir = env.to_world * local;
+            // `EnvMap::bilinear_finest` with `BilinearTaps::new`'s arithmetic.
+            // `f32::clamp` spelt out: its check of the bounds (a panic) would keep the loop
+            // out of SIMD lanes.
+            let mut v = row_v(uv.y, env.size.y);
+            if v < half {
+                v = half;
+            }
+            if v > 1.0 - half {
+                v = 1.0 - half;
+            }
+            let x = uv.x * env.size.x - 0.5;
+            let y = v * env.size.y - 0.5;
+            let taps_ok = x >= -1.0 && x < env.size.x && y >= -1.0 && y < env.size.y;
+            let (i, fx) = floor_frac(x);
+            let (j, fy) = floor_frac(y);
+            let (c0, c1) = (
+                if i < 0 { w - 1 } else { i },
+                if i + 1 >= w { 0 } else { i + 1 },
+            );
+            let (r0, r1) = (
+                if j < 0 { h - 1 } else { j },
+                if j + 1 >= h { 0 } else { j + 1 },
+            );
+            // Out-of-range lanes read texel 0 and are redone by the one-sample code.
+            let index = |r: i32, c: i32| if taps_ok { (r * w + c) as usize } else { 0 };
+            // SAFETY: with `taps_ok`, rows are in [0, height) and columns in [0, width)
+            // (`BilinearTaps::new`), else the index is 0; `texels` holds width x height records.
+            let texel = |i: usize| unsafe {
+                let t = *texels.add(i);
+                Vec3::new(t[0], t[1], t[2])
+            };
+            // Component by component, the `Vec4` arithmetic of `bilinear_finest_with_density`.
+            let top = texel(index(r0, c0)) * (1.0 - fx) + texel(index(r0, c1)) * fx;
+            let bottom = texel(index(r1, c0)) * (1.0 - fx) + texel(index(r1, c1)) * fx;
+            let radiance = (top * (1.0 - fy) + bottom * fy) * env.scale;
+            (self.dir_x[k], self.dir_y[k], self.dir_z[k]) = (dir.x, dir.y, dir.z);
+            (self.red[k], self.green[k], self.blue[k]) = (radiance.x, radiance.y, radiance.z);
+            self.pdf[k] = pdf;
+            self.fallback[k] = !(theta_ok && phi_ok && taps_ok);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn body_avx2(&mut self, env: &EnvMap) {
+        self.body(env)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    fn body_avx512(&mut self, env: &EnvMap) {
+        self.body(env)
+    }
+
+    fn body_portable(&mut self, env: &EnvMap) {
+        self.body(env)
+    }
+
+    #[inline]
+    fn run(&mut self, env: &EnvMap, simd: BatchSimd) {
+        match simd {
+            #[cfg(target_arch = "x86_64")]
+            BatchSimd::Avx512 if is_x86_feature_detected!("avx512f") => {
+                // SAFETY: the CPU has AVX-512 F (checked).
+                unsafe { self.body_avx512(env) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            BatchSimd::Avx2 | BatchSimd::Avx512
+                if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") =>
+            {
+                // SAFETY: the CPU has AVX2 and FMA (checked).
+                unsafe { self.body_avx2(env) }
+            }
+            _ => self.body_portable(env),
+        }
+    }
+}
+
+impl EnvMap {
+    /// [`Self::sample`] of each pair of `us`, bit for bit, into `out` (cleared first), computed
+    /// [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the CPU was
+    /// found to have; see the module doc).
+    pub fn sample_batch(&self, us: &[Vec2], simd: BatchSimd, out: &mut Vec<Option<EnvSample>>) {
+        out.clear();
+        if !self.samplable {
+            out.resize(us.len(), None);
+            return;
+        }
+        for chunk in us.chunks(LANES) {
+            let mut lanes = SampleLanes::default();
+            for (k, u) in chunk.iter().enumerate() {
+                (lanes.ux[k], lanes.uy[k]) = (u.x, u.y);
+            }
+            lanes.run(self, simd);
+            for (k, &u) in chunk.iter().enumerate() {
+                out.push(if lanes.fallback[k] {
+                    self.sample(u)
+                } else if lanes.pdf[k] <= 0.0 {
+                    None
+                } else {
+                    Some(EnvSample {
+                        direction: Vec3::new(lanes.dir_x[k], lanes.dir_y[k], lanes.dir_z[k]),
+                        radiance: Vec3::new(lanes.red[k], lanes.green[k], lanes.blue[k]),
+                        pdf: lanes.pdf[k],
+                    })
+                });
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Mat3;
+    use torrey_testkit::Rng;
+    use torrey_texture::Image;
+
+    /// A map of `w` x `h` with smooth structure, a sun of 2000 and, when `dark_middle`, only the
+    /// rows next to the poles lit (samples near the zenith and the nadir).
+    fn map(w: u32, h: u32, dark_middle: bool) -> Image {
+        let px = (0..w * h)
+            .map(|k| {
+                let (i, j) = (k % w, k / w);
+                if dark_middle && j != 1 && j + 2 != h {
+                    return glam::Vec3::ZERO;
+                }
+                let c = glam::Vec3::new(
+                    0.2 + 0.8 * (i as f32 / w as f32),
+                    0.1 + (j as f32 * 0.7).sin().abs(),
+                    0.3 + ((i + 2 * j) % 5) as f32 * 0.2,
+                );
+                if (i, j) == (w / 3, h / 4) {
+                    c * 2000.0
+                } else {
+                    c
+                }
+            })
+            .collect();
+        Image::new(w, h, px)
+    }
+
+    fn bits(s: Option<EnvSample>) -> Option<([u32; 3], [u32; 3], u32)> {
+        s.map(|s| {
+            (
+                s.direction.to_array().map(f32::to_bits),
+                s.radiance.to_array().map(f32::to_bits),
+                s.pdf.to_bits(),
+            )
+        })
+    }
+
+    /// The batch gives `sample`'s bits at every SIMD level (the levels this CPU lacks run the
+    /// portable code), for random pairs and the edges of the unit square, on maps with a sun,
+    /// with only the rows next to the poles lit, one column wide, two rows high, rotated or not,
+    /// and black; batch lengths that fill and do not fill the lanes.
+    #[test]
+    fn sample_batch_matches_sample_bit_for_bit() {
+        let mut rng = Rng::new(31);
+        let top = ONE_MINUS_EPSILON;
+        let mut us: Vec<Vec2> = (0..1500).map(|_| rng.vec2()).collect();
+        for a in [
+            0.0,
+            top,
+            1.0,
+            0.5,
+            1e-30,
+            top.next_down(),
+            -0.25,
+            1.5,
+            f32::NAN,
+        ] {
+            for b in [0.0, top, 0.5, 1e-7, f32::NAN] {
+                us.extend([Vec2::new(a, b), Vec2::new(b, a)]);
+            }
+        }
+        let rotation = Mat3::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 0.9);
+        let maps = [
+            (map(64, 32, false), Mat3::IDENTITY),
+            (map(64, 32, false), rotation),
+            (map(16, 8, true), rotation),
+            (map(1, 5, false), Mat3::IDENTITY),
+            (map(7, 2, false), rotation),
+            (Image::filled(8, 4, Vec3::ZERO), Mat3::IDENTITY),
+        ];
+        let mut out = Vec::new();
+        for (image, to_world) in maps {
+            let env = EnvMap::new(image, 1.5, to_world);
+            let want: Vec<_> = us.iter().map(|&u| bits(env.sample(u))).collect();
+            for simd in [BatchSimd::Portable, BatchSimd::Avx2, BatchSimd::Avx512] {
+                for len in [us.len(), 16, 5, 1, 0] {
+                    env.sample_batch(&us[..len], simd, &mut out);
+                    assert_eq!(out.len(), len);
+                    for (k, &s) in out.iter().enumerate() {
+                        assert_eq!(bits(s), want[k], "{simd:?} u {}", us[k]);
+                    }
+                }
+            }
+        }
+    }
+}
