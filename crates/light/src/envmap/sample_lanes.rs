@@ -33,26 +33,28 @@ struct SampleLanes {
     fallback: [bool; LANES],
 }
 
-/// [`crate::alias::pick`] on the table of `n` slots at `slots + base`, for a lane: the same
-/// arithmetic, with plain selects (which become blends across lanes).
-///
-/// # Safety
-/// `slots + base` must start a table of `n` >= 1 slots whose aliases are below `n` (as
-/// `build_slots` makes them).
+/// The first half of [`crate::alias::pick`] on a table of `n` slots, for a lane: the slot to
+/// read and the fraction of `u` left.
 #[inline(always)]
-unsafe fn pick_lane(slots: *const AliasSlot, n: u32, base: u32, u: f32) -> (u32, f32) {
+fn pick_slot(n: u32, u: f32) -> (u32, f32) {
     let t = u * n as f32;
-    // A compare and select rather than `Ord::min`, whose three-way compare the loop vectoriser
-    // does not take.
-    let k = t as u32;
+    // t is in [0, n) (u in [0, 1)), below 2^31: the signed conversion (one AVX2 instruction, the
+    // unsigned one a sequence) gives `t as u32`; a compare and select rather than `Ord::min`,
+    // whose three-way compare the loop vectoriser does not take.
+    let k = t as i32 as u32;
     let k = if k < n - 1 { k } else { n - 1 };
     let frac = (t - k as f32).min(ONE_MINUS_EPSILON);
-    // SAFETY: k < n (clamped above), and the caller guarantees the table.
-    let slot = unsafe { *slots.add((base + k) as usize) };
-    let own = frac < slot.q;
-    let index = if own { k } else { slot.alias };
-    let lo = if own { 0.0 } else { slot.q };
-    let width = if own { slot.q } else { 1.0 - slot.q };
+    (k, frac)
+}
+
+/// The second half of [`crate::alias::pick`], given the slot `k` read (`q`, `alias`): the
+/// chosen index and the rest of `u`. Plain selects, which become blends across lanes.
+#[inline(always)]
+fn pick_choose(k: u32, frac: f32, q: f32, alias: u32) -> (u32, f32) {
+    let own = frac < q;
+    let index = if own { k } else { alias };
+    let lo = if own { 0.0 } else { q };
+    let width = if own { q } else { 1.0 - q };
     let rest = ((frac - lo) / width).clamp(0.0, ONE_MINUS_EPSILON);
     (index, rest)
 }
@@ -75,109 +77,273 @@ fn sin_cos_2pi_lane(t: f32) -> (f32, f32, bool) {
     )
 }
 
+/// What a lane's sample needs after its patch and the density at the patch's corners: the
+/// bilinear warp, the direction, the density, and the radiance lookup's taps.
+struct Warped {
+    dir: Vec3,
+    pdf: f32,
+    /// The bilinear lookup's four texel records (top-left, top-right, bottom-left,
+    /// bottom-right), and its weights.
+    taps: [u32; 4],
+    fx: f32,
+    fy: f32,
+    /// The lane left the range the lane code covers: the one-sample code decides it.
+    fallback: bool,
+}
+
+/// The texel records of patch (`row`, `column`)'s corners, in `EnvMap::sample`'s order.
+#[inline(always)]
+fn patch_corners(env: &EnvMap, row: u32, column: u32) -> [u32; 4] {
+    let width = env.width as u32;
+    let column1 = if column + 1 == width { 0 } else { column + 1 };
+    let (top, bottom) = (row * width, (row + 1) * width);
+    [
+        top + column,
+        top + column1,
+        bottom + column,
+        bottom + column1,
+    ]
+}
+
+/// `EnvMap::sample` from the chosen patch on: the warp inside it (corner densities `w`), the
+/// direction and its density, and the taps of `EnvMap::bilinear_finest` (`BilinearTaps::new`'s
+/// arithmetic).
+#[inline(always)]
+fn warp(
+    env: &EnvMap,
+    row: u32,
+    column: u32,
+    v_in_patch: f32,
+    u_in_patch: f32,
+    w: [f32; 4],
+) -> Warped {
+    let [w00, w10, w01, w11] = w;
+    let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
+    let (left, right) = (w00 * (1.0 - t) + w01 * t, w10 * (1.0 - t) + w11 * t);
+    let s = sample_linear(left, right, u_in_patch);
+    let p_uv = left * (1.0 - s) + right * s;
+    let mut su = (column as f32 + 0.5 + s) * env.inv_size.x;
+    if su >= 1.0 {
+        su -= 1.0;
+    }
+    let uv = Vec2::new(su, (row as f32 + t) * env.inv_bands).min(Vec2::splat(ONE_MINUS_EPSILON));
+    // `EnvMap::uv_to_local_dir_sin`.
+    let (sin_theta, cos_theta, theta_ok) = sin_cos_2pi_lane(0.5 * uv.y);
+    let (sin_phi, cos_phi, phi_ok) = sin_cos_2pi_lane(uv.x);
+    let local = Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
+    let pdf = EnvMap::solid_angle_pdf(p_uv, sin_theta);
+    let dir = env.to_world * local;
+    // `f32::clamp` spelt out: its check of the bounds (a panic) would keep the loop out of
+    // SIMD lanes.
+    let half = 0.5 * env.inv_size.y;
+    let mut v = row_v(uv.y, env.size.y);
+    if v < half {
+        v = half;
+    }
+    if v > 1.0 - half {
+        v = 1.0 - half;
+    }
+    let x = uv.x * env.size.x - 0.5;
+    let y = v * env.size.y - 0.5;
+    let taps_ok = x >= -1.0 && x < env.size.x && y >= -1.0 && y < env.size.y;
+    let (i, fx) = floor_frac(x);
+    let (j, fy) = floor_frac(y);
+    let (w, h) = (env.width as i32, env.height as i32);
+    let (c0, c1) = (
+        if i < 0 { w - 1 } else { i },
+        if i + 1 >= w { 0 } else { i + 1 },
+    );
+    let (r0, r1) = (
+        if j < 0 { h - 1 } else { j },
+        if j + 1 >= h { 0 } else { j + 1 },
+    );
+    // Out-of-range lanes read texel 0 and are redone by the one-sample code.
+    let index = |r: i32, c: i32| if taps_ok { (r * w + c) as u32 } else { 0 };
+    Warped {
+        dir,
+        pdf,
+        taps: [index(r0, c0), index(r0, c1), index(r1, c0), index(r1, c1)],
+        fx,
+        fy,
+        fallback: !(theta_ok && phi_ok && taps_ok),
+    }
+}
+
+/// The bilinear interpolation of the taps' radiance, component by component the `Vec4`
+/// arithmetic of `bilinear_finest_with_density`, times the map's scale.
+#[inline(always)]
+fn interpolate(env: &EnvMap, rgb: [Vec3; 4], fx: f32, fy: f32) -> Vec3 {
+    let top = rgb[0] * (1.0 - fx) + rgb[1] * fx;
+    let bottom = rgb[2] * (1.0 - fx) + rgb[3] * fx;
+    (top * (1.0 - fy) + bottom * fy) * env.scale
+}
+
+/// The table reads, each the caller's SAFETY: an alias table's slot is below its length and its
+/// aliases are its indices (`build_slots`); `row_slots` is one table of `height - 1` slots, so a
+/// picked row is a band and `column_slots` holds one table of `width` slots per band; the
+/// corners of a patch (a band's row and the next, columns below width) and the taps of
+/// [`warp`] (rows below height, columns below width, or 0) are records of `texels`, which holds
+/// width x height of them.
+struct Tables {
+    rows: *const AliasSlot,
+    columns: *const AliasSlot,
+    /// The records as plain floats: a `Vec4` is an SSE register type, which the loop
+    /// vectoriser cannot put in lanes.
+    texels: *const [f32; 4],
+}
+
+impl Tables {
+    #[inline(always)]
+    fn new(env: &EnvMap) -> Self {
+        Self {
+            rows: env.row_slots.as_ptr(),
+            columns: env.column_slots.as_ptr(),
+            texels: env.texels.as_ptr() as *const [f32; 4],
+        }
+    }
+
+    /// # Safety
+    /// `k` is a slot of the row table.
+    #[inline(always)]
+    unsafe fn row_slot(&self, k: u32) -> AliasSlot {
+        unsafe { *self.rows.add(k as usize) }
+    }
+
+    /// # Safety
+    /// `k` is a slot of the column tables.
+    #[inline(always)]
+    unsafe fn column_slot(&self, k: u32) -> AliasSlot {
+        unsafe { *self.columns.add(k as usize) }
+    }
+
+    /// # Safety
+    /// `k` is a texel record.
+    #[inline(always)]
+    unsafe fn texel(&self, k: u32) -> [f32; 4] {
+        unsafe { *self.texels.add(k as usize) }
+    }
+}
+
 impl SampleLanes {
     /// [`EnvMap::sample`] on every lane (a samplable map), unused lanes included (they hold
-    /// (0, 0), a valid pair).
+    /// (0, 0), a valid pair), in one loop over the lanes: AVX-512's, where the table reads
+    /// become gathers.
     #[inline(always)]
-    fn body(&mut self, env: &EnvMap) {
-        let rows = env.row_slots.as_ptr();
-        let row_count = env.row_slots.len() as u32;
-        let columns = env.column_slots.as_ptr();
-        let width = env.width as u32;
-        // The records as plain floats: a `Vec4` is an SSE register type, which the loop
-        // vectoriser cannot put in lanes.
-        let texels = env.texels.as_ptr() as *const [f32; 4];
-        let half = 0.5 * env.inv_size.y;
-        let (w, h) = (env.width as i32, env.height as i32);
+    fn body_fused(&mut self, env: &EnvMap) {
+        let tables = Tables::new(env);
+        let (row_count, width) = (env.row_slots.len() as u32, env.width as u32);
         for k in 0..LANES {
-            let (ux, uy) = (clamp_unit(self.ux[k]), clamp_unit(self.uy[k]));
-            // SAFETY: `row_slots` is one table of `height - 1` slots; `column_slots` holds one
-            // table of `width` slots per band, and `row` (a pick of the row table) is a band.
-            let (row, v_in_patch) = unsafe { pick_lane(rows, row_count, 0, uy) };
-            let (column, u_in_patch) = unsafe { pick_lane(columns, width, row * width, ux) };
-            let column1 = if column + 1 == width { 0 } else { column + 1 };
-            let (top, bottom) = (row * width, (row + 1) * width);
-            // SAFETY: row + 1 < height and both columns < width (above), and `texels` holds
-            // width x height records.
-            let texel_w = |i: u32| unsafe { (*texels.add(i as usize))[3] };
-            let (w00, w10, w01, w11) = (
-                texel_w(top + column),
-                texel_w(top + column1),
-                texel_w(bottom + column),
-                texel_w(bottom + column1),
-            );
-            let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
-            let (left, right) = (w00 * (1.0 - t) + w01 * t, w10 * (1.0 - t) + w11 * t);
-            let s = sample_linear(left, right, u_in_patch);
-            let p_uv = left * (1.0 - s) + right * s;
-            let mut su = (column as f32 + 0.5 + s) * env.inv_size.x;
-            if su >= 1.0 {
-                su -= 1.0;
-            }
-            let uv =
-                Vec2::new(su, (row as f32 + t) * env.inv_bands).min(Vec2::splat(ONE_MINUS_EPSILON));
-            // `EnvMap::uv_to_local_dir_sin`.
-            let (sin_theta, cos_theta, theta_ok) = sin_cos_2pi_lane(0.5 * uv.y);
-            let (sin_phi, cos_phi, phi_ok) = sin_cos_2pi_lane(uv.x);
-            let local = Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
-            let pdf = EnvMap::solid_angle_pdf(p_uv, sin_theta);
-            let dir = env.to_world * local;
-            // `EnvMap::bilinear_finest` with `BilinearTaps::new`'s arithmetic.
-            // `f32::clamp` spelt out: its check of the bounds (a panic) would keep the loop
-            // out of SIMD lanes.
-            let mut v = row_v(uv.y, env.size.y);
-            if v < half {
-                v = half;
-            }
-            if v > 1.0 - half {
-                v = 1.0 - half;
-            }
-            let x = uv.x * env.size.x - 0.5;
-            let y = v * env.size.y - 0.5;
-            let taps_ok = x >= -1.0 && x < env.size.x && y >= -1.0 && y < env.size.y;
-            let (i, fx) = floor_frac(x);
-            let (j, fy) = floor_frac(y);
-            let (c0, c1) = (
-                if i < 0 { w - 1 } else { i },
-                if i + 1 >= w { 0 } else { i + 1 },
-            );
-            let (r0, r1) = (
-                if j < 0 { h - 1 } else { j },
-                if j + 1 >= h { 0 } else { j + 1 },
-            );
-            // Out-of-range lanes read texel 0 and are redone by the one-sample code.
-            let index = |r: i32, c: i32| if taps_ok { (r * w + c) as usize } else { 0 };
-            // SAFETY: with `taps_ok`, rows are in [0, height) and columns in [0, width)
-            // (`BilinearTaps::new`), else the index is 0; `texels` holds width x height records.
-            let texel = |i: usize| unsafe {
-                let t = *texels.add(i);
+            let (slot, frac) = pick_slot(row_count, clamp_unit(self.uy[k]));
+            // SAFETY (all reads): see `Tables`.
+            let s = unsafe { tables.row_slot(slot) };
+            let (row, v_in_patch) = pick_choose(slot, frac, s.q, s.alias);
+            let (slot, frac) = pick_slot(width, clamp_unit(self.ux[k]));
+            let s = unsafe { tables.column_slot(row * width + slot) };
+            let (column, u_in_patch) = pick_choose(slot, frac, s.q, s.alias);
+            let w = patch_corners(env, row, column).map(|i| unsafe { tables.texel(i)[3] });
+            let warped = warp(env, row, column, v_in_patch, u_in_patch, w);
+            let rgb = warped.taps.map(|i| {
+                let t = unsafe { tables.texel(i) };
                 Vec3::new(t[0], t[1], t[2])
-            };
-            // Component by component, the `Vec4` arithmetic of `bilinear_finest_with_density`.
-            let top = texel(index(r0, c0)) * (1.0 - fx) + texel(index(r0, c1)) * fx;
-            let bottom = texel(index(r1, c0)) * (1.0 - fx) + texel(index(r1, c1)) * fx;
-            let radiance = (top * (1.0 - fy) + bottom * fy) * env.scale;
-            (self.dir_x[k], self.dir_y[k], self.dir_z[k]) = (dir.x, dir.y, dir.z);
-            (self.red[k], self.green[k], self.blue[k]) = (radiance.x, radiance.y, radiance.z);
-            self.pdf[k] = pdf;
-            self.fallback[k] = !(theta_ok && phi_ok && taps_ok);
+            });
+            let radiance = interpolate(env, rgb, warped.fx, warped.fy);
+            self.store(k, &warped, radiance);
         }
+    }
+
+    /// [`Self::body_fused`] with the table reads and the arithmetic in separate loops over the
+    /// lanes: for AVX2 and the portable code, where one loop holding both stays scalar (the
+    /// compiler finds gathers too dear there), while these arithmetic loops become SIMD code.
+    #[inline(always)]
+    fn body_split(&mut self, env: &EnvMap) {
+        let tables = Tables::new(env);
+        let (row_count, width) = (env.row_slots.len() as u32, env.width as u32);
+        let mut slot = [0u32; LANES];
+        let mut frac = [0f32; LANES];
+        let mut q = [0f32; LANES];
+        let mut alias = [0u32; LANES];
+        let mut row = [0u32; LANES];
+        let mut column = [0u32; LANES];
+        let mut v_in_patch = [0f32; LANES];
+        let mut u_in_patch = [0f32; LANES];
+        let mut texel = [[0u32; LANES]; 4];
+        let mut weight = [[0f32; LANES]; 4];
+        let mut fx = [0f32; LANES];
+        let mut fy = [0f32; LANES];
+        let mut rgb = [[[0f32; LANES]; 3]; 4];
+        for k in 0..LANES {
+            (slot[k], frac[k]) = pick_slot(row_count, clamp_unit(self.uy[k]));
+        }
+        for k in 0..LANES {
+            // SAFETY (all reads): see `Tables`.
+            let s = unsafe { tables.row_slot(slot[k]) };
+            (q[k], alias[k]) = (s.q, s.alias);
+        }
+        for k in 0..LANES {
+            (row[k], v_in_patch[k]) = pick_choose(slot[k], frac[k], q[k], alias[k]);
+            (slot[k], frac[k]) = pick_slot(width, clamp_unit(self.ux[k]));
+        }
+        for k in 0..LANES {
+            let s = unsafe { tables.column_slot(row[k] * width + slot[k]) };
+            (q[k], alias[k]) = (s.q, s.alias);
+        }
+        for k in 0..LANES {
+            (column[k], u_in_patch[k]) = pick_choose(slot[k], frac[k], q[k], alias[k]);
+            let corners = patch_corners(env, row[k], column[k]);
+            for n in 0..4 {
+                texel[n][k] = corners[n];
+            }
+        }
+        for n in 0..4 {
+            for k in 0..LANES {
+                weight[n][k] = unsafe { tables.texel(texel[n][k])[3] };
+            }
+        }
+        for k in 0..LANES {
+            let w = [weight[0][k], weight[1][k], weight[2][k], weight[3][k]];
+            let warped = warp(env, row[k], column[k], v_in_patch[k], u_in_patch[k], w);
+            for n in 0..4 {
+                texel[n][k] = warped.taps[n];
+            }
+            (fx[k], fy[k]) = (warped.fx, warped.fy);
+            self.store(k, &warped, Vec3::ZERO);
+        }
+        for n in 0..4 {
+            for k in 0..LANES {
+                let t = unsafe { tables.texel(texel[n][k]) };
+                (rgb[n][0][k], rgb[n][1][k], rgb[n][2][k]) = (t[0], t[1], t[2]);
+            }
+        }
+        for k in 0..LANES {
+            let tap = |n: usize| Vec3::new(rgb[n][0][k], rgb[n][1][k], rgb[n][2][k]);
+            let radiance = interpolate(env, [tap(0), tap(1), tap(2), tap(3)], fx[k], fy[k]);
+            (self.red[k], self.green[k], self.blue[k]) = (radiance.x, radiance.y, radiance.z);
+        }
+    }
+
+    /// Lane `k`'s results.
+    #[inline(always)]
+    fn store(&mut self, k: usize, warped: &Warped, radiance: Vec3) {
+        (self.dir_x[k], self.dir_y[k], self.dir_z[k]) = (warped.dir.x, warped.dir.y, warped.dir.z);
+        (self.red[k], self.green[k], self.blue[k]) = (radiance.x, radiance.y, radiance.z);
+        self.pdf[k] = warped.pdf;
+        self.fallback[k] = warped.fallback;
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     fn body_avx2(&mut self, env: &EnvMap) {
-        self.body(env)
+        self.body_split(env)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx2,fma")]
     fn body_avx512(&mut self, env: &EnvMap) {
-        self.body(env)
+        self.body_fused(env)
     }
 
     fn body_portable(&mut self, env: &EnvMap) {
-        self.body(env)
+        self.body_split(env)
     }
 
     #[inline]
