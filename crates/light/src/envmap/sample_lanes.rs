@@ -77,6 +77,54 @@ fn sin_cos_2pi_lane(t: f32) -> (f32, f32, bool) {
     )
 }
 
+/// The four texel records and the two weights of `EnvMap::bilinear_finest_with_density` at `uv`
+/// (`BilinearTaps::new`'s arithmetic, with `f32::clamp` spelt out: its check of the bounds, a
+/// panic, would keep a loop out of SIMD lanes), and whether `uv` is in the range it covers (else
+/// the records are 0 and the caller redoes the lane with the one-sample code).
+#[inline(always)]
+fn finest_taps(env: &EnvMap, uv: Vec2) -> ([u32; 4], f32, f32, bool) {
+    let half = 0.5 * env.inv_size.y;
+    let mut v = row_v(uv.y, env.size.y);
+    if v < half {
+        v = half;
+    }
+    if v > 1.0 - half {
+        v = 1.0 - half;
+    }
+    let x = uv.x * env.size.x - 0.5;
+    let y = v * env.size.y - 0.5;
+    let ok = x >= -1.0 && x < env.size.x && y >= -1.0 && y < env.size.y;
+    let (i, fx) = floor_frac(x);
+    let (j, fy) = floor_frac(y);
+    let (w, h) = (env.width as i32, env.height as i32);
+    let (c0, c1) = (
+        if i < 0 { w - 1 } else { i },
+        if i + 1 >= w { 0 } else { i + 1 },
+    );
+    let (r0, r1) = (
+        if j < 0 { h - 1 } else { j },
+        if j + 1 >= h { 0 } else { j + 1 },
+    );
+    let index = |r: i32, c: i32| if ok { (r * w + c) as u32 } else { 0 };
+    (
+        [index(r0, c0), index(r0, c1), index(r1, c0), index(r1, c1)],
+        fx,
+        fy,
+        ok,
+    )
+}
+
+/// One component of the bilinear interpolation of four texel records (top-left, top-right,
+/// bottom-left, bottom-right): the `Vec4` arithmetic of `bilinear_finest_with_density`, on
+/// plain floats (a `Vec4` is an SSE register type, which the loop vectoriser cannot put in
+/// lanes).
+#[inline(always)]
+fn bilerp(t: [f32; 4], fx: f32, fy: f32) -> f32 {
+    let top = t[0] * (1.0 - fx) + t[1] * fx;
+    let bottom = t[2] * (1.0 - fx) + t[3] * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
 /// What a lane's sample needs after its patch and the density at the patch's corners: the
 /// bilinear warp, the direction, the density, and the radiance lookup's taps.
 struct Warped {
@@ -133,49 +181,22 @@ fn warp(
     let local = Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
     let pdf = EnvMap::solid_angle_pdf(p_uv, sin_theta);
     let dir = env.to_world * local;
-    // `f32::clamp` spelt out: its check of the bounds (a panic) would keep the loop out of
-    // SIMD lanes.
-    let half = 0.5 * env.inv_size.y;
-    let mut v = row_v(uv.y, env.size.y);
-    if v < half {
-        v = half;
-    }
-    if v > 1.0 - half {
-        v = 1.0 - half;
-    }
-    let x = uv.x * env.size.x - 0.5;
-    let y = v * env.size.y - 0.5;
-    let taps_ok = x >= -1.0 && x < env.size.x && y >= -1.0 && y < env.size.y;
-    let (i, fx) = floor_frac(x);
-    let (j, fy) = floor_frac(y);
-    let (w, h) = (env.width as i32, env.height as i32);
-    let (c0, c1) = (
-        if i < 0 { w - 1 } else { i },
-        if i + 1 >= w { 0 } else { i + 1 },
-    );
-    let (r0, r1) = (
-        if j < 0 { h - 1 } else { j },
-        if j + 1 >= h { 0 } else { j + 1 },
-    );
-    // Out-of-range lanes read texel 0 and are redone by the one-sample code.
-    let index = |r: i32, c: i32| if taps_ok { (r * w + c) as u32 } else { 0 };
+    let (taps, fx, fy, taps_ok) = finest_taps(env, uv);
     Warped {
         dir,
         pdf,
-        taps: [index(r0, c0), index(r0, c1), index(r1, c0), index(r1, c1)],
+        taps,
         fx,
         fy,
         fallback: !(theta_ok && phi_ok && taps_ok),
     }
 }
 
-/// The bilinear interpolation of the taps' radiance, component by component the `Vec4`
-/// arithmetic of `bilinear_finest_with_density`, times the map's scale.
+/// The bilinear interpolation of the taps' radiance (`bilinear_finest`), times the map's scale.
 #[inline(always)]
 fn interpolate(env: &EnvMap, rgb: [Vec3; 4], fx: f32, fy: f32) -> Vec3 {
-    let top = rgb[0] * (1.0 - fx) + rgb[1] * fx;
-    let bottom = rgb[2] * (1.0 - fx) + rgb[3] * fx;
-    (top * (1.0 - fy) + bottom * fy) * env.scale
+    let c = |c: usize| bilerp([rgb[0][c], rgb[1][c], rgb[2][c], rgb[3][c]], fx, fy);
+    Vec3::new(c(0), c(1), c(2)) * env.scale
 }
 
 /// The table reads, each the caller's SAFETY: an alias table's slot is below its length and its
@@ -240,12 +261,17 @@ impl SampleLanes {
             let (slot, frac) = pick_slot(width, clamp_unit(self.ux[k]));
             let s = unsafe { tables.column_slot(row * width + slot) };
             let (column, u_in_patch) = pick_choose(slot, frac, s.q, s.alias);
-            let w = patch_corners(env, row, column).map(|i| unsafe { tables.texel(i)[3] });
+            // (Arrays spelt out rather than mapped: `map` keeps the loop scalar.)
+            let c = patch_corners(env, row, column);
+            let density = |i: u32| unsafe { tables.texel(i)[3] };
+            let w = [density(c[0]), density(c[1]), density(c[2]), density(c[3])];
             let warped = warp(env, row, column, v_in_patch, u_in_patch, w);
-            let rgb = warped.taps.map(|i| {
+            let rgb = |i: u32| {
                 let t = unsafe { tables.texel(i) };
                 Vec3::new(t[0], t[1], t[2])
-            });
+            };
+            let t = warped.taps;
+            let rgb = [rgb(t[0]), rgb(t[1]), rgb(t[2]), rgb(t[3])];
             let radiance = interpolate(env, rgb, warped.fx, warped.fy);
             self.store(k, &warped, radiance);
         }
@@ -279,20 +305,24 @@ impl SampleLanes {
             let s = unsafe { tables.row_slot(slot[k]) };
             (q[k], alias[k]) = (s.q, s.alias);
         }
+        // (Separate arrays for the column pick: rewriting the row pick's in place leaves the
+        // loop scalar.)
+        let mut column_slot = [0u32; LANES];
+        let mut column_frac = [0f32; LANES];
         for k in 0..LANES {
             (row[k], v_in_patch[k]) = pick_choose(slot[k], frac[k], q[k], alias[k]);
-            (slot[k], frac[k]) = pick_slot(width, clamp_unit(self.ux[k]));
+            (column_slot[k], column_frac[k]) = pick_slot(width, clamp_unit(self.ux[k]));
         }
         for k in 0..LANES {
-            let s = unsafe { tables.column_slot(row[k] * width + slot[k]) };
+            let s = unsafe { tables.column_slot(row[k] * width + column_slot[k]) };
             (q[k], alias[k]) = (s.q, s.alias);
         }
         for k in 0..LANES {
-            (column[k], u_in_patch[k]) = pick_choose(slot[k], frac[k], q[k], alias[k]);
-            let corners = patch_corners(env, row[k], column[k]);
-            for n in 0..4 {
-                texel[n][k] = corners[n];
-            }
+            (column[k], u_in_patch[k]) =
+                pick_choose(column_slot[k], column_frac[k], q[k], alias[k]);
+            let c = patch_corners(env, row[k], column[k]);
+            // Four stores spelt out: a loop over them leaves the lanes' loop scalar.
+            (texel[0][k], texel[1][k], texel[2][k], texel[3][k]) = (c[0], c[1], c[2], c[3]);
         }
         for n in 0..4 {
             for k in 0..LANES {
@@ -302,9 +332,8 @@ impl SampleLanes {
         for k in 0..LANES {
             let w = [weight[0][k], weight[1][k], weight[2][k], weight[3][k]];
             let warped = warp(env, row[k], column[k], v_in_patch[k], u_in_patch[k], w);
-            for n in 0..4 {
-                texel[n][k] = warped.taps[n];
-            }
+            let t = warped.taps;
+            (texel[0][k], texel[1][k], texel[2][k], texel[3][k]) = (t[0], t[1], t[2], t[3]);
             (fx[k], fy[k]) = (warped.fx, warped.fy);
             self.store(k, &warped, Vec3::ZERO);
         }
