@@ -93,19 +93,14 @@ impl Light {
     /// operations (alias pick, square root, interpolation) overlaps the traversal: cbox renders
     /// 4% faster. Other lights defer everything to [`Light::connect`]: drawn early, a sample of
     /// an environment map is wasted on every path that escapes, which cost envmap_sky 21%, and
-    /// one of a constant background cost textured_mesh 2%.
-    ///
-    /// An environment map's sample is deferred, but the memory it will read (an alias slot and a
-    /// texel, at random in tables of megabytes) is prefetched here, so that those cache misses
-    /// overlap the traversal instead.
+    /// one of a constant background cost textured_mesh 2%. (The wavefront loop draws the
+    /// environment map's samples of the paths that found a surface all at once, in SIMD lanes,
+    /// and hands them to `connect` as [`LightDraw::EnvSampled`]; prefetching their table reads
+    /// here, for every path, cost it 4%.)
     #[inline(always)]
     pub fn draw(&self, u: Vec2) -> LightDraw {
         match self {
             Light::Area(area) => area.draw(u),
-            Light::Env(env) => {
-                env.map.prefetch_sample(u);
-                LightDraw::Deferred(u)
-            }
             _ => LightDraw::Deferred(u),
         }
     }
