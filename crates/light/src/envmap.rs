@@ -36,6 +36,8 @@ use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};
 
+mod sample_lanes;
+
 /// Rec.709 luminance: the importance of a linear RGB radiance for sampling purposes.
 #[inline]
 pub fn luminance(c: Vec3) -> f32 {

@@ -62,6 +62,14 @@ pub enum LightDraw {
     Deferred(Vec2),
     /// A point on an emitting triangle and the light's normal there (after `flipNormals`).
     MeshPoint { q: Vec3A, n: Vec3A },
+    /// An environment map's sample, drawn for many paths at once in SIMD lanes (the wavefront
+    /// loop's `EnvMap::sample_batch`): [`Light::connect`] only reads it. `pdf` 0: nothing was
+    /// drawn (the one-sample code's `None`).
+    EnvSampled {
+        wi: Vec3A,
+        radiance: Vec3A,
+        pdf: f32,
+    },
 }
 
 impl Light {
@@ -85,19 +93,14 @@ impl Light {
     /// operations (alias pick, square root, interpolation) overlaps the traversal: cbox renders
     /// 4% faster. Other lights defer everything to [`Light::connect`]: drawn early, a sample of
     /// an environment map is wasted on every path that escapes, which cost envmap_sky 21%, and
-    /// one of a constant background cost textured_mesh 2%.
-    ///
-    /// An environment map's sample is deferred, but the memory it will read (an alias slot and a
-    /// texel, at random in tables of megabytes) is prefetched here, so that those cache misses
-    /// overlap the traversal instead.
+    /// one of a constant background cost textured_mesh 2%. (The wavefront loop draws the
+    /// environment map's samples of the paths that found a surface all at once, in SIMD lanes,
+    /// and hands them to `connect` as [`LightDraw::EnvSampled`]; prefetching their table reads
+    /// here, for every path, cost it 4%.)
     #[inline(always)]
     pub fn draw(&self, u: Vec2) -> LightDraw {
         match self {
             Light::Area(area) => area.draw(u),
-            Light::Env(env) => {
-                env.map.prefetch_sample(u);
-                LightDraw::Deferred(u)
-            }
             _ => LightDraw::Deferred(u),
         }
     }
@@ -116,6 +119,16 @@ impl Light {
         match (draw, self) {
             (LightDraw::MeshPoint { q, n }, Light::Area(area)) => area.connect_point(q, n, p),
             (LightDraw::MeshPoint { .. }, _) => unreachable!("mesh points come from mesh lights"),
+            (LightDraw::EnvSampled { wi, radiance, pdf }, Light::Env(_)) => {
+                (pdf > 0.0).then_some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    radiance,
+                    pdf,
+                    is_delta: false,
+                })
+            }
+            (LightDraw::EnvSampled { .. }, _) => unreachable!("env samples come from env maps"),
             (LightDraw::Deferred(u), _) => self.sample_deferred(p, u, uniform_env, textures),
         }
     }

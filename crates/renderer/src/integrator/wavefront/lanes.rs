@@ -46,6 +46,8 @@ pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -
                 matches!(table.lights[li], Some(LaneLight::Constant(_)))
                     && (0.0..=1.0).contains(&u.y)
             }
+            // An environment map's sample, drawn in lanes by `draw_env_lights`: the scalar stage.
+            Some((_, LightDraw::EnvSampled { .. })) => false,
         }
 }
 
