@@ -3,8 +3,8 @@
 //! scalar code's branches are selects), which LLVM vectorises at the width the caller's target
 //! features allow (16 lanes with AVX-512, 8 with AVX2, 4 with SSE2).
 //!
-//! It repeats `wavefront::shade` for a constant `diffuse` lit by an area light sampled by area
-//! (what [`super::lane_table`] admits), operation for operation and in the same order: emission
+//! It repeats `wavefront::shade` for a constant `diffuse` lit by an area light sampled by area,
+//! a constant background or an environment map's drawn sample (what [`super::lane_table`] admits), operation for operation and in the same order: emission
 //! and its MIS weight, the shading frame, the cosine-weighted BSDF sample, the light connection
 //! with its shadow ray, the continuation ray and Russian roulette. Rust never fuses a multiply
 //! and an add, so the lanes give the scalar code's bits (tested against it).
@@ -53,9 +53,11 @@ pub(super) struct Chunk<const N: usize> {
     pub le: Lanes3<N>,
     pub le_area: [f32; N],
     // In: the drawn light point (`has_light` false: no light sample), or with `infinite` the
-    // constant background's numbers (in `q`'s x and y).
+    // constant background's numbers (in `q`'s x and y), or with `infinite` and `env` an
+    // environment map's drawn direction (in `q`) and density (in `l_area`).
     pub has_light: [u32; N],
     pub infinite: [u32; N],
+    pub env: [u32; N],
     pub q: Lanes3<N>,
     pub nq: Lanes3<N>,
     pub l_radiance: Lanes3<N>,
@@ -103,6 +105,7 @@ impl<const N: usize> Default for Chunk<N> {
             le_area: [1.0; N],
             has_light: [0; N],
             infinite: [0; N],
+            env: [0; N],
             q: z3,
             nq: z3,
             l_radiance: z3,
@@ -239,9 +242,11 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
 
         // The light sample (`AreaLight::connect_point`, `Diffuse::eval` and `pdf`, MIS, and
         // `path::shadow_ray`).
-        // A point on an area light (`AreaLight::connect_point`) or a direction to the constant
-        // background (`ConstantLight::sample`).
+        // A point on an area light (`AreaLight::connect_point`), a direction to the constant
+        // background (`ConstantLight::sample`) or an environment map's drawn direction
+        // (`Light::connect` of `LightDraw::EnvSampled`).
         let infinite = c.infinite[l] != 0;
+        let env = c.env[l] != 0;
         let q = get(&c.q, l);
         let dq = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
         let dist2 = dot(dq, dq);
@@ -249,10 +254,14 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         let wi_q = [dq[0] / dist_q, dq[1] / dist_q, dq[2] / dist_q];
         let cos_light = -dot(get(&c.nq, l), wi_q);
         let wi_sphere = square_to_uniform_sphere_select(q[0], q[1]);
-        let wi = select3(infinite, wi_sphere, wi_q);
+        let wi = select3(infinite, select3(env, q, wi_sphere), wi_q);
         let dist = if infinite { f32::INFINITY } else { dist_q };
         let pdf_l = if infinite {
-            uniform_sphere_pdf()
+            if env {
+                c.l_area[l]
+            } else {
+                uniform_sphere_pdf()
+            }
         } else {
             dist2 / (cos_light * c.l_area[l])
         };

@@ -1,7 +1,8 @@
 //! Which surfaces the wavefront shades in SIMD lanes, decided once per scene: a shape whose
 //! material is a plain `diffuse` of constant reflectance (no texture, no normal or bump map, no
 //! second BSDF behind) and which emits nothing or a constant radiance sampled by area (a mesh,
-//! disk or cylinder emitter), with light samples of such emitters or of a constant background.
+//! disk or cylinder emitter), with light samples of such emitters, of a constant background or
+//! of an environment map (its batched draws).
 //! The lane path repeats the scalar shading of exactly these cases;
 //! every other BSDF and light keeps the scalar `shade` (BSDFs move to lanes one by one).
 
@@ -111,10 +112,14 @@ pub(crate) enum LaneLight {
     /// A constant background (`ConstantLight`): its draws are deferred, a direction uniform
     /// over the sphere; the radiance.
     Constant([f32; 3]),
+    /// An environment map: its draws are sampled for many paths at once by the wavefront
+    /// ([`crate::lights::LightDraw::EnvSampled`]: direction, radiance, density); one sampled
+    /// alone at shading time (`Deferred`) takes the scalar `shade`.
+    Env,
 }
 
 /// The lanes' form of `light`: area lights of constant radiance sampled by area (spheres sample
-/// by solid angle, textures by texel: scalar), and constant backgrounds.
+/// by solid angle, textures by texel: scalar), constant backgrounds and environment maps.
 fn lane_light(light: &Light) -> Option<LaneLight> {
     match light {
         Light::Area(area)
@@ -126,6 +131,7 @@ fn lane_light(light: &Light) -> Option<LaneLight> {
             }))
         }
         Light::Constant(c) => Some(LaneLight::Constant(c.radiance.to_array())),
+        Light::Env(_) => Some(LaneLight::Env),
         _ => None,
     }
 }

@@ -1,5 +1,6 @@
 //! The surface stage's lane path: the bounce's surfaced paths whose shape [`LaneTable`] admits
-//! (and whose light draw, if any, is a point on an area-sampled emitter) are gathered in chunks
+//! (and whose light draw, if any, is a point on an area-sampled emitter, a constant background's
+//! numbers or an environment map's batched sample) are gathered in chunks
 //! of the SIMD width into [`Chunk`]s, shaded by [`lane_kernel::shade`], and scattered back into
 //! their path states, shadow rays and the live list in the order the scalar `shade` gives them.
 //! The other paths take the scalar `shade`; the two lists are merged by path index, which is
@@ -32,7 +33,8 @@ pub(super) fn lanes_enabled() -> bool {
 }
 
 /// Whether the lanes shade path `path` at `hit`: its shape is in the table, and its light draw
-/// is none or a point on a lane emitter.
+/// is none, a point on a lane emitter, a constant background's or an environment map's drawn
+/// sample.
 #[inline(always)]
 pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
     table.shapes[hit.shape as usize].is_some()
@@ -46,8 +48,11 @@ pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -
                 matches!(table.lights[li], Some(LaneLight::Constant(_)))
                     && (0.0..=1.0).contains(&u.y)
             }
-            // An environment map's sample, drawn in lanes by `draw_env_lights`: the scalar stage.
-            Some((_, LightDraw::EnvSampled { .. })) => false,
+            // An environment map's sample, drawn in lanes by `draw_env_lights` (a map sampled
+            // on its own at shading time, `Deferred`, takes the scalar stage).
+            Some((li, LightDraw::EnvSampled { .. })) => {
+                matches!(table.lights[li], Some(LaneLight::Env))
+            }
         }
 }
 
@@ -213,9 +218,17 @@ fn gather<const N: usize>(
         }
         (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
             c.infinite[l] = 1;
+            c.env[l] = 0;
             c.q[0][l] = u.x;
             c.q[1][l] = u.y;
             put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
+        }
+        (Some((_, LightDraw::EnvSampled { wi, radiance, pdf })), Some(Some(LaneLight::Env))) => {
+            c.infinite[l] = 1;
+            c.env[l] = 1;
+            put(&mut c.q, l, wi);
+            put(&mut c.l_radiance, l, radiance);
+            c.l_area[l] = pdf;
         }
         _ => c.has_light[l] = 0,
     }
@@ -305,9 +318,9 @@ mod tests {
     use torrey_texture::RayCone;
 
     /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), two emitters sampled by
-    /// area (a one-sided rectangle and a two-sided disk), a constant background, a point light
-    /// (scalar) and a plastic box (scalar), inside a closed room so random rays hit from both
-    /// sides.
+    /// area (a one-sided rectangle and a two-sided disk), a constant background, an environment
+    /// map, a point light (scalar) and a plastic box (scalar), inside a closed room so random
+    /// rays hit from both sides.
     fn scene() -> RenderScene {
         let xml = r#"<scene version="3.0.0">
             <sensor type="perspective">
@@ -331,6 +344,8 @@ mod tests {
             </shape>
             <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3, 3, 3"/></emitter>
             <emitter type="constant"><rgb name="radiance" value="0.3, 0.4, 0.5"/></emitter>
+            <emitter type="envmap"><string name="filename" value="../textures/sky_sun.exr"/>
+                <float name="scale" value="0.01"/></emitter>
         </scene>"#;
         let desc = torrey_parser::parse_scene_str(
             xml,
@@ -356,6 +371,29 @@ mod tests {
         v.to_array().map(f32::to_bits)
     }
 
+    /// Light `index`'s draw with numbers `u`: an environment map's is mostly drawn ahead as the
+    /// wavefront's `draw_env_lights` does (`pick` < 0.8; a tenth of those drew nothing, density
+    /// 0), else deferred (the scalar stage's).
+    fn draw(scene: &RenderScene, index: usize, u: Vec2, pick: f32) -> LightDraw {
+        let light = &scene.lights[index];
+        let crate::lights::Light::Env(env) = light else {
+            return light.draw(u);
+        };
+        match env.sample(u, false) {
+            Some(s) if pick < 0.72 => LightDraw::EnvSampled {
+                wi: s.wi,
+                radiance: s.radiance,
+                pdf: s.pdf,
+            },
+            _ if pick < 0.8 => LightDraw::EnvSampled {
+                wi: Vec3A::ZERO,
+                radiance: Vec3A::ZERO,
+                pdf: 0.0,
+            },
+            _ => light.draw(u),
+        }
+    }
+
     /// Random paths at random hits: the lanes give what the scalar `shade` gives, bit for bit
     /// (path state, shadow rays, live list, in order), at every SIMD level the CPU runs.
     #[test]
@@ -373,7 +411,11 @@ mod tests {
             }
         }
         let mut scene = scene;
-        for env_strategy in [EnvStrategy::ImportanceMis, EnvStrategy::Uniform] {
+        for env_strategy in [
+            EnvStrategy::ImportanceMis,
+            EnvStrategy::Importance,
+            EnvStrategy::Uniform,
+        ] {
             check_lanes(&scene, &levels, env_strategy);
         }
         // Cones tracked (as with a texture or an environment map somewhere in the scene).
@@ -393,7 +435,8 @@ mod tests {
         let light_select_pdf = 1.0 / scene.lights.len() as f32;
         let mut rng = Rng::new(21);
         let (mut paths, mut hits) = (Vec::new(), Vec::new());
-        let (mut lane_count, mut back_views, mut emitted, mut background) = (0, 0, 0, 0);
+        let (mut lane_count, mut back_views, mut emitted, mut background, mut env) =
+            (0, 0, 0, 0, 0);
         while paths.len() < 3000 {
             let origin = Vec3A::new(
                 rng.f32() * 5.8 - 2.9,
@@ -434,7 +477,7 @@ mod tests {
                 u_rr: unit(&mut rng),
                 light_draw: (depth + 1 < max_depth && rng.f32() < 0.9).then(|| {
                     let u = Vec2::new(unit(&mut rng), unit(&mut rng));
-                    (light_index, scene.lights[light_index].draw(u))
+                    (light_index, draw(scene, light_index, u, rng.f32()))
                 }),
             };
             if lane_able(&scene.lanes, &path, &hit) {
@@ -442,15 +485,16 @@ mod tests {
                 back_views += (hit.ns.dot(dir) > 0.0) as u32;
                 emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
                 background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
+                env += matches!(path.light_draw, Some((_, LightDraw::EnvSampled { .. }))) as u32;
             }
             paths.push(path);
             hits.push(Some(hit));
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
-        // samples.
+        // samples, environment-map samples.
         assert!(
-            lane_count > 1500 && back_views > 300 && emitted > 50 && background > 300,
-            "{lane_count} {back_views} {emitted} {background}"
+            lane_count > 1500 && back_views > 300 && emitted > 50 && background > 200 && env > 150,
+            "{lane_count} {back_views} {emitted} {background} {env}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
             .filter(|&i| {
@@ -553,7 +597,7 @@ mod tests {
     }
 
     /// The table admits the constant diffuse shapes (emitting or not) and not the plastic one,
-    /// the area and constant lights and not the point light; with a point light the lanes do
+    /// the area, constant and environment lights and not the point light; with a point light the lanes do
     /// not cover the scene's lights (`PathLoop::Auto` keeps the scalar loop).
     #[test]
     fn the_table_admits_constant_diffuse_and_area_or_constant_lights() {
@@ -576,7 +620,7 @@ mod tests {
                 t.is_some()
             })
             .collect();
-        assert_eq!(lights.len(), 4);
+        assert_eq!(lights.len(), 5);
         assert!(scene.lanes.any && !scene.lanes.covers_lights);
     }
 
