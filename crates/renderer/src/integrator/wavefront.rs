@@ -311,6 +311,8 @@ impl Wavefront {
                     light_select_pdf,
                     footprint_scale: settings.footprint_scale,
                     track_cones: settings.mipmapping && scene.uses_cones,
+                    mipmapping: settings.mipmapping,
+                    scene,
                     infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
                 };
                 if self.scalar_paths.is_empty() {

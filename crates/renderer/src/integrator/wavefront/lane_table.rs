@@ -1,5 +1,5 @@
 //! Which surfaces the wavefront shades in SIMD lanes, decided once per scene: a shape whose
-//! material is a plain `diffuse` of constant reflectance (no texture, no normal or bump map, no
+//! material is a plain `diffuse` of constant or textured reflectance (no normal or bump map, no
 //! second BSDF behind) and which emits nothing or a constant radiance sampled by area (a mesh,
 //! disk or cylinder emitter), with light samples of such emitters, of a constant background or
 //! of an environment map (its batched draws).
@@ -15,7 +15,11 @@ use crate::textures::ColorSource;
 /// A shape shaded in lanes: its reflectance and sidedness, and what it emits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct LaneShape {
+    /// The constant reflectance (unused with `texture`).
     pub reflectance: [f32; 3],
+    /// The reflectance's texture: looked up per path by the scalar [`crate::textures::TextureQuery`]
+    /// as `shade` does, with the ray cone's footprint, before the lanes take the rest.
+    pub texture: Option<u32>,
     /// Shades its back as its front (mirrored), as [`Material::bsdf_facing`] does.
     pub two_sided: bool,
     /// The emitter's (constant) radiance and area, if the shape emits.
@@ -49,7 +53,7 @@ impl LaneTable {
         let shapes: Vec<Option<LaneShape>> = shapes
             .iter()
             .map(|shape| {
-                let reflectance = materials
+                let (reflectance, texture) = materials
                     .get(shape.material as usize)
                     .and_then(lane_reflectance)?;
                 let emitter = match shape.area_light {
@@ -61,6 +65,7 @@ impl LaneTable {
                 };
                 Some(LaneShape {
                     reflectance,
+                    texture,
                     two_sided: materials[shape.material as usize].two_sided,
                     emitter,
                 })
@@ -86,21 +91,18 @@ impl LaneTable {
     }
 }
 
-/// The reflectance of a material the lanes shade: a constant, finite `diffuse` without a second
-/// BSDF, normal map or perturbation.
-fn lane_reflectance(m: &Material) -> Option<[f32; 3]> {
-    let BsdfParams::Diffuse(DiffuseParams {
-        reflectance: ColorSource::Constant(c),
-    }) = m.bsdf
-    else {
+/// The reflectance of a material the lanes shade: a `diffuse` without a second BSDF, normal map
+/// or perturbation, whose reflectance is a finite constant or a texture (the constant, the
+/// texture).
+fn lane_reflectance(m: &Material) -> Option<([f32; 3], Option<u32>)> {
+    let BsdfParams::Diffuse(DiffuseParams { reflectance }) = m.bsdf else {
         return None;
     };
-    (m.back.is_none()
-        && m.normal_map.is_none()
-        && m.perturb.is_none()
-        && !m.anisotropic
-        && c.is_finite())
-    .then_some(c.to_array())
+    let plain = m.back.is_none() && m.normal_map.is_none() && m.perturb.is_none() && !m.anisotropic;
+    match reflectance {
+        ColorSource::Constant(c) => (plain && c.is_finite()).then_some((c.to_array(), None)),
+        ColorSource::Texture(t) => plain.then_some(([0.0; 3], Some(t))),
+    }
 }
 
 /// A light whose samples the lanes take.

@@ -12,9 +12,12 @@ use super::{PathState, ShadowRay};
 use crate::accel::Simd;
 use crate::lights::LightDraw;
 use crate::ray::Ray;
+use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
+use crate::textures::{ColorSource, TextureQuery};
 use glam::Vec3A;
 use std::sync::OnceLock;
+use torrey_texture::Footprint;
 
 /// Whether the surface stage uses the lanes: with AVX2 or AVX-512 ([`Simd::detect`]), where the
 /// kernel is vectorised. The portable (SSE2) build of the kernel stays scalar (LLVM's cost model
@@ -67,6 +70,10 @@ pub(super) struct LaneParams<'a> {
     pub footprint_scale: f32,
     /// Ray cones filter something (textures, environment maps): the paths' cones are updated.
     pub track_cones: bool,
+    /// Textures are filtered by the ray cone's footprint (`--mipmapping`).
+    pub mipmapping: bool,
+    /// The scene, for textured reflectances (its textures and mesh attributes).
+    pub scene: &'a RenderScene,
     /// Lights at infinity are weighed by MIS (`EnvStrategy::ImportanceMis`).
     pub infinite_mis: bool,
 }
@@ -193,7 +200,33 @@ fn gather<const N: usize>(
     c.u_rr[l] = path.u_rr;
     c.last[l] = (path.depth + 1 >= params.max_depth) as u32;
     c.roulette[l] = ((path.depth + 1) as i32 >= params.rr_depth) as u32;
-    put(&mut c.reflectance, l, Vec3A::from_array(shape.reflectance));
+    let reflectance = match shape.texture {
+        None => Vec3A::from_array(shape.reflectance),
+        // The scalar `shade`'s lookup (a last segment shades nothing: no lookup).
+        Some(_) if c.last[l] != 0 => Vec3A::ZERO,
+        Some(texture) => {
+            let footprint = if params.mipmapping {
+                let cone = if params.track_cones {
+                    path.cone.at_distance(hit.t)
+                } else {
+                    path.cone
+                };
+                cone.footprint(path.ray.dir, hit.ng, hit.dpdu, hit.dpdv)
+            } else {
+                Footprint::POINT
+            };
+            let scene = params.scene;
+            let attribute_point = scene.attribute_point(hit);
+            TextureQuery {
+                textures: &scene.textures,
+                at: attribute_point.as_ref(),
+                uv: hit.uv,
+                footprint,
+            }
+            .color(ColorSource::Texture(texture))
+        }
+    };
+    put(&mut c.reflectance, l, reflectance);
     c.two_sided[l] = shape.two_sided as u32;
     let visible = path.depth > 0 || !params.hide_emitters;
     match (shape.emitter, visible) {
@@ -332,6 +365,10 @@ mod tests {
             <shape type="obj"><string name="filename" value="meshes/torus.obj"/>
                 <transform name="toWorld"><scale value="0.6"/><translate x="-1" y="0.3"/></transform><ref id="grey"/></shape>
             <shape type="sphere"><point name="center" x="1" y="-1" z="0.5"/><float name="radius" value="0.6"/><ref id="both"/></shape>
+            <shape type="rectangle"><transform name="toWorld"><scale value="0.7"/><rotate y="1" angle="-70"/><translate x="2" y="1.2"/></transform>
+                <bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="../textures/checker_fine.png"/></texture></bsdf></shape>
+            <shape type="sphere"><point name="center" x="-1.2" y="-1.6" z="-1.2"/><float name="radius" value="0.8"/>
+                <bsdf type="twosided"><bsdf type="diffuse"><texture name="reflectance" type="checkerboard"><float name="uscale" value="6"/></texture></bsdf></bsdf></shape>
             <shape type="cube"><transform name="toWorld"><scale value="0.4"/><translate x="1" y="1" z="-1"/></transform>
                 <bsdf type="plastic"/></shape>
             <shape type="rectangle">
@@ -416,27 +453,34 @@ mod tests {
             EnvStrategy::Importance,
             EnvStrategy::Uniform,
         ] {
-            check_lanes(&scene, &levels, env_strategy);
+            check_lanes(&scene, &levels, env_strategy, true);
         }
-        // Cones tracked (as with a texture or an environment map somewhere in the scene).
-        scene.uses_cones = true;
-        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis);
+        // Textures looked up at their finest level.
+        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis, false);
+        // Cones not tracked (as in a scene where nothing filters).
+        scene.uses_cones = false;
+        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis, true);
     }
 
-    fn check_lanes(scene: &RenderScene, levels: &[Simd], env_strategy: EnvStrategy) {
+    fn check_lanes(
+        scene: &RenderScene,
+        levels: &[Simd],
+        env_strategy: EnvStrategy,
+        mipmapping: bool,
+    ) {
         let max_depth = 6;
         let settings = PathSettings {
             max_depth: max_depth as i32,
             rr_depth: 3,
-            mipmapping: true,
+            mipmapping,
             footprint_scale: 0.25,
             env_strategy,
         };
         let light_select_pdf = 1.0 / scene.lights.len() as f32;
         let mut rng = Rng::new(21);
         let (mut paths, mut hits) = (Vec::new(), Vec::new());
-        let (mut lane_count, mut back_views, mut emitted, mut background, mut env) =
-            (0, 0, 0, 0, 0);
+        let (mut lane_count, mut back_views, mut emitted, mut background, mut env, mut textured) =
+            (0, 0, 0, 0, 0, 0);
         while paths.len() < 3000 {
             let origin = Vec3A::new(
                 rng.f32() * 5.8 - 2.9,
@@ -486,15 +530,22 @@ mod tests {
                 emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
                 background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
                 env += matches!(path.light_draw, Some((_, LightDraw::EnvSampled { .. }))) as u32;
+                textured += scene.lanes.shapes[hit.shape as usize]
+                    .is_some_and(|s| s.texture.is_some()) as u32;
             }
             paths.push(path);
             hits.push(Some(hit));
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
-        // samples, environment-map samples.
+        // samples, environment-map samples, textured surfaces.
         assert!(
-            lane_count > 1500 && back_views > 300 && emitted > 50 && background > 200 && env > 150,
-            "{lane_count} {back_views} {emitted} {background} {env}"
+            lane_count > 1500
+                && back_views > 300
+                && emitted > 50
+                && background > 200
+                && env > 150
+                && textured > 100,
+            "{lane_count} {back_views} {emitted} {background} {env} {textured}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
             .filter(|&i| {
@@ -530,6 +581,8 @@ mod tests {
             light_select_pdf,
             footprint_scale: settings.footprint_scale,
             track_cones: settings.mipmapping && scene.uses_cones,
+            mipmapping: settings.mipmapping,
+            scene,
             infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
         };
         for &simd in levels {
@@ -603,7 +656,14 @@ mod tests {
     fn the_table_admits_constant_diffuse_and_area_or_constant_lights() {
         let scene = scene();
         let admitted: Vec<bool> = scene.lanes.shapes.iter().map(Option::is_some).collect();
-        assert_eq!(admitted, [true, true, true, false, true, true]);
+        assert_eq!(admitted, [true, true, true, true, true, false, true, true]);
+        let textured = scene
+            .lanes
+            .shapes
+            .iter()
+            .flatten()
+            .filter(|s| s.texture.is_some());
+        assert_eq!(textured.count(), 2);
         let emitting = scene
             .lanes
             .shapes
