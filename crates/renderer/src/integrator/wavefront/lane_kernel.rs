@@ -3,8 +3,8 @@
 //! scalar code's branches are selects), which LLVM vectorises at the width the caller's target
 //! features allow (16 lanes with AVX-512, 8 with AVX2, 4 with SSE2).
 //!
-//! It repeats `wavefront::shade` for a constant `diffuse` lit by an area light sampled by area,
-//! a constant background or an environment map's drawn sample (what [`super::lane_table`] admits), operation for operation and in the same order: emission
+//! It repeats `wavefront::shade` for a `diffuse` lit by an area light sampled by area, a point
+//! light, a constant background or an environment map's drawn sample (what [`super::lane_table`] admits), operation for operation and in the same order: emission
 //! and its MIS weight, the shading frame, the cosine-weighted BSDF sample, the light connection
 //! with its shadow ray, the continuation ray and Russian roulette. Rust never fuses a multiply
 //! and an add, so the lanes give the scalar code's bits (tested against it).
@@ -55,9 +55,11 @@ pub(super) struct Chunk<const N: usize> {
     // In: the drawn light point (`has_light` false: no light sample), or with `infinite` the
     // constant background's numbers (in `q`'s x and y), or with `infinite` and `env` an
     // environment map's drawn direction (in `q`) and density (in `l_area`).
+    /// With `point` (not `infinite`): a point light at `q` of intensity `l_radiance`.
     pub has_light: [u32; N],
     pub infinite: [u32; N],
     pub env: [u32; N],
+    pub point: [u32; N],
     pub q: Lanes3<N>,
     pub nq: Lanes3<N>,
     pub l_radiance: Lanes3<N>,
@@ -106,6 +108,7 @@ impl<const N: usize> Default for Chunk<N> {
             has_light: [0; N],
             infinite: [0; N],
             env: [0; N],
+            point: [0; N],
             q: z3,
             nq: z3,
             l_radiance: z3,
@@ -247,6 +250,8 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         // (`Light::connect` of `LightDraw::EnvSampled`).
         let infinite = c.infinite[l] != 0;
         let env = c.env[l] != 0;
+        // A point light (`PointLight::sample`): intensity / dist², a delta sample (pdf 1, no MIS).
+        let point = c.point[l] != 0;
         let q = get(&c.q, l);
         let dq = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
         let dist2 = dot(dq, dq);
@@ -262,9 +267,21 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
             } else {
                 uniform_sphere_pdf()
             }
+        } else if point {
+            1.0
         } else {
             dist2 / (cos_light * c.l_area[l])
         };
+        let l_radiance = get(&c.l_radiance, l);
+        let l_radiance = select3(
+            point,
+            [
+                l_radiance[0] / dist2,
+                l_radiance[1] / dist2,
+                l_radiance[2] / dist2,
+            ],
+            l_radiance,
+        );
         let wi_z = dot(wi, n);
         let wi_bz = if mirrored { -wi_z } else { wi_z };
         let both = front && wi_bz > 0.0;
@@ -277,7 +294,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         };
         let connects = shading
             && c.has_light[l] != 0
-            && (infinite || (dist != 0.0 && !(cos_light <= 0.0)))
+            && (infinite || (dist != 0.0 && (point || !(cos_light <= 0.0))))
             && max_element(f) > 0.0
             && pdf_l > 0.0;
         let origin = offset_origin(p, ng, wi);
@@ -303,15 +320,12 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         };
         let light_pdf = pdf_l * light_select_pdf;
         // Lights at infinity without MIS count their samples alone.
-        let w = if infinite && !infinite_mis {
+        let w = if point || (infinite && !infinite_mis) {
             1.0
         } else {
             power_heuristic_select(light_pdf, bsdf_pdf)
         };
-        let contribution = scale3(
-            mul3(mul3(throughput, f), get(&c.l_radiance, l)),
-            w / light_pdf,
-        );
+        let contribution = scale3(mul3(mul3(throughput, f), l_radiance), w / light_pdf);
         c.shadow[l] = (connects) as u32;
         set(&mut c.s_origin, l, origin);
         set(&mut c.s_dir, l, s_dir);

@@ -1,6 +1,6 @@
 //! The surface stage's lane path: the bounce's surfaced paths whose shape [`LaneTable`] admits
-//! (and whose light draw, if any, is a point on an area-sampled emitter, a constant background's
-//! numbers or an environment map's batched sample) are gathered in chunks
+//! (and whose light draw, if any, is a point on an area-sampled emitter, a point light's, a
+//! constant background's numbers or an environment map's batched sample) are gathered in chunks
 //! of the SIMD width into [`Chunk`]s, shaded by [`lane_kernel::shade`], and scattered back into
 //! their path states, shadow rays and the live list in the order the scalar `shade` gives them.
 //! The other paths take the scalar `shade`; the two lists are merged by path index, which is
@@ -36,8 +36,8 @@ pub(super) fn lanes_enabled() -> bool {
 }
 
 /// Whether the lanes shade path `path` at `hit`: its shape is in the table, and its light draw
-/// is none, a point on a lane emitter, a constant background's or an environment map's drawn
-/// sample.
+/// is none, a point on a lane emitter, a point light's, a constant background's or an
+/// environment map's drawn sample.
 #[inline(always)]
 pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
     table.shapes[hit.shape as usize].is_some()
@@ -47,10 +47,11 @@ pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -
                 matches!(table.lights[li], Some(LaneLight::Area(_)))
             }
             // The lanes' sphere sampling assumes u.y in [0, 1], as the sampler's numbers are.
-            Some((li, LightDraw::Deferred(u))) => {
-                matches!(table.lights[li], Some(LaneLight::Constant(_)))
-                    && (0.0..=1.0).contains(&u.y)
-            }
+            Some((li, LightDraw::Deferred(u))) => match table.lights[li] {
+                Some(LaneLight::Constant(_)) => (0.0..=1.0).contains(&u.y),
+                Some(LaneLight::Point { .. }) => true,
+                _ => false,
+            },
             // An environment map's sample, drawn in lanes by `draw_env_lights` (a map sampled
             // on its own at shading time, `Deferred`, takes the scalar stage).
             Some((li, LightDraw::EnvSampled { .. })) => {
@@ -243,22 +244,31 @@ fn gather<const N: usize>(
         params.table.lights.get(path.light_draw.map_or(0, |d| d.0)),
     ) {
         (Some((_, LightDraw::MeshPoint { q, n })), Some(Some(LaneLight::Area(e)))) => {
-            c.infinite[l] = 0;
+            (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 0);
             put(&mut c.q, l, q);
             put(&mut c.nq, l, n);
             put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
             c.l_area[l] = e.area;
         }
         (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
-            c.infinite[l] = 1;
-            c.env[l] = 0;
+            (c.infinite[l], c.env[l], c.point[l]) = (1, 0, 0);
             c.q[0][l] = u.x;
             c.q[1][l] = u.y;
             put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
         }
+        (
+            Some((_, LightDraw::Deferred(_))),
+            Some(Some(LaneLight::Point {
+                position,
+                intensity,
+            })),
+        ) => {
+            (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 1);
+            put(&mut c.q, l, Vec3A::from_array(*position));
+            put(&mut c.l_radiance, l, Vec3A::from_array(*intensity));
+        }
         (Some((_, LightDraw::EnvSampled { wi, radiance, pdf })), Some(Some(LaneLight::Env))) => {
-            c.infinite[l] = 1;
-            c.env[l] = 1;
+            (c.infinite[l], c.env[l], c.point[l]) = (1, 1, 0);
             put(&mut c.q, l, wi);
             put(&mut c.l_radiance, l, radiance);
             c.l_area[l] = pdf;
@@ -352,7 +362,7 @@ mod tests {
 
     /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), two emitters sampled by
     /// area (a one-sided rectangle and a two-sided disk), a constant background, an environment
-    /// map, a point light (scalar) and a plastic box (scalar), inside a closed room so random
+    /// map, a point light, a spot light (scalar) and a plastic box (scalar), inside a closed room so random
     /// rays hit from both sides.
     fn scene() -> RenderScene {
         let xml = r#"<scene version="3.0.0">
@@ -380,6 +390,7 @@ mod tests {
                 <emitter type="area"><rgb name="radiance" value="1, 2, 5"/></emitter><ref id="both"/>
             </shape>
             <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3, 3, 3"/></emitter>
+            <emitter type="spot"><rgb name="intensity" value="2, 3, 4"/><float name="cutoff_angle" value="40"/></emitter>
             <emitter type="constant"><rgb name="radiance" value="0.3, 0.4, 0.5"/></emitter>
             <emitter type="envmap"><string name="filename" value="../textures/sky_sun.exr"/>
                 <float name="scale" value="0.01"/></emitter>
@@ -479,8 +490,8 @@ mod tests {
         let light_select_pdf = 1.0 / scene.lights.len() as f32;
         let mut rng = Rng::new(21);
         let (mut paths, mut hits) = (Vec::new(), Vec::new());
-        let (mut lane_count, mut back_views, mut emitted, mut background, mut env, mut textured) =
-            (0, 0, 0, 0, 0, 0);
+        let (mut lane_count, mut back_views, mut emitted, mut background) = (0, 0, 0, 0);
+        let (mut env, mut textured, mut point) = (0, 0, 0);
         while paths.len() < 3000 {
             let origin = Vec3A::new(
                 rng.f32() * 5.8 - 2.9,
@@ -530,6 +541,10 @@ mod tests {
                 emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
                 background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
                 env += matches!(path.light_draw, Some((_, LightDraw::EnvSampled { .. }))) as u32;
+                point += matches!(
+                    path.light_draw.map(|d| &scene.lights[d.0]),
+                    Some(crate::lights::Light::Point(_))
+                ) as u32;
                 textured += scene.lanes.shapes[hit.shape as usize]
                     .is_some_and(|s| s.texture.is_some()) as u32;
             }
@@ -537,15 +552,16 @@ mod tests {
             hits.push(Some(hit));
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
-        // samples, environment-map samples, textured surfaces.
+        // samples (and point lights'), environment-map samples, textured surfaces.
         assert!(
             lane_count > 1500
                 && back_views > 300
                 && emitted > 50
                 && background > 200
                 && env > 150
-                && textured > 100,
-            "{lane_count} {back_views} {emitted} {background} {env} {textured}"
+                && textured > 100
+                && point > 150,
+            "{lane_count} {back_views} {emitted} {background} {env} {textured} {point}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
             .filter(|&i| {
@@ -649,11 +665,12 @@ mod tests {
         }
     }
 
-    /// The table admits the constant diffuse shapes (emitting or not) and not the plastic one,
-    /// the area, constant and environment lights and not the point light; with a point light the lanes do
-    /// not cover the scene's lights (`PathLoop::Auto` keeps the scalar loop).
+    /// The table admits the constant and textured diffuse shapes (emitting or not) and not the
+    /// plastic one, the area, point, constant and environment lights and not the spot light;
+    /// with a spot light the lanes do not cover the scene's lights (`PathLoop::Auto` keeps the
+    /// scalar loop).
     #[test]
-    fn the_table_admits_constant_diffuse_and_area_or_constant_lights() {
+    fn the_table_admits_diffuse_and_area_point_or_infinite_lights() {
         let scene = scene();
         let admitted: Vec<bool> = scene.lanes.shapes.iter().map(Option::is_some).collect();
         assert_eq!(admitted, [true, true, true, true, true, false, true, true]);
@@ -676,12 +693,12 @@ mod tests {
             .iter()
             .zip(&scene.lanes.lights)
             .map(|(l, t)| {
-                assert_eq!(t.is_some(), !matches!(l, crate::lights::Light::Point(_)));
+                assert_eq!(t.is_some(), !matches!(l, crate::lights::Light::Spot(_)));
                 t.is_some()
             })
             .collect();
-        assert_eq!(lights.len(), 5);
-        assert!(scene.lanes.any && !scene.lanes.covers_lights);
+        assert_eq!(lights.len(), 6);
+        assert!(scene.lanes.any && !scene.lanes.covers_lights && scene.lanes.point_lights);
     }
 
     /// Merging keeps both lists' elements in ascending order.
