@@ -120,6 +120,7 @@ pub struct Wavefront {
     lane_shadow: Vec<ShadowRay>,
     merge_live: Vec<u32>,
     merge_shadow: Vec<ShadowRay>,
+    lane_chunks: lanes::LaneChunks,
     // The surfaced paths' environment-map light samples.
     env_draw_paths: Vec<u32>,
     env_draw_us: Vec<Vec2>,
@@ -317,6 +318,7 @@ impl Wavefront {
                 };
                 if self.scalar_paths.is_empty() {
                     lanes::shade_lanes(
+                        &mut self.lane_chunks,
                         &mut self.paths,
                         &self.hits,
                         &self.lane_paths,
@@ -328,6 +330,7 @@ impl Wavefront {
                     self.lane_live.clear();
                     self.lane_shadow.clear();
                     lanes::shade_lanes(
+                        &mut self.lane_chunks,
                         &mut self.paths,
                         &self.hits,
                         &self.lane_paths,

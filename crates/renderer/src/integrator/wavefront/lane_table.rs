@@ -47,6 +47,8 @@ pub(crate) struct LaneTable {
     pub covers_lights: bool,
     /// Some light is a point light.
     pub point_lights: bool,
+    /// Some light is an environment map or a point light (the kernel's selects for them).
+    pub env_or_point: bool,
 }
 
 impl LaneTable {
@@ -78,12 +80,14 @@ impl LaneTable {
         let point_lights = lights
             .iter()
             .any(|l| matches!(l, Some(LaneLight::Point { .. })));
+        let env_or_point = point_lights || lights.iter().any(|l| matches!(l, Some(LaneLight::Env)));
         LaneTable {
             shapes,
             lights,
             any,
             covers_lights,
             point_lights,
+            env_or_point,
         }
     }
 }

@@ -79,10 +79,28 @@ pub(super) struct LaneParams<'a> {
     pub infinite_mis: bool,
 }
 
+/// The chunks the lanes work in, kept from call to call (set up once per worker: initialising
+/// a chunk per call cost a memset of a few kilobytes per bounce). Lanes past a short last
+/// chunk hold an earlier path's numbers; the kernel computes on them and nothing reads them.
+pub(super) struct LaneChunks {
+    c16: Box<Chunk<16>>,
+    c8: Box<Chunk<8>>,
+}
+
+impl Default for LaneChunks {
+    fn default() -> Self {
+        LaneChunks {
+            c16: Box::default(),
+            c8: Box::default(),
+        }
+    }
+}
+
 /// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
 /// pushing the continuing ones onto `live` and their shadow rays onto `shadow`, in `indices`'
 /// order. Returns the count of chunks run.
 pub(super) fn shade_lanes(
+    chunks: &mut LaneChunks,
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
     indices: &[u32],
@@ -90,12 +108,43 @@ pub(super) fn shade_lanes(
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
 ) -> usize {
-    shade_lanes_at(Simd::detect(), paths, hits, indices, params, live, shadow)
+    shade_lanes_at(
+        Simd::detect(),
+        chunks,
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+    )
 }
 
 /// [`shade_lanes`] at a given level (the tests run each level the CPU has).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn shade_lanes_at(
     simd: Simd,
+    chunks: &mut LaneChunks,
+    paths: &mut [PathState],
+    hits: &[Option<SurfaceHit>],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+) -> usize {
+    // Without environment-map or point-light samples the kernel leaves their selects out.
+    if params.table.env_or_point {
+        shade_lanes_with::<true>(simd, chunks, paths, hits, indices, params, live, shadow)
+    } else {
+        shade_lanes_with::<false>(simd, chunks, paths, hits, indices, params, live, shadow)
+    }
+}
+
+/// [`shade_lanes_at`] with the kernel for `EXTRA` (see [`lane_kernel::shade`]).
+#[allow(clippy::too_many_arguments)]
+fn shade_lanes_with<const EXTRA: bool>(
+    simd: Simd,
+    chunks: &mut LaneChunks,
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
     indices: &[u32],
@@ -106,33 +155,54 @@ pub(super) fn shade_lanes_at(
     match simd {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
-            run::<16>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
-                // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
-                unsafe { lane_kernel::shade_avx512(c, lsp, mis) }
-            })
+            run::<16>(
+                &mut chunks.c16,
+                paths,
+                hits,
+                indices,
+                params,
+                live,
+                shadow,
+                |c, lsp, mis| {
+                    // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
+                    unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
+                },
+            )
         }
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
-            run::<8>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
-                // SAFETY: the CPU has AVX2 and FMA (checked).
-                unsafe { lane_kernel::shade_avx2(c, lsp, mis) }
-            })
+            run::<8>(
+                &mut chunks.c8,
+                paths,
+                hits,
+                indices,
+                params,
+                live,
+                shadow,
+                |c, lsp, mis| {
+                    // SAFETY: the CPU has AVX2 and FMA (checked).
+                    unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
+                },
+            )
         }
         _ => run::<8>(
+            &mut chunks.c8,
             paths,
             hits,
             indices,
             params,
             live,
             shadow,
-            lane_kernel::shade_portable,
+            lane_kernel::shade_portable::<EXTRA>,
         ),
     }
 }
 
 /// Gathers `indices` `N` at a time, runs `kernel`, scatters back.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run<const N: usize>(
+    c: &mut Chunk<N>,
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
     indices: &[u32],
@@ -141,21 +211,14 @@ fn run<const N: usize>(
     shadow: &mut Vec<ShadowRay>,
     kernel: impl Fn(&mut Chunk<N>, f32, bool),
 ) -> usize {
-    let mut c = Chunk::<N>::default();
     let mut chunks = 0;
     for group in indices.chunks(N) {
         for (l, &i) in group.iter().enumerate() {
-            gather(
-                &mut c,
-                l,
-                &paths[i as usize],
-                hits[i as usize].as_ref(),
-                params,
-            );
+            gather(c, l, &paths[i as usize], hits[i as usize].as_ref(), params);
         }
-        kernel(&mut c, params.light_select_pdf, params.infinite_mis);
+        kernel(c, params.light_select_pdf, params.infinite_mis);
         for (l, &i) in group.iter().enumerate() {
-            scatter(&c, l, i, &mut paths[i as usize], params, live, shadow);
+            scatter(c, l, i, &mut paths[i as usize], params, live, shadow);
         }
         chunks += 1;
     }
@@ -263,9 +326,12 @@ fn gather<const N: usize>(
                 intensity,
             })),
         ) => {
+            // `PointLight::sample`'s radiance (the kernel repeats the rest).
+            let position = Vec3A::from_array(*position);
+            let dist2 = (position - hit.p).length_squared();
             (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 1);
-            put(&mut c.q, l, Vec3A::from_array(*position));
-            put(&mut c.l_radiance, l, Vec3A::from_array(*intensity));
+            put(&mut c.q, l, position);
+            put(&mut c.l_radiance, l, Vec3A::from_array(*intensity) / dist2);
         }
         (Some((_, LightDraw::EnvSampled { wi, radiance, pdf })), Some(Some(LaneLight::Env))) => {
             (c.infinite[l], c.env[l], c.point[l]) = (1, 1, 0);
@@ -601,66 +667,97 @@ mod tests {
             scene,
             infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
         };
-        for &simd in levels {
-            let mut got = paths.clone();
-            let (mut live, mut shadow) = (Vec::new(), Vec::new());
-            let chunks = shade_lanes_at(
-                simd,
-                &mut got,
-                &hits,
-                &indices,
-                params,
-                &mut live,
-                &mut shadow,
-            );
-            let width = if simd == Simd::Avx512 { 16 } else { 8 };
-            assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
-            assert_eq!(live, want_live, "{simd:?}");
-            assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
-            for (s, w) in shadow.iter().zip(&want_shadow) {
-                assert_eq!(s.path, w.path, "{simd:?}");
-                assert_eq!(
-                    (
-                        bits(s.origin),
-                        bits(s.dir),
-                        s.tmax.to_bits(),
-                        bits(s.contribution)
-                    ),
-                    (
-                        bits(w.origin),
-                        bits(w.dir),
-                        w.tmax.to_bits(),
-                        bits(w.contribution)
-                    ),
-                    "{simd:?} path {}",
-                    s.path
+        // One set of chunks for all levels and runs, as a worker keeps them.
+        let mut lane_chunks = LaneChunks::default();
+        // The kernel without the environment-map and point-light selects, on the other paths.
+        let mut plain_table = scene.lanes.clone();
+        plain_table.env_or_point = false;
+        let plain = |i: &u32| {
+            let draw = paths[*i as usize].light_draw;
+            !matches!(draw, Some((_, LightDraw::EnvSampled { .. })))
+                && !matches!(
+                    draw.map(|d| &scene.lights[d.0]),
+                    Some(crate::lights::Light::Point(_))
+                )
+        };
+        let plain_indices: Vec<u32> = indices.iter().copied().filter(plain).collect();
+        let plain_live: Vec<u32> = want_live.iter().copied().filter(plain).collect();
+        let plain_shadow: Vec<ShadowRay> = want_shadow
+            .iter()
+            .filter(|r| plain(&r.path))
+            .copied()
+            .collect();
+        assert!(plain_indices.len() > 500 && plain_indices.len() < indices.len());
+        let plain_params = LaneParams {
+            table: &plain_table,
+            ..params
+        };
+        for (params, indices, want_live, want_shadow) in [
+            (params, &indices, &want_live, &want_shadow),
+            (plain_params, &plain_indices, &plain_live, &plain_shadow),
+        ] {
+            for &simd in levels {
+                let mut got = paths.clone();
+                let (mut live, mut shadow) = (Vec::new(), Vec::new());
+                let chunks = shade_lanes_at(
+                    simd,
+                    &mut lane_chunks,
+                    &mut got,
+                    &hits,
+                    indices,
+                    params,
+                    &mut live,
+                    &mut shadow,
                 );
-            }
-            for &i in &indices {
-                let (g, w) = (&got[i as usize], &want[i as usize]);
-                let what = format!("{simd:?} path {i}");
-                assert_eq!(bits(g.result), bits(w.result), "{what}");
-                assert_eq!(g.depth, w.depth, "{what}");
-                if g.depth == paths[i as usize].depth {
-                    continue; // ended here: only its radiance counts
+                let width = if simd == Simd::Avx512 { 16 } else { 8 };
+                assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
+                assert_eq!(live, *want_live, "{simd:?}");
+                assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
+                for (s, w) in shadow.iter().zip(want_shadow.iter()) {
+                    assert_eq!(s.path, w.path, "{simd:?}");
+                    assert_eq!(
+                        (
+                            bits(s.origin),
+                            bits(s.dir),
+                            s.tmax.to_bits(),
+                            bits(s.contribution)
+                        ),
+                        (
+                            bits(w.origin),
+                            bits(w.dir),
+                            w.tmax.to_bits(),
+                            bits(w.contribution)
+                        ),
+                        "{simd:?} path {}",
+                        s.path
+                    );
                 }
-                assert_eq!(bits(g.throughput), bits(w.throughput), "{what}");
-                assert_eq!(bits(g.ray.origin), bits(w.ray.origin), "{what}");
-                assert_eq!(bits(g.ray.dir), bits(w.ray.dir), "{what}");
-                assert_eq!(g.ray.tmax, w.ray.tmax, "{what}");
-                assert_eq!(
-                    g.prev_bsdf_pdf.to_bits(),
-                    w.prev_bsdf_pdf.to_bits(),
-                    "{what}"
-                );
-                assert_eq!(
-                    (g.prev_delta, g.specular_chain),
-                    (w.prev_delta, w.specular_chain),
-                    "{what}"
-                );
-                assert_eq!(bits(g.prev_p), bits(w.prev_p), "{what}");
-                assert_eq!(g.eta.to_bits(), w.eta.to_bits(), "{what}");
-                assert_eq!(g.cone, w.cone, "{what}");
+                for &i in indices.iter() {
+                    let (g, w) = (&got[i as usize], &want[i as usize]);
+                    let what = format!("{simd:?} path {i}");
+                    assert_eq!(bits(g.result), bits(w.result), "{what}");
+                    assert_eq!(g.depth, w.depth, "{what}");
+                    if g.depth == paths[i as usize].depth {
+                        continue; // ended here: only its radiance counts
+                    }
+                    assert_eq!(bits(g.throughput), bits(w.throughput), "{what}");
+                    assert_eq!(bits(g.ray.origin), bits(w.ray.origin), "{what}");
+                    assert_eq!(bits(g.ray.dir), bits(w.ray.dir), "{what}");
+                    assert_eq!(g.ray.tmax, w.ray.tmax, "{what}");
+                    assert_eq!(
+                        g.prev_bsdf_pdf.to_bits(),
+                        w.prev_bsdf_pdf.to_bits(),
+                        "{what}"
+                    );
+                    assert_eq!(
+                        (g.prev_delta, g.specular_chain),
+                        (w.prev_delta, w.specular_chain),
+                        "{what}"
+                    );
+                    assert_eq!(bits(g.prev_p), bits(w.prev_p), "{what}");
+                    assert_eq!(g.eta.to_bits(), w.eta.to_bits(), "{what}");
+                    assert_eq!(g.cone, w.cone, "{what}");
+                }
             }
         }
     }
