@@ -82,18 +82,10 @@ pub(super) struct LaneParams<'a> {
 /// The chunks the lanes work in, kept from call to call (set up once per worker: initialising
 /// a chunk per call cost a memset of a few kilobytes per bounce). Lanes past a short last
 /// chunk hold an earlier path's numbers; the kernel computes on them and nothing reads them.
+#[derive(Default)]
 pub(super) struct LaneChunks {
     c16: Box<Chunk<16>>,
     c8: Box<Chunk<8>>,
-}
-
-impl Default for LaneChunks {
-    fn default() -> Self {
-        LaneChunks {
-            c16: Box::default(),
-            c8: Box::default(),
-        }
-    }
 }
 
 /// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
