@@ -90,9 +90,8 @@ struct RenderArgs {
     no_packets: bool,
     /// How the path tracer runs: `scalar` (one path to its end after another), `wavefront` (a
     /// pixel's samples advanced a bounce at a time, in batches) or `auto` (the wavefront for
-    /// scenes with an environment map, or whose diffuse surfaces and lights, point lights
-    /// excepted, it shades in SIMD lanes with AVX2 or AVX-512, where it is faster). The same
-    /// images, bit for bit.
+    /// scenes with an environment map, or whose diffuse surfaces and lights it shades in SIMD
+    /// lanes with AVX2 or AVX-512, where it is faster). The same images, bit for bit.
     #[arg(long, value_enum, default_value_t = PathLoopArg::Auto)]
     integrator_loop: PathLoopArg,
     /// Render only this film window, X,Y,WIDTH,HEIGHT in pixels of the full film (a part for

@@ -45,8 +45,6 @@ pub(crate) struct LaneTable {
     pub any: bool,
     /// Some shape takes the lanes and every light's samples do.
     pub covers_lights: bool,
-    /// Some light is a point light.
-    pub point_lights: bool,
     /// Some light is an environment map or a point light (the kernel's selects for them).
     pub env_or_point: bool,
 }
@@ -77,16 +75,14 @@ impl LaneTable {
             .collect();
         let any = shapes.iter().any(Option::is_some);
         let covers_lights = any && lights.iter().all(Option::is_some);
-        let point_lights = lights
+        let env_or_point = lights
             .iter()
-            .any(|l| matches!(l, Some(LaneLight::Point { .. })));
-        let env_or_point = point_lights || lights.iter().any(|l| matches!(l, Some(LaneLight::Env)));
+            .any(|l| matches!(l, Some(LaneLight::Point { .. } | LaneLight::Env)));
         LaneTable {
             shapes,
             lights,
             any,
             covers_lights,
-            point_lights,
             env_or_point,
         }
     }
@@ -94,13 +90,11 @@ impl LaneTable {
 
 impl LaneTable {
     /// Whether the wavefront loop beats the scalar one on this scene thanks to the lanes (what
-    /// `PathLoop::Auto` reads): they cover every light, none is a point light, and they run
-    /// vectorised (AVX2 or AVX-512). On cbox and the living room the wavefront is then 7% faster
-    /// than the scalar loop. With point lights the lanes only pay the wavefront's bookkeeping
-    /// back: textured_mesh (two point lights, textured and constant diffuse) renders in 0.88 s
-    /// (1 thread, 64 spp) either way, so it keeps the scalar loop.
+    /// `PathLoop::Auto` reads): they cover every light and run vectorised (AVX2 or AVX-512).
+    /// On cbox and the living room the wavefront is then 7% faster than the scalar loop, on
+    /// textured_mesh (point lights, textured diffuse) 1-2%.
     pub fn wavefront_pays(&self) -> bool {
-        self.covers_lights && !self.point_lights && super::lanes::lanes_enabled()
+        self.covers_lights && super::lanes::lanes_enabled()
     }
 }
 

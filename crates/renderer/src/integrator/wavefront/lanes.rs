@@ -787,7 +787,7 @@ mod tests {
             })
             .collect();
         assert_eq!(lights.len(), 6);
-        assert!(scene.lanes.any && !scene.lanes.covers_lights && scene.lanes.point_lights);
+        assert!(scene.lanes.any && !scene.lanes.covers_lights && scene.lanes.env_or_point);
     }
 
     /// Merging keeps both lists' elements in ascending order.
