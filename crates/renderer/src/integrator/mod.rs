@@ -14,9 +14,9 @@ pub use path::radiance;
 /// estimator with the same sampler dimensions, so the images agree bit for bit; they differ in
 /// speed (docs/performance.md). `Auto` takes the wavefront for scenes lit by an environment map
 /// (its batched lookups: envmap_sky 14-22% faster) and for scenes whose surface stage runs in
-/// SIMD lanes with every light (`wavefront::LaneTable::wavefront_pays`: cbox 7% faster),
-/// and the scalar loop otherwise (the wavefront's bookkeeping costs textured_mesh, with its
-/// point lights, about as much as it gains).
+/// SIMD lanes with every light (`wavefront::LaneTable::wavefront_pays`: cbox 7% faster,
+/// textured_mesh 1-2%), and the scalar loop otherwise (the wavefront's bookkeeping costs more
+/// than it gains where the scalar `shade` takes the paths).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PathLoop {
     #[default]

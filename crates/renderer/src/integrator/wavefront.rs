@@ -11,8 +11,8 @@
 //!
 //! Three parts run in SIMD lanes (16 with AVX-512, 8 with AVX2): escaped rays' environment
 //! lookups, the surfaced paths' environment-map light samples (`draw_env_lights`), and the
-//! surface stage of constant `diffuse` surfaces lit by area lights or a constant background
-//! (`lanes`, admitted by the scene's `LaneTable`). Every other surface goes through the scalar
+//! surface stage of constant `diffuse` surfaces lit by area lights, a constant background or an
+//! environment map's batched samples (`lanes`, admitted by the scene's `LaneTable`). Every other surface goes through the scalar
 //! `shade`, one path at a time; there the batch buys independent work between dependent chains
 //! (one path's traversal overlaps the next path's set-up).
 
@@ -120,6 +120,7 @@ pub struct Wavefront {
     lane_shadow: Vec<ShadowRay>,
     merge_live: Vec<u32>,
     merge_shadow: Vec<ShadowRay>,
+    lane_chunks: lanes::LaneChunks,
     // The surfaced paths' environment-map light samples.
     env_draw_paths: Vec<u32>,
     env_draw_us: Vec<Vec2>,
@@ -311,10 +312,13 @@ impl Wavefront {
                     light_select_pdf,
                     footprint_scale: settings.footprint_scale,
                     track_cones: settings.mipmapping && scene.uses_cones,
+                    mipmapping: settings.mipmapping,
+                    scene,
                     infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
                 };
                 if self.scalar_paths.is_empty() {
                     lanes::shade_lanes(
+                        &mut self.lane_chunks,
                         &mut self.paths,
                         &self.hits,
                         &self.lane_paths,
@@ -326,6 +330,7 @@ impl Wavefront {
                     self.lane_live.clear();
                     self.lane_shadow.clear();
                     lanes::shade_lanes(
+                        &mut self.lane_chunks,
                         &mut self.paths,
                         &self.hits,
                         &self.lane_paths,

@@ -3,8 +3,8 @@
 //! scalar code's branches are selects), which LLVM vectorises at the width the caller's target
 //! features allow (16 lanes with AVX-512, 8 with AVX2, 4 with SSE2).
 //!
-//! It repeats `wavefront::shade` for a constant `diffuse` lit by an area light sampled by area
-//! (what [`super::lane_table`] admits), operation for operation and in the same order: emission
+//! It repeats `wavefront::shade` for a `diffuse` lit by an area light sampled by area, a point
+//! light, a constant background or an environment map's drawn sample (what [`super::lane_table`] admits), operation for operation and in the same order: emission
 //! and its MIS weight, the shading frame, the cosine-weighted BSDF sample, the light connection
 //! with its shadow ray, the continuation ray and Russian roulette. Rust never fuses a multiply
 //! and an add, so the lanes give the scalar code's bits (tested against it).
@@ -53,9 +53,13 @@ pub(super) struct Chunk<const N: usize> {
     pub le: Lanes3<N>,
     pub le_area: [f32; N],
     // In: the drawn light point (`has_light` false: no light sample), or with `infinite` the
-    // constant background's numbers (in `q`'s x and y).
+    // constant background's numbers (in `q`'s x and y), or with `infinite` and `env` an
+    // environment map's drawn direction (in `q`) and density (in `l_area`).
+    /// With `point` (not `infinite`): a point light at `q`, its radiance at `p` in `l_radiance`.
     pub has_light: [u32; N],
     pub infinite: [u32; N],
+    pub env: [u32; N],
+    pub point: [u32; N],
     pub q: Lanes3<N>,
     pub nq: Lanes3<N>,
     pub l_radiance: Lanes3<N>,
@@ -103,6 +107,8 @@ impl<const N: usize> Default for Chunk<N> {
             le_area: [1.0; N],
             has_light: [0; N],
             infinite: [0; N],
+            env: [0; N],
+            point: [0; N],
             q: z3,
             nq: z3,
             l_radiance: z3,
@@ -185,9 +191,15 @@ fn offset_origin(p: [f32; 3], ng: [f32; 3], dir: [f32; 3]) -> [f32; 3] {
 }
 
 /// The surface stage for every lane of `c` (see the module's documentation): `light_select_pdf`
-/// is the scene's, `infinite_mis` whether lights at infinity are weighed by MIS.
+/// is the scene's, `infinite_mis` whether lights at infinity are weighed by MIS. `EXTRA` false:
+/// no lane holds an environment map's or a point light's sample (their selects compile away:
+/// cbox's kernel was 6% more instructions with them).
 #[inline(always)]
-pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, infinite_mis: bool) {
+pub(super) fn shade<const N: usize, const EXTRA: bool>(
+    c: &mut Chunk<N>,
+    light_select_pdf: f32,
+    infinite_mis: bool,
+) {
     for l in 0..N {
         let p = get(&c.p, l);
         let ng = get(&c.ng, l);
@@ -239,9 +251,14 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
 
         // The light sample (`AreaLight::connect_point`, `Diffuse::eval` and `pdf`, MIS, and
         // `path::shadow_ray`).
-        // A point on an area light (`AreaLight::connect_point`) or a direction to the constant
-        // background (`ConstantLight::sample`).
+        // A point on an area light (`AreaLight::connect_point`), a direction to the constant
+        // background (`ConstantLight::sample`) or an environment map's drawn direction
+        // (`Light::connect` of `LightDraw::EnvSampled`).
         let infinite = c.infinite[l] != 0;
+        let env = EXTRA && c.env[l] != 0;
+        // A point light (`PointLight::sample`): a delta sample (pdf 1, no MIS); its radiance,
+        // intensity / dist², is the gather's (a division only where there is a point light).
+        let point = EXTRA && c.point[l] != 0;
         let q = get(&c.q, l);
         let dq = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
         let dist2 = dot(dq, dq);
@@ -249,13 +266,20 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         let wi_q = [dq[0] / dist_q, dq[1] / dist_q, dq[2] / dist_q];
         let cos_light = -dot(get(&c.nq, l), wi_q);
         let wi_sphere = square_to_uniform_sphere_select(q[0], q[1]);
-        let wi = select3(infinite, wi_sphere, wi_q);
+        let wi = select3(infinite, select3(env, q, wi_sphere), wi_q);
         let dist = if infinite { f32::INFINITY } else { dist_q };
         let pdf_l = if infinite {
-            uniform_sphere_pdf()
+            if env {
+                c.l_area[l]
+            } else {
+                uniform_sphere_pdf()
+            }
+        } else if point {
+            1.0
         } else {
             dist2 / (cos_light * c.l_area[l])
         };
+
         let wi_z = dot(wi, n);
         let wi_bz = if mirrored { -wi_z } else { wi_z };
         let both = front && wi_bz > 0.0;
@@ -268,7 +292,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         };
         let connects = shading
             && c.has_light[l] != 0
-            && (infinite || (dist != 0.0 && !(cos_light <= 0.0)))
+            && (infinite || (dist != 0.0 && (point || !(cos_light <= 0.0))))
             && max_element(f) > 0.0
             && pdf_l > 0.0;
         let origin = offset_origin(p, ng, wi);
@@ -294,7 +318,7 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
         };
         let light_pdf = pdf_l * light_select_pdf;
         // Lights at infinity without MIS count their samples alone.
-        let w = if infinite && !infinite_mis {
+        let w = if point || (infinite && !infinite_mis) {
             1.0
         } else {
             power_heuristic_select(light_pdf, bsdf_pdf)
@@ -353,8 +377,12 @@ pub(super) fn shade<const N: usize>(c: &mut Chunk<N>, light_select_pdf: f32, inf
 /// The CPU must have AVX-512 F, BW and VL, AVX2 and FMA (`accel::Simd::Avx512`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
-pub(super) unsafe fn shade_avx512(c: &mut Chunk<16>, light_select_pdf: f32, infinite_mis: bool) {
-    shade(c, light_select_pdf, infinite_mis)
+pub(super) unsafe fn shade_avx512<const EXTRA: bool>(
+    c: &mut Chunk<16>,
+    light_select_pdf: f32,
+    infinite_mis: bool,
+) {
+    shade::<16, EXTRA>(c, light_select_pdf, infinite_mis)
 }
 
 /// [`shade`] over eight lanes with AVX2.
@@ -363,13 +391,21 @@ pub(super) unsafe fn shade_avx512(c: &mut Chunk<16>, light_select_pdf: f32, infi
 /// The CPU must have AVX2 and FMA (`accel::Simd::Avx2` or better).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn shade_avx2(c: &mut Chunk<8>, light_select_pdf: f32, infinite_mis: bool) {
-    shade(c, light_select_pdf, infinite_mis)
+pub(super) unsafe fn shade_avx2<const EXTRA: bool>(
+    c: &mut Chunk<8>,
+    light_select_pdf: f32,
+    infinite_mis: bool,
+) {
+    shade::<8, EXTRA>(c, light_select_pdf, infinite_mis)
 }
 
 /// [`shade`] over eight lanes with the baseline instruction set (SSE2 on x86-64: two vectors
 /// of four).
 #[inline(never)]
-pub(super) fn shade_portable(c: &mut Chunk<8>, light_select_pdf: f32, infinite_mis: bool) {
-    shade(c, light_select_pdf, infinite_mis)
+pub(super) fn shade_portable<const EXTRA: bool>(
+    c: &mut Chunk<8>,
+    light_select_pdf: f32,
+    infinite_mis: bool,
+) {
+    shade::<8, EXTRA>(c, light_select_pdf, infinite_mis)
 }

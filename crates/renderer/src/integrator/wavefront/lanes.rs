@@ -1,5 +1,6 @@
 //! The surface stage's lane path: the bounce's surfaced paths whose shape [`LaneTable`] admits
-//! (and whose light draw, if any, is a point on an area-sampled emitter) are gathered in chunks
+//! (and whose light draw, if any, is a point on an area-sampled emitter, a point light's, a
+//! constant background's numbers or an environment map's batched sample) are gathered in chunks
 //! of the SIMD width into [`Chunk`]s, shaded by [`lane_kernel::shade`], and scattered back into
 //! their path states, shadow rays and the live list in the order the scalar `shade` gives them.
 //! The other paths take the scalar `shade`; the two lists are merged by path index, which is
@@ -11,9 +12,12 @@ use super::{PathState, ShadowRay};
 use crate::accel::Simd;
 use crate::lights::LightDraw;
 use crate::ray::Ray;
+use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
+use crate::textures::{ColorSource, TextureQuery};
 use glam::Vec3A;
 use std::sync::OnceLock;
+use torrey_texture::Footprint;
 
 /// Whether the surface stage uses the lanes: with AVX2 or AVX-512 ([`Simd::detect`]), where the
 /// kernel is vectorised. The portable (SSE2) build of the kernel stays scalar (LLVM's cost model
@@ -32,7 +36,8 @@ pub(super) fn lanes_enabled() -> bool {
 }
 
 /// Whether the lanes shade path `path` at `hit`: its shape is in the table, and its light draw
-/// is none or a point on a lane emitter.
+/// is none, a point on a lane emitter, a point light's, a constant background's or an
+/// environment map's drawn sample.
 #[inline(always)]
 pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
     table.shapes[hit.shape as usize].is_some()
@@ -42,12 +47,16 @@ pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -
                 matches!(table.lights[li], Some(LaneLight::Area(_)))
             }
             // The lanes' sphere sampling assumes u.y in [0, 1], as the sampler's numbers are.
-            Some((li, LightDraw::Deferred(u))) => {
-                matches!(table.lights[li], Some(LaneLight::Constant(_)))
-                    && (0.0..=1.0).contains(&u.y)
+            Some((li, LightDraw::Deferred(u))) => match table.lights[li] {
+                Some(LaneLight::Constant(_)) => (0.0..=1.0).contains(&u.y),
+                Some(LaneLight::Point { .. }) => true,
+                _ => false,
+            },
+            // An environment map's sample, drawn in lanes by `draw_env_lights` (a map sampled
+            // on its own at shading time, `Deferred`, takes the scalar stage).
+            Some((li, LightDraw::EnvSampled { .. })) => {
+                matches!(table.lights[li], Some(LaneLight::Env))
             }
-            // An environment map's sample, drawn in lanes by `draw_env_lights`: the scalar stage.
-            Some((_, LightDraw::EnvSampled { .. })) => false,
         }
 }
 
@@ -62,14 +71,28 @@ pub(super) struct LaneParams<'a> {
     pub footprint_scale: f32,
     /// Ray cones filter something (textures, environment maps): the paths' cones are updated.
     pub track_cones: bool,
+    /// Textures are filtered by the ray cone's footprint (`--mipmapping`).
+    pub mipmapping: bool,
+    /// The scene, for textured reflectances (its textures and mesh attributes).
+    pub scene: &'a RenderScene,
     /// Lights at infinity are weighed by MIS (`EnvStrategy::ImportanceMis`).
     pub infinite_mis: bool,
+}
+
+/// The chunks the lanes work in, kept from call to call (set up once per worker: initialising
+/// a chunk per call cost a memset of a few kilobytes per bounce). Lanes past a short last
+/// chunk hold an earlier path's numbers; the kernel computes on them and nothing reads them.
+#[derive(Default)]
+pub(super) struct LaneChunks {
+    c16: Box<Chunk<16>>,
+    c8: Box<Chunk<8>>,
 }
 
 /// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
 /// pushing the continuing ones onto `live` and their shadow rays onto `shadow`, in `indices`'
 /// order. Returns the count of chunks run.
 pub(super) fn shade_lanes(
+    chunks: &mut LaneChunks,
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
     indices: &[u32],
@@ -77,12 +100,43 @@ pub(super) fn shade_lanes(
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
 ) -> usize {
-    shade_lanes_at(Simd::detect(), paths, hits, indices, params, live, shadow)
+    shade_lanes_at(
+        Simd::detect(),
+        chunks,
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+    )
 }
 
 /// [`shade_lanes`] at a given level (the tests run each level the CPU has).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn shade_lanes_at(
     simd: Simd,
+    chunks: &mut LaneChunks,
+    paths: &mut [PathState],
+    hits: &[Option<SurfaceHit>],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+) -> usize {
+    // Without environment-map or point-light samples the kernel leaves their selects out.
+    if params.table.env_or_point {
+        shade_lanes_with::<true>(simd, chunks, paths, hits, indices, params, live, shadow)
+    } else {
+        shade_lanes_with::<false>(simd, chunks, paths, hits, indices, params, live, shadow)
+    }
+}
+
+/// [`shade_lanes_at`] with the kernel for `EXTRA` (see [`lane_kernel::shade`]).
+#[allow(clippy::too_many_arguments)]
+fn shade_lanes_with<const EXTRA: bool>(
+    simd: Simd,
+    chunks: &mut LaneChunks,
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
     indices: &[u32],
@@ -93,33 +147,54 @@ pub(super) fn shade_lanes_at(
     match simd {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
-            run::<16>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
-                // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
-                unsafe { lane_kernel::shade_avx512(c, lsp, mis) }
-            })
+            run::<16>(
+                &mut chunks.c16,
+                paths,
+                hits,
+                indices,
+                params,
+                live,
+                shadow,
+                |c, lsp, mis| {
+                    // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
+                    unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
+                },
+            )
         }
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
-            run::<8>(paths, hits, indices, params, live, shadow, |c, lsp, mis| {
-                // SAFETY: the CPU has AVX2 and FMA (checked).
-                unsafe { lane_kernel::shade_avx2(c, lsp, mis) }
-            })
+            run::<8>(
+                &mut chunks.c8,
+                paths,
+                hits,
+                indices,
+                params,
+                live,
+                shadow,
+                |c, lsp, mis| {
+                    // SAFETY: the CPU has AVX2 and FMA (checked).
+                    unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
+                },
+            )
         }
         _ => run::<8>(
+            &mut chunks.c8,
             paths,
             hits,
             indices,
             params,
             live,
             shadow,
-            lane_kernel::shade_portable,
+            lane_kernel::shade_portable::<EXTRA>,
         ),
     }
 }
 
 /// Gathers `indices` `N` at a time, runs `kernel`, scatters back.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run<const N: usize>(
+    c: &mut Chunk<N>,
     paths: &mut [PathState],
     hits: &[Option<SurfaceHit>],
     indices: &[u32],
@@ -128,21 +203,14 @@ fn run<const N: usize>(
     shadow: &mut Vec<ShadowRay>,
     kernel: impl Fn(&mut Chunk<N>, f32, bool),
 ) -> usize {
-    let mut c = Chunk::<N>::default();
     let mut chunks = 0;
     for group in indices.chunks(N) {
         for (l, &i) in group.iter().enumerate() {
-            gather(
-                &mut c,
-                l,
-                &paths[i as usize],
-                hits[i as usize].as_ref(),
-                params,
-            );
+            gather(c, l, &paths[i as usize], hits[i as usize].as_ref(), params);
         }
-        kernel(&mut c, params.light_select_pdf, params.infinite_mis);
+        kernel(c, params.light_select_pdf, params.infinite_mis);
         for (l, &i) in group.iter().enumerate() {
-            scatter(&c, l, i, &mut paths[i as usize], params, live, shadow);
+            scatter(c, l, i, &mut paths[i as usize], params, live, shadow);
         }
         chunks += 1;
     }
@@ -188,7 +256,33 @@ fn gather<const N: usize>(
     c.u_rr[l] = path.u_rr;
     c.last[l] = (path.depth + 1 >= params.max_depth) as u32;
     c.roulette[l] = ((path.depth + 1) as i32 >= params.rr_depth) as u32;
-    put(&mut c.reflectance, l, Vec3A::from_array(shape.reflectance));
+    let reflectance = match shape.texture {
+        None => Vec3A::from_array(shape.reflectance),
+        // The scalar `shade`'s lookup (a last segment shades nothing: no lookup).
+        Some(_) if c.last[l] != 0 => Vec3A::ZERO,
+        Some(texture) => {
+            let footprint = if params.mipmapping {
+                let cone = if params.track_cones {
+                    path.cone.at_distance(hit.t)
+                } else {
+                    path.cone
+                };
+                cone.footprint(path.ray.dir, hit.ng, hit.dpdu, hit.dpdv)
+            } else {
+                Footprint::POINT
+            };
+            let scene = params.scene;
+            let attribute_point = scene.attribute_point(hit);
+            TextureQuery {
+                textures: &scene.textures,
+                at: attribute_point.as_ref(),
+                uv: hit.uv,
+                footprint,
+            }
+            .color(ColorSource::Texture(texture))
+        }
+    };
+    put(&mut c.reflectance, l, reflectance);
     c.two_sided[l] = shape.two_sided as u32;
     let visible = path.depth > 0 || !params.hide_emitters;
     match (shape.emitter, visible) {
@@ -205,17 +299,37 @@ fn gather<const N: usize>(
         params.table.lights.get(path.light_draw.map_or(0, |d| d.0)),
     ) {
         (Some((_, LightDraw::MeshPoint { q, n })), Some(Some(LaneLight::Area(e)))) => {
-            c.infinite[l] = 0;
+            (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 0);
             put(&mut c.q, l, q);
             put(&mut c.nq, l, n);
             put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
             c.l_area[l] = e.area;
         }
         (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
-            c.infinite[l] = 1;
+            (c.infinite[l], c.env[l], c.point[l]) = (1, 0, 0);
             c.q[0][l] = u.x;
             c.q[1][l] = u.y;
             put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
+        }
+        (
+            Some((_, LightDraw::Deferred(_))),
+            Some(Some(LaneLight::Point {
+                position,
+                intensity,
+            })),
+        ) => {
+            // `PointLight::sample`'s radiance (the kernel repeats the rest).
+            let position = Vec3A::from_array(*position);
+            let dist2 = (position - hit.p).length_squared();
+            (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 1);
+            put(&mut c.q, l, position);
+            put(&mut c.l_radiance, l, Vec3A::from_array(*intensity) / dist2);
+        }
+        (Some((_, LightDraw::EnvSampled { wi, radiance, pdf })), Some(Some(LaneLight::Env))) => {
+            (c.infinite[l], c.env[l], c.point[l]) = (1, 1, 0);
+            put(&mut c.q, l, wi);
+            put(&mut c.l_radiance, l, radiance);
+            c.l_area[l] = pdf;
         }
         _ => c.has_light[l] = 0,
     }
@@ -305,9 +419,9 @@ mod tests {
     use torrey_texture::RayCone;
 
     /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), two emitters sampled by
-    /// area (a one-sided rectangle and a two-sided disk), a constant background, a point light
-    /// (scalar) and a plastic box (scalar), inside a closed room so random rays hit from both
-    /// sides.
+    /// area (a one-sided rectangle and a two-sided disk), a constant background, an environment
+    /// map, a point light, a spot light (scalar) and a plastic box (scalar), inside a closed room so random
+    /// rays hit from both sides.
     fn scene() -> RenderScene {
         let xml = r#"<scene version="3.0.0">
             <sensor type="perspective">
@@ -319,6 +433,10 @@ mod tests {
             <shape type="obj"><string name="filename" value="meshes/torus.obj"/>
                 <transform name="toWorld"><scale value="0.6"/><translate x="-1" y="0.3"/></transform><ref id="grey"/></shape>
             <shape type="sphere"><point name="center" x="1" y="-1" z="0.5"/><float name="radius" value="0.6"/><ref id="both"/></shape>
+            <shape type="rectangle"><transform name="toWorld"><scale value="0.7"/><rotate y="1" angle="-70"/><translate x="2" y="1.2"/></transform>
+                <bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="../textures/checker_fine.png"/></texture></bsdf></shape>
+            <shape type="sphere"><point name="center" x="-1.2" y="-1.6" z="-1.2"/><float name="radius" value="0.8"/>
+                <bsdf type="twosided"><bsdf type="diffuse"><texture name="reflectance" type="checkerboard"><float name="uscale" value="6"/></texture></bsdf></bsdf></shape>
             <shape type="cube"><transform name="toWorld"><scale value="0.4"/><translate x="1" y="1" z="-1"/></transform>
                 <bsdf type="plastic"/></shape>
             <shape type="rectangle">
@@ -330,7 +448,10 @@ mod tests {
                 <emitter type="area"><rgb name="radiance" value="1, 2, 5"/></emitter><ref id="both"/>
             </shape>
             <emitter type="point"><point name="position" x="0" y="2" z="2"/><rgb name="intensity" value="3, 3, 3"/></emitter>
+            <emitter type="spot"><rgb name="intensity" value="2, 3, 4"/><float name="cutoff_angle" value="40"/></emitter>
             <emitter type="constant"><rgb name="radiance" value="0.3, 0.4, 0.5"/></emitter>
+            <emitter type="envmap"><string name="filename" value="../textures/sky_sun.exr"/>
+                <float name="scale" value="0.01"/></emitter>
         </scene>"#;
         let desc = torrey_parser::parse_scene_str(
             xml,
@@ -356,6 +477,29 @@ mod tests {
         v.to_array().map(f32::to_bits)
     }
 
+    /// Light `index`'s draw with numbers `u`: an environment map's is mostly drawn ahead as the
+    /// wavefront's `draw_env_lights` does (`pick` < 0.8; a tenth of those drew nothing, density
+    /// 0), else deferred (the scalar stage's).
+    fn draw(scene: &RenderScene, index: usize, u: Vec2, pick: f32) -> LightDraw {
+        let light = &scene.lights[index];
+        let crate::lights::Light::Env(env) = light else {
+            return light.draw(u);
+        };
+        match env.sample(u, false) {
+            Some(s) if pick < 0.72 => LightDraw::EnvSampled {
+                wi: s.wi,
+                radiance: s.radiance,
+                pdf: s.pdf,
+            },
+            _ if pick < 0.8 => LightDraw::EnvSampled {
+                wi: Vec3A::ZERO,
+                radiance: Vec3A::ZERO,
+                pdf: 0.0,
+            },
+            _ => light.draw(u),
+        }
+    }
+
     /// Random paths at random hits: the lanes give what the scalar `shade` gives, bit for bit
     /// (path state, shadow rays, live list, in order), at every SIMD level the CPU runs.
     #[test]
@@ -373,20 +517,31 @@ mod tests {
             }
         }
         let mut scene = scene;
-        for env_strategy in [EnvStrategy::ImportanceMis, EnvStrategy::Uniform] {
-            check_lanes(&scene, &levels, env_strategy);
+        for env_strategy in [
+            EnvStrategy::ImportanceMis,
+            EnvStrategy::Importance,
+            EnvStrategy::Uniform,
+        ] {
+            check_lanes(&scene, &levels, env_strategy, true);
         }
-        // Cones tracked (as with a texture or an environment map somewhere in the scene).
-        scene.uses_cones = true;
-        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis);
+        // Textures looked up at their finest level.
+        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis, false);
+        // Cones not tracked (as in a scene where nothing filters).
+        scene.uses_cones = false;
+        check_lanes(&scene, &levels, EnvStrategy::ImportanceMis, true);
     }
 
-    fn check_lanes(scene: &RenderScene, levels: &[Simd], env_strategy: EnvStrategy) {
+    fn check_lanes(
+        scene: &RenderScene,
+        levels: &[Simd],
+        env_strategy: EnvStrategy,
+        mipmapping: bool,
+    ) {
         let max_depth = 6;
         let settings = PathSettings {
             max_depth: max_depth as i32,
             rr_depth: 3,
-            mipmapping: true,
+            mipmapping,
             footprint_scale: 0.25,
             env_strategy,
         };
@@ -394,6 +549,7 @@ mod tests {
         let mut rng = Rng::new(21);
         let (mut paths, mut hits) = (Vec::new(), Vec::new());
         let (mut lane_count, mut back_views, mut emitted, mut background) = (0, 0, 0, 0);
+        let (mut env, mut textured, mut point) = (0, 0, 0);
         while paths.len() < 3000 {
             let origin = Vec3A::new(
                 rng.f32() * 5.8 - 2.9,
@@ -434,7 +590,7 @@ mod tests {
                 u_rr: unit(&mut rng),
                 light_draw: (depth + 1 < max_depth && rng.f32() < 0.9).then(|| {
                     let u = Vec2::new(unit(&mut rng), unit(&mut rng));
-                    (light_index, scene.lights[light_index].draw(u))
+                    (light_index, draw(scene, light_index, u, rng.f32()))
                 }),
             };
             if lane_able(&scene.lanes, &path, &hit) {
@@ -442,15 +598,28 @@ mod tests {
                 back_views += (hit.ns.dot(dir) > 0.0) as u32;
                 emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
                 background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
+                env += matches!(path.light_draw, Some((_, LightDraw::EnvSampled { .. }))) as u32;
+                point += matches!(
+                    path.light_draw.map(|d| &scene.lights[d.0]),
+                    Some(crate::lights::Light::Point(_))
+                ) as u32;
+                textured += scene.lanes.shapes[hit.shape as usize]
+                    .is_some_and(|s| s.texture.is_some()) as u32;
             }
             paths.push(path);
             hits.push(Some(hit));
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
-        // samples.
+        // samples (and point lights'), environment-map samples, textured surfaces.
         assert!(
-            lane_count > 1500 && back_views > 300 && emitted > 50 && background > 300,
-            "{lane_count} {back_views} {emitted} {background}"
+            lane_count > 1500
+                && back_views > 300
+                && emitted > 50
+                && background > 200
+                && env > 150
+                && textured > 100
+                && point > 150,
+            "{lane_count} {back_views} {emitted} {background} {env} {textured} {point}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
             .filter(|&i| {
@@ -486,80 +655,121 @@ mod tests {
             light_select_pdf,
             footprint_scale: settings.footprint_scale,
             track_cones: settings.mipmapping && scene.uses_cones,
+            mipmapping: settings.mipmapping,
+            scene,
             infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
         };
-        for &simd in levels {
-            let mut got = paths.clone();
-            let (mut live, mut shadow) = (Vec::new(), Vec::new());
-            let chunks = shade_lanes_at(
-                simd,
-                &mut got,
-                &hits,
-                &indices,
-                params,
-                &mut live,
-                &mut shadow,
-            );
-            let width = if simd == Simd::Avx512 { 16 } else { 8 };
-            assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
-            assert_eq!(live, want_live, "{simd:?}");
-            assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
-            for (s, w) in shadow.iter().zip(&want_shadow) {
-                assert_eq!(s.path, w.path, "{simd:?}");
-                assert_eq!(
-                    (
-                        bits(s.origin),
-                        bits(s.dir),
-                        s.tmax.to_bits(),
-                        bits(s.contribution)
-                    ),
-                    (
-                        bits(w.origin),
-                        bits(w.dir),
-                        w.tmax.to_bits(),
-                        bits(w.contribution)
-                    ),
-                    "{simd:?} path {}",
-                    s.path
+        // One set of chunks for all levels and runs, as a worker keeps them.
+        let mut lane_chunks = LaneChunks::default();
+        // The kernel without the environment-map and point-light selects, on the other paths.
+        let mut plain_table = scene.lanes.clone();
+        plain_table.env_or_point = false;
+        let plain = |i: &u32| {
+            let draw = paths[*i as usize].light_draw;
+            !matches!(draw, Some((_, LightDraw::EnvSampled { .. })))
+                && !matches!(
+                    draw.map(|d| &scene.lights[d.0]),
+                    Some(crate::lights::Light::Point(_))
+                )
+        };
+        let plain_indices: Vec<u32> = indices.iter().copied().filter(plain).collect();
+        let plain_live: Vec<u32> = want_live.iter().copied().filter(plain).collect();
+        let plain_shadow: Vec<ShadowRay> = want_shadow
+            .iter()
+            .filter(|r| plain(&r.path))
+            .copied()
+            .collect();
+        assert!(plain_indices.len() > 500 && plain_indices.len() < indices.len());
+        let plain_params = LaneParams {
+            table: &plain_table,
+            ..params
+        };
+        for (params, indices, want_live, want_shadow) in [
+            (params, &indices, &want_live, &want_shadow),
+            (plain_params, &plain_indices, &plain_live, &plain_shadow),
+        ] {
+            for &simd in levels {
+                let mut got = paths.clone();
+                let (mut live, mut shadow) = (Vec::new(), Vec::new());
+                let chunks = shade_lanes_at(
+                    simd,
+                    &mut lane_chunks,
+                    &mut got,
+                    &hits,
+                    indices,
+                    params,
+                    &mut live,
+                    &mut shadow,
                 );
-            }
-            for &i in &indices {
-                let (g, w) = (&got[i as usize], &want[i as usize]);
-                let what = format!("{simd:?} path {i}");
-                assert_eq!(bits(g.result), bits(w.result), "{what}");
-                assert_eq!(g.depth, w.depth, "{what}");
-                if g.depth == paths[i as usize].depth {
-                    continue; // ended here: only its radiance counts
+                let width = if simd == Simd::Avx512 { 16 } else { 8 };
+                assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
+                assert_eq!(live, *want_live, "{simd:?}");
+                assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
+                for (s, w) in shadow.iter().zip(want_shadow.iter()) {
+                    assert_eq!(s.path, w.path, "{simd:?}");
+                    assert_eq!(
+                        (
+                            bits(s.origin),
+                            bits(s.dir),
+                            s.tmax.to_bits(),
+                            bits(s.contribution)
+                        ),
+                        (
+                            bits(w.origin),
+                            bits(w.dir),
+                            w.tmax.to_bits(),
+                            bits(w.contribution)
+                        ),
+                        "{simd:?} path {}",
+                        s.path
+                    );
                 }
-                assert_eq!(bits(g.throughput), bits(w.throughput), "{what}");
-                assert_eq!(bits(g.ray.origin), bits(w.ray.origin), "{what}");
-                assert_eq!(bits(g.ray.dir), bits(w.ray.dir), "{what}");
-                assert_eq!(g.ray.tmax, w.ray.tmax, "{what}");
-                assert_eq!(
-                    g.prev_bsdf_pdf.to_bits(),
-                    w.prev_bsdf_pdf.to_bits(),
-                    "{what}"
-                );
-                assert_eq!(
-                    (g.prev_delta, g.specular_chain),
-                    (w.prev_delta, w.specular_chain),
-                    "{what}"
-                );
-                assert_eq!(bits(g.prev_p), bits(w.prev_p), "{what}");
-                assert_eq!(g.eta.to_bits(), w.eta.to_bits(), "{what}");
-                assert_eq!(g.cone, w.cone, "{what}");
+                for &i in indices.iter() {
+                    let (g, w) = (&got[i as usize], &want[i as usize]);
+                    let what = format!("{simd:?} path {i}");
+                    assert_eq!(bits(g.result), bits(w.result), "{what}");
+                    assert_eq!(g.depth, w.depth, "{what}");
+                    if g.depth == paths[i as usize].depth {
+                        continue; // ended here: only its radiance counts
+                    }
+                    assert_eq!(bits(g.throughput), bits(w.throughput), "{what}");
+                    assert_eq!(bits(g.ray.origin), bits(w.ray.origin), "{what}");
+                    assert_eq!(bits(g.ray.dir), bits(w.ray.dir), "{what}");
+                    assert_eq!(g.ray.tmax, w.ray.tmax, "{what}");
+                    assert_eq!(
+                        g.prev_bsdf_pdf.to_bits(),
+                        w.prev_bsdf_pdf.to_bits(),
+                        "{what}"
+                    );
+                    assert_eq!(
+                        (g.prev_delta, g.specular_chain),
+                        (w.prev_delta, w.specular_chain),
+                        "{what}"
+                    );
+                    assert_eq!(bits(g.prev_p), bits(w.prev_p), "{what}");
+                    assert_eq!(g.eta.to_bits(), w.eta.to_bits(), "{what}");
+                    assert_eq!(g.cone, w.cone, "{what}");
+                }
             }
         }
     }
 
-    /// The table admits the constant diffuse shapes (emitting or not) and not the plastic one,
-    /// the area and constant lights and not the point light; with a point light the lanes do
-    /// not cover the scene's lights (`PathLoop::Auto` keeps the scalar loop).
+    /// The table admits the constant and textured diffuse shapes (emitting or not) and not the
+    /// plastic one, the area, point, constant and environment lights and not the spot light;
+    /// with a spot light the lanes do not cover the scene's lights (`PathLoop::Auto` keeps the
+    /// scalar loop).
     #[test]
-    fn the_table_admits_constant_diffuse_and_area_or_constant_lights() {
+    fn the_table_admits_diffuse_and_area_point_or_infinite_lights() {
         let scene = scene();
         let admitted: Vec<bool> = scene.lanes.shapes.iter().map(Option::is_some).collect();
-        assert_eq!(admitted, [true, true, true, false, true, true]);
+        assert_eq!(admitted, [true, true, true, true, true, false, true, true]);
+        let textured = scene
+            .lanes
+            .shapes
+            .iter()
+            .flatten()
+            .filter(|s| s.texture.is_some());
+        assert_eq!(textured.count(), 2);
         let emitting = scene
             .lanes
             .shapes
@@ -572,12 +782,12 @@ mod tests {
             .iter()
             .zip(&scene.lanes.lights)
             .map(|(l, t)| {
-                assert_eq!(t.is_some(), !matches!(l, crate::lights::Light::Point(_)));
+                assert_eq!(t.is_some(), !matches!(l, crate::lights::Light::Spot(_)));
                 t.is_some()
             })
             .collect();
-        assert_eq!(lights.len(), 4);
-        assert!(scene.lanes.any && !scene.lanes.covers_lights);
+        assert_eq!(lights.len(), 6);
+        assert!(scene.lanes.any && !scene.lanes.covers_lights && scene.lanes.env_or_point);
     }
 
     /// Merging keeps both lists' elements in ascending order.
