@@ -665,13 +665,7 @@ mod tests {
                 <emitter type="area"><rgb name="radiance" value="4, 4, 4"/></emitter>
             </shape>
         </scene>"#;
-        let desc = torrey_parser::parse_scene_str(
-            xml,
-            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
-            &[],
-        )
-        .unwrap();
-        RenderScene::build(&desc, 24, 20).unwrap()
+        crate::scene::scene_from_xml(xml, 24, 20)
     }
 
     fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {

@@ -304,40 +304,26 @@ impl Wavefront {
                 }
             }
             if use_lanes && !self.lane_paths.is_empty() {
-                let params = lanes::LaneParams {
-                    table: &scene.lanes,
-                    max_depth,
-                    rr_depth: settings.rr_depth,
-                    hide_emitters: scene.hide_emitters,
-                    light_select_pdf,
-                    footprint_scale: settings.footprint_scale,
-                    track_cones: settings.mipmapping && scene.uses_cones,
-                    mipmapping: settings.mipmapping,
-                    scene,
-                    infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
-                };
-                if self.scalar_paths.is_empty() {
-                    lanes::shade_lanes(
-                        &mut self.lane_chunks,
-                        &mut self.paths,
-                        &self.hits,
-                        &self.lane_paths,
-                        params,
-                        &mut self.live,
-                        &mut self.shadow,
-                    );
-                } else {
+                let params = lanes::LaneParams::new(scene, settings, max_depth, light_select_pdf);
+                // With scalar paths too, the lanes write lists of their own, merged after.
+                let merge = !self.scalar_paths.is_empty();
+                let (live, shadow) = if merge {
                     self.lane_live.clear();
                     self.lane_shadow.clear();
-                    lanes::shade_lanes(
-                        &mut self.lane_chunks,
-                        &mut self.paths,
-                        &self.hits,
-                        &self.lane_paths,
-                        params,
-                        &mut self.lane_live,
-                        &mut self.lane_shadow,
-                    );
+                    (&mut self.lane_live, &mut self.lane_shadow)
+                } else {
+                    (&mut self.live, &mut self.shadow)
+                };
+                lanes::shade_lanes(
+                    &mut self.lane_chunks,
+                    &mut self.paths,
+                    &self.hits,
+                    &self.lane_paths,
+                    params,
+                    live,
+                    shadow,
+                );
+                if merge {
                     // Both lists ascend by path: merged, they are the scalar stage's order.
                     lanes::merge_by(
                         &mut self.live,

@@ -193,13 +193,25 @@ impl RenderScene {
     }
 }
 
+/// A scene from XML text, built for a `width`×`height` film; relative paths in it (meshes,
+/// textures) resolve from the project's scenes/ directory (tests).
+#[cfg(test)]
+pub(crate) fn scene_from_xml(xml: &str, width: u32, height: u32) -> RenderScene {
+    let desc = torrey_parser::parse_scene_str(
+        xml,
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
+        &[],
+    )
+    .unwrap();
+    RenderScene::build(&desc, width, height).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::accel::BvhWidth;
     use crate::cameras::CameraSample;
     use glam::Vec2;
-    use std::path::Path;
 
     /// A BVH rebuilt from `prim_geom` finds the scene's hits: same primitive, same distance.
     #[test]
@@ -218,13 +230,7 @@ mod tests {
             <shape type="obj"><string name="filename" value="meshes/torus.obj"/>
                 <transform name="toWorld"><scale value="0.5"/><translate x="-0.7" y="0.4"/></transform></shape>
         </scene>"#;
-        let desc = torrey_parser::parse_scene_str(
-            xml,
-            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
-            &[],
-        )
-        .unwrap();
-        let scene = RenderScene::build(&desc, 32, 24).unwrap();
+        let scene = scene_from_xml(xml, 32, 24);
         let count = scene.accel().primitive_count() as u32;
         let geoms: Vec<PrimGeom> = (0..count).map(|i| scene.prim_geom(i)).collect();
         assert!(geoms.iter().any(|g| matches!(g, PrimGeom::Sphere { .. })));

@@ -10,6 +10,7 @@ use super::lane_kernel::{self, Chunk};
 use super::lane_table::{LaneLight, LaneTable};
 use super::{PathState, ShadowRay};
 use crate::accel::Simd;
+use crate::integrator::{EnvStrategy, PathSettings};
 use crate::lights::LightDraw;
 use crate::ray::Ray;
 use crate::scene::RenderScene;
@@ -77,6 +78,29 @@ pub(super) struct LaneParams<'a> {
     pub scene: &'a RenderScene,
     /// Lights at infinity are weighed by MIS (`EnvStrategy::ImportanceMis`).
     pub infinite_mis: bool,
+}
+
+impl<'a> LaneParams<'a> {
+    /// The parameters of `scene` rendered with `settings`.
+    pub fn new(
+        scene: &'a RenderScene,
+        settings: PathSettings,
+        max_depth: u32,
+        light_select_pdf: f32,
+    ) -> Self {
+        LaneParams {
+            table: &scene.lanes,
+            max_depth,
+            rr_depth: settings.rr_depth,
+            hide_emitters: scene.hide_emitters,
+            light_select_pdf,
+            footprint_scale: settings.footprint_scale,
+            track_cones: settings.mipmapping && scene.uses_cones,
+            mipmapping: settings.mipmapping,
+            scene,
+            infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
+        }
+    }
 }
 
 /// The chunks the lanes work in, kept from call to call (set up once per worker: initialising
@@ -414,7 +438,6 @@ mod tests {
     use crate::integrator::EnvStrategy;
     use crate::scene::RenderScene;
     use glam::Vec2;
-    use std::path::Path;
     use torrey_testkit::Rng;
     use torrey_texture::RayCone;
 
@@ -453,13 +476,7 @@ mod tests {
             <emitter type="envmap"><string name="filename" value="../textures/sky_sun.exr"/>
                 <float name="scale" value="0.01"/></emitter>
         </scene>"#;
-        let desc = torrey_parser::parse_scene_str(
-            xml,
-            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/packets.xml"),
-            &[],
-        )
-        .unwrap();
-        RenderScene::build(&desc, 8, 8).unwrap()
+        crate::scene::scene_from_xml(xml, 8, 8)
     }
 
     /// An edge-biased number in [0, 1): exact 0, 1/2 (the disk map's centre), just under 1, or
@@ -647,18 +664,7 @@ mod tests {
             ));
         }
         assert!(want_shadow.len() > 300 && want_live.len() > 300);
-        let params = LaneParams {
-            table: &scene.lanes,
-            max_depth,
-            rr_depth: settings.rr_depth,
-            hide_emitters: scene.hide_emitters,
-            light_select_pdf,
-            footprint_scale: settings.footprint_scale,
-            track_cones: settings.mipmapping && scene.uses_cones,
-            mipmapping: settings.mipmapping,
-            scene,
-            infinite_mis: settings.env_strategy == EnvStrategy::ImportanceMis,
-        };
+        let params = LaneParams::new(scene, settings, max_depth, light_select_pdf);
         // One set of chunks for all levels and runs, as a worker keeps them.
         let mut lane_chunks = LaneChunks::default();
         // The kernel without the environment-map and point-light selects, on the other paths.
