@@ -88,7 +88,7 @@ struct PathState {
 }
 
 /// A shadow ray of next-event estimation and what it adds to its path when unoccluded.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct ShadowRay {
     path: u32,
     origin: Vec3A,

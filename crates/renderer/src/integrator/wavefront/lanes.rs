@@ -214,7 +214,10 @@ fn shade_lanes_with<const EXTRA: bool>(
     }
 }
 
-/// Gathers `indices` `N` at a time, runs `kernel`, scatters back.
+/// Gathers `indices` `N` at a time, runs `kernel`, scatters back. The shadow rays and live
+/// paths are appended without a branch: each lane writes its entry at the lists' end and moves
+/// the end by its flag (whether a lane connects or continues is data, which a branch
+/// mispredicts); the lists hold room for every lane until the end is set.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run<const N: usize>(
@@ -228,16 +231,31 @@ fn run<const N: usize>(
     kernel: impl Fn(&mut Chunk<N>, f32, bool),
 ) -> usize {
     let mut chunks = 0;
+    let (mut live_end, mut shadow_end) = (live.len(), shadow.len());
+    live.resize(live_end + indices.len(), 0);
+    shadow.resize(shadow_end + indices.len(), ShadowRay::default());
     for group in indices.chunks(N) {
         for (l, &i) in group.iter().enumerate() {
             gather(c, l, &paths[i as usize], hits[i as usize].as_ref(), params);
         }
         kernel(c, params.light_select_pdf, params.infinite_mis);
         for (l, &i) in group.iter().enumerate() {
-            scatter(c, l, i, &mut paths[i as usize], params, live, shadow);
+            shadow[shadow_end] = ShadowRay {
+                path: i,
+                origin: take(&c.s_origin, l),
+                dir: take(&c.s_dir, l),
+                tmax: c.s_tmax[l],
+                contribution: take(&c.s_contribution, l),
+            };
+            shadow_end += c.shadow[l] as usize;
+            live[live_end] = i;
+            live_end += c.alive[l] as usize;
+            scatter(c, l, &mut paths[i as usize], params);
         }
         chunks += 1;
     }
+    live.truncate(live_end);
+    shadow.truncate(shadow_end);
     chunks
 }
 
@@ -359,30 +377,12 @@ fn gather<const N: usize>(
     }
 }
 
-/// Lane `l` of `c` back into path `index`.
+/// Lane `l` of `c` back into its path. A path the lane ends (`cont` false) is never read again
+/// but for its radiance, so the continuation is written whatever `cont` (no branch), all but the
+/// depth, which counts the bounces taken (as the scalar `shade` leaves it).
 #[inline(always)]
-fn scatter<const N: usize>(
-    c: &Chunk<N>,
-    l: usize,
-    index: u32,
-    path: &mut PathState,
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-) {
+fn scatter<const N: usize>(c: &Chunk<N>, l: usize, path: &mut PathState, params: LaneParams) {
     path.result = take(&c.result, l);
-    if c.shadow[l] != 0 {
-        shadow.push(ShadowRay {
-            path: index,
-            origin: take(&c.s_origin, l),
-            dir: take(&c.s_dir, l),
-            tmax: c.s_tmax[l],
-            contribution: take(&c.s_contribution, l),
-        });
-    }
-    if c.cont[l] == 0 {
-        return;
-    }
     // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1).
     if params.track_cones {
         path.cone = path.cone.at_distance(c.t[l]);
@@ -398,10 +398,7 @@ fn scatter<const N: usize>(
         dir: take(&c.new_dir, l),
         tmax: f32::INFINITY,
     };
-    path.depth += 1;
-    if c.alive[l] != 0 {
-        live.push(index);
-    }
+    path.depth += c.cont[l];
 }
 
 /// Merges `b` into `a`, both ascending by `key`: the order the scalar stage gives.
