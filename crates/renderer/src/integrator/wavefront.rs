@@ -112,10 +112,8 @@ pub struct Wavefront {
     env_spreads: Vec<f32>,
     env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
-    // The surface stage's lane path: the paths it shades, and (when others take the scalar
-    // `shade`) its outputs before they are merged with the scalar ones.
-    lane_paths: Vec<u32>,
-    scalar_paths: Vec<u32>,
+    // The surface stage's lane path: its outputs before they are merged with the scalar
+    // `shade`'s.
     lane_live: Vec<u32>,
     lane_shadow: Vec<ShadowRay>,
     merge_live: Vec<u32>,
@@ -271,72 +269,66 @@ impl Wavefront {
             // shadow ray) and the path's continuation.
             self.shadow.clear();
             self.live.clear();
-            let use_lanes = scene.lanes.any && lanes::lanes_enabled();
-            // Without lanes, every surfaced path takes the scalar `shade`.
-            let mut scalar = &self.surfaced;
-            if use_lanes {
-                self.lane_paths.clear();
-                self.scalar_paths.clear();
-                for &i in &self.surfaced {
-                    let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
-                    if lanes::lane_able(&scene.lanes, &self.paths[i as usize], hit) {
-                        self.lane_paths.push(i);
-                    } else {
-                        self.scalar_paths.push(i);
-                    }
-                }
-                scalar = &self.scalar_paths;
-            }
-            for &i in scalar {
-                let path = &mut self.paths[i as usize];
-                let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
-                if let Some(shadow) = shade(
-                    scene,
-                    path,
-                    hit,
-                    settings,
-                    max_depth,
-                    light_select_pdf,
-                    i,
-                    &mut self.live,
-                ) {
-                    self.shadow.push(shadow);
-                }
-            }
-            if use_lanes && !self.lane_paths.is_empty() {
+            if scene.lanes.any && lanes::lanes_enabled() {
+                // The lanes take the paths they can as they come and hand the others to the
+                // scalar `shade`, whose outputs go to the stage's lists; the lanes' go to lists of
+                // their own, merged after (both ascend by path: merged, they are the scalar
+                // stage's order).
                 let params = lanes::LaneParams::new(scene, settings, max_depth, light_select_pdf);
-                // With scalar paths too, the lanes write lists of their own, merged after.
-                let merge = !self.scalar_paths.is_empty();
-                let (live, shadow) = if merge {
-                    self.lane_live.clear();
-                    self.lane_shadow.clear();
-                    (&mut self.lane_live, &mut self.lane_shadow)
-                } else {
-                    (&mut self.live, &mut self.shadow)
-                };
+                let (live, shadow) = (&mut self.live, &mut self.shadow);
+                self.lane_live.clear();
+                self.lane_shadow.clear();
                 lanes::shade_lanes(
                     &mut self.lane_chunks,
                     &mut self.paths,
                     &self.hits,
-                    &self.lane_paths,
+                    &self.surfaced,
                     params,
-                    live,
-                    shadow,
+                    &mut self.lane_live,
+                    &mut self.lane_shadow,
+                    &mut |path, hit, i| {
+                        if let Some(ray) = shade(
+                            scene,
+                            path,
+                            hit,
+                            settings,
+                            max_depth,
+                            light_select_pdf,
+                            i,
+                            live,
+                        ) {
+                            shadow.push(ray);
+                        }
+                    },
                 );
-                if merge {
-                    // Both lists ascend by path: merged, they are the scalar stage's order.
-                    lanes::merge_by(
+                lanes::merge_by(
+                    &mut self.live,
+                    &mut self.lane_live,
+                    &mut self.merge_live,
+                    |&i| i,
+                );
+                lanes::merge_by(
+                    &mut self.shadow,
+                    &mut self.lane_shadow,
+                    &mut self.merge_shadow,
+                    |r| r.path,
+                );
+            } else {
+                for &i in &self.surfaced {
+                    let path = &mut self.paths[i as usize];
+                    let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
+                    if let Some(shadow) = shade(
+                        scene,
+                        path,
+                        hit,
+                        settings,
+                        max_depth,
+                        light_select_pdf,
+                        i,
                         &mut self.live,
-                        &self.lane_live,
-                        &mut self.merge_live,
-                        |&i| i,
-                    );
-                    lanes::merge_by(
-                        &mut self.shadow,
-                        &self.lane_shadow,
-                        &mut self.merge_shadow,
-                        |r| r.path,
-                    );
+                    ) {
+                        self.shadow.push(shadow);
+                    }
                 }
             }
 
