@@ -102,7 +102,8 @@ struct ShadowRay {
 pub struct Wavefront {
     paths: Vec<PathState>,
     live: Vec<u32>,
-    hits: Vec<Option<SurfaceHit>>,
+    /// Each path's last closest hit (valid for the paths in `surfaced`).
+    hits: Vec<SurfaceHit>,
     escaped: Vec<u32>,
     surfaced: Vec<u32>,
     shadow: Vec<ShadowRay>,
@@ -184,7 +185,8 @@ impl Wavefront {
         self.live.clear();
         self.live.extend(0..cameras.len() as u32);
         self.hits.clear();
-        self.hits.extend(cameras.iter().map(|c| c.first_hit));
+        self.hits
+            .extend(cameras.iter().map(|c| c.first_hit.unwrap_or(NO_HIT)));
 
         while !self.live.is_empty() {
             // Stage 1: this bounce's numbers and the light draw, for every live path. With too
@@ -228,10 +230,11 @@ impl Wavefront {
                 let last_segment = path.depth + 1 >= max_depth;
                 // Each hit is written once, into its path's slot (no copy out and back).
                 let slot = &mut self.hits[i as usize];
-                if path.traced {
+                let found = if path.traced {
                     // The camera ray's hit, traced by the caller, is in its slot already.
                     path.traced = false;
                     rays.closest += 1;
+                    cameras[i as usize].first_hit.is_some()
                 } else if last_segment && !scene.has_area_lights {
                     // The slot keeps the last bounce's hit, which no stage reads again: the
                     // path ends here either way.
@@ -242,9 +245,9 @@ impl Wavefront {
                     continue;
                 } else {
                     rays.closest += 1;
-                    *slot = scene.intersect(&path.ray);
-                }
-                if slot.is_some() {
+                    closest_hit(scene, &path.ray, slot)
+                };
+                if found {
                     self.surfaced.push(i);
                 } else {
                     self.escaped.push(i);
@@ -316,7 +319,7 @@ impl Wavefront {
             } else {
                 for &i in &self.surfaced {
                     let path = &mut self.paths[i as usize];
-                    let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
+                    let hit = &self.hits[i as usize];
                     if let Some(shadow) = shade(
                         scene,
                         path,
@@ -489,6 +492,44 @@ impl Wavefront {
         }
     }
 }
+
+/// [`RenderScene::intersect`] into `slot`: whether the ray hits. Without instances, the hit's
+/// geometry is computed straight into the slot ([`RenderScene::surface_into`]); through
+/// `intersect`'s `Option` it was built on the stack and copied, 128 bytes whose loads waited on
+/// the callee's narrower stores.
+#[inline(always)]
+fn closest_hit(scene: &RenderScene, ray: &Ray, slot: &mut SurfaceHit) -> bool {
+    if scene.instances.is_some() {
+        return match scene.intersect(ray) {
+            Some(hit) => {
+                *slot = hit;
+                true
+            }
+            None => false,
+        };
+    }
+    match scene.accel.intersect(ray) {
+        Some(hit) => {
+            scene.surface_into(ray, &hit, slot);
+            true
+        }
+        None => false,
+    }
+}
+
+/// The hit slot of a path whose camera ray missed (never read: such a path escapes).
+const NO_HIT: SurfaceHit = SurfaceHit {
+    t: 0.0,
+    p: Vec3A::ZERO,
+    ng: Vec3A::Z,
+    ns: Vec3A::Z,
+    uv: Vec2::ZERO,
+    dpdu: Vec3A::ZERO,
+    dpdv: Vec3A::ZERO,
+    bary: Vec2::ZERO,
+    shape: 0,
+    prim: 0,
+};
 
 /// Whether escaped rays look environment maps up in batches (the default); the environment
 /// variable `TORREY_WAVEFRONT_ENV=scalar` makes them call the one-ray lookup per path instead

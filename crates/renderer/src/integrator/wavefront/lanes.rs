@@ -127,7 +127,7 @@ pub(super) type ScalarShade<'a> = dyn FnMut(&mut PathState, &SurfaceHit, u32) + 
 pub(super) fn shade_lanes(
     chunks: &mut LaneChunks,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
@@ -153,7 +153,7 @@ pub(super) fn shade_lanes_at(
     simd: Simd,
     chunks: &mut LaneChunks,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
@@ -178,7 +178,7 @@ fn shade_lanes_with<const EXTRA: bool>(
     simd: Simd,
     chunks: &mut LaneChunks,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
@@ -244,7 +244,7 @@ fn shade_lanes_with<const EXTRA: bool>(
 fn run<const N: usize>(
     c: &mut Chunk<N>,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
@@ -259,7 +259,7 @@ fn run<const N: usize>(
     let mut group = [0u32; N];
     let mut lanes = 0;
     for &i in indices {
-        let hit = hits[i as usize].as_ref().expect("surfaced paths hit");
+        let hit = &hits[i as usize];
         if gather(c, lanes, &paths[i as usize], hit, params) {
             group[lanes] = i;
             lanes += 1;
@@ -698,7 +698,7 @@ mod tests {
                     .is_some_and(|s| s.texture.is_some()) as u32;
             }
             paths.push(path);
-            hits.push(Some(hit));
+            hits.push(hit);
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
         // samples (and point lights'), environment-map samples, textured surfaces.
@@ -713,13 +713,7 @@ mod tests {
             "{lane_count} {back_views} {emitted} {background} {env} {textured} {point}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
-            .filter(|&i| {
-                lane_able(
-                    &scene.lanes,
-                    &paths[i as usize],
-                    hits[i as usize].as_ref().unwrap(),
-                )
-            })
+            .filter(|&i| lane_able(&scene.lanes, &paths[i as usize], &hits[i as usize]))
             .collect();
 
         // The scalar stage on every path (the lanes' run hands it the paths they do not take).
@@ -727,7 +721,7 @@ mod tests {
         let mut want = paths.clone();
         let (mut want_live, mut want_shadow) = (Vec::new(), Vec::new());
         for &i in &all {
-            let hit = hits[i as usize].as_ref().unwrap();
+            let hit = &hits[i as usize];
             want_shadow.extend(shade(
                 scene,
                 &mut want[i as usize],
