@@ -188,37 +188,35 @@ fn shade_lanes_with<const EXTRA: bool>(
     match simd {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
-            run::<16>(
-                &mut chunks.c16,
-                paths,
-                hits,
-                indices,
-                params,
-                live,
-                shadow,
-                scalar,
-                |c, lsp, mis| {
-                    // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
-                    unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
-                },
-            )
+            // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
+            unsafe {
+                run_avx512::<EXTRA>(
+                    &mut chunks.c16,
+                    paths,
+                    hits,
+                    indices,
+                    params,
+                    live,
+                    shadow,
+                    scalar,
+                )
+            }
         }
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
-            run::<8>(
-                &mut chunks.c8,
-                paths,
-                hits,
-                indices,
-                params,
-                live,
-                shadow,
-                scalar,
-                |c, lsp, mis| {
-                    // SAFETY: the CPU has AVX2 and FMA (checked).
-                    unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
-                },
-            )
+            // SAFETY: the CPU has AVX2 and FMA (checked).
+            unsafe {
+                run_avx2::<EXTRA>(
+                    &mut chunks.c8,
+                    paths,
+                    hits,
+                    indices,
+                    params,
+                    live,
+                    shadow,
+                    scalar,
+                )
+            }
         }
         _ => run::<8>(
             &mut chunks.c8,
@@ -232,6 +230,74 @@ fn shade_lanes_with<const EXTRA: bool>(
             lane_kernel::shade_portable::<EXTRA>,
         ),
     }
+}
+
+/// [`run`] over sixteen lanes, compiled for AVX-512 as a whole: the gather and scatter around
+/// the kernel move single floats in and out of vectors with one instruction each
+/// (`vextractps`, `vinsertps`; SSE2 takes a shuffle and a move).
+///
+/// # Safety
+/// The CPU must have AVX-512 F, BW and VL, AVX2 and FMA (`accel::Simd::Avx512`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn run_avx512<const EXTRA: bool>(
+    c: &mut Chunk<16>,
+    paths: &mut [PathState],
+    hits: &[SurfaceHit],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
+) -> usize {
+    run::<16>(
+        c,
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+        scalar,
+        |c, lsp, mis| {
+            // SAFETY: this function's features are the kernel's.
+            unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
+        },
+    )
+}
+
+/// [`run`] over eight lanes, compiled for AVX2 as a whole (see [`run_avx512`]).
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA (`accel::Simd::Avx2` or better).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn run_avx2<const EXTRA: bool>(
+    c: &mut Chunk<8>,
+    paths: &mut [PathState],
+    hits: &[SurfaceHit],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
+) -> usize {
+    run::<8>(
+        c,
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+        scalar,
+        |c, lsp, mis| {
+            // SAFETY: this function's features are the kernel's.
+            unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
+        },
+    )
 }
 
 /// Gathers the lane-able paths of `indices` `N` at a time, runs `kernel` on each chunk and
