@@ -3,8 +3,9 @@
 //! constant background's numbers or an environment map's batched sample) are gathered in chunks
 //! of the SIMD width into [`Chunk`]s, shaded by [`lane_kernel::shade`], and scattered back into
 //! their path states, shadow rays and the live list in the order the scalar `shade` gives them.
-//! The other paths take the scalar `shade`; the two lists are merged by path index, which is
-//! the order of the surfaced list (it ascends, as the live list it comes from).
+//! One pass over the surfaced paths: the gather itself decides whether the lanes take a path,
+//! and hands the others to the scalar `shade` at once; the two sets' lists are merged by path
+//! index, which is the order of the surfaced list (it ascends, as the live list it comes from).
 
 use super::lane_kernel::{self, Chunk};
 use super::lane_table::{LaneLight, LaneTable};
@@ -117,9 +118,9 @@ pub(super) struct LaneChunks {
 /// not one per SIMD level.
 pub(super) type ScalarShade<'a> = dyn FnMut(&mut PathState, &SurfaceHit, u32) + 'a;
 
-/// Shades the surfaced paths `indices` (ascending) at the SIMD level [`Simd::detect`] gives: each
-/// lane-able path ([`lane_able`]) is gathered into the chunk as it comes, and the chunk shaded in
-/// lanes when full (and at the end), pushing the continuing paths onto `live` and their shadow
+/// Shades the surfaced paths `indices` (ascending) at the SIMD level [`Simd::detect`] gives:
+/// each path the lanes take (`lane_able`'s rule) is gathered into the chunk as it comes, and
+/// the chunk shaded in lanes when full (and at the end), pushing the continuing paths onto `live` and their shadow
 /// rays onto `shadow` in `indices`' order; every other path goes to `scalar` at once (the two
 /// sets touch different paths, so the order between them changes nothing). Returns the count of
 /// chunks run.
@@ -398,7 +399,7 @@ fn take<const N: usize>(v: &[[f32; N]; 3], l: usize) -> Vec3A {
     Vec3A::new(v[0][l], v[1][l], v[2][l])
 }
 
-/// Lane `l` of `c` from path `path` at `hit`, if the lanes take it ([`lane_able`]'s rule, decided
+/// Lane `l` of `c` from path `path` at `hit`, if the lanes take it (`lane_able`'s rule, decided
 /// here with the lookups the gather needs anyway); false leaves lane `l` to the next path.
 #[inline(always)]
 fn gather<const N: usize>(
