@@ -88,7 +88,7 @@ struct PathState {
 }
 
 /// A shadow ray of next-event estimation and what it adds to its path when unoccluded.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct ShadowRay {
     path: u32,
     origin: Vec3A,
@@ -102,7 +102,8 @@ struct ShadowRay {
 pub struct Wavefront {
     paths: Vec<PathState>,
     live: Vec<u32>,
-    hits: Vec<Option<SurfaceHit>>,
+    /// Each path's last closest hit (valid for the paths in `surfaced`).
+    hits: Vec<SurfaceHit>,
     escaped: Vec<u32>,
     surfaced: Vec<u32>,
     shadow: Vec<ShadowRay>,
@@ -112,10 +113,8 @@ pub struct Wavefront {
     env_spreads: Vec<f32>,
     env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
-    // The surface stage's lane path: the paths it shades, and (when others take the scalar
-    // `shade`) its outputs before they are merged with the scalar ones.
-    lane_paths: Vec<u32>,
-    scalar_paths: Vec<u32>,
+    // The surface stage's lane path: its outputs before they are merged with the scalar
+    // `shade`'s.
     lane_live: Vec<u32>,
     lane_shadow: Vec<ShadowRay>,
     merge_live: Vec<u32>,
@@ -186,7 +185,8 @@ impl Wavefront {
         self.live.clear();
         self.live.extend(0..cameras.len() as u32);
         self.hits.clear();
-        self.hits.extend(cameras.iter().map(|c| c.first_hit));
+        self.hits
+            .extend(cameras.iter().map(|c| c.first_hit.unwrap_or(NO_HIT)));
 
         while !self.live.is_empty() {
             // Stage 1: this bounce's numbers and the light draw, for every live path. With too
@@ -230,10 +230,11 @@ impl Wavefront {
                 let last_segment = path.depth + 1 >= max_depth;
                 // Each hit is written once, into its path's slot (no copy out and back).
                 let slot = &mut self.hits[i as usize];
-                if path.traced {
+                let found = if path.traced {
                     // The camera ray's hit, traced by the caller, is in its slot already.
                     path.traced = false;
                     rays.closest += 1;
+                    cameras[i as usize].first_hit.is_some()
                 } else if last_segment && !scene.has_area_lights {
                     // The slot keeps the last bounce's hit, which no stage reads again: the
                     // path ends here either way.
@@ -244,9 +245,9 @@ impl Wavefront {
                     continue;
                 } else {
                     rays.closest += 1;
-                    *slot = scene.intersect(&path.ray);
-                }
-                if slot.is_some() {
+                    closest_hit(scene, &path.ray, slot)
+                };
+                if found {
                     self.surfaced.push(i);
                 } else {
                     self.escaped.push(i);
@@ -271,72 +272,66 @@ impl Wavefront {
             // shadow ray) and the path's continuation.
             self.shadow.clear();
             self.live.clear();
-            let use_lanes = scene.lanes.any && lanes::lanes_enabled();
-            // Without lanes, every surfaced path takes the scalar `shade`.
-            let mut scalar = &self.surfaced;
-            if use_lanes {
-                self.lane_paths.clear();
-                self.scalar_paths.clear();
-                for &i in &self.surfaced {
-                    let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
-                    if lanes::lane_able(&scene.lanes, &self.paths[i as usize], hit) {
-                        self.lane_paths.push(i);
-                    } else {
-                        self.scalar_paths.push(i);
-                    }
-                }
-                scalar = &self.scalar_paths;
-            }
-            for &i in scalar {
-                let path = &mut self.paths[i as usize];
-                let hit = self.hits[i as usize].as_ref().expect("surfaced paths hit");
-                if let Some(shadow) = shade(
-                    scene,
-                    path,
-                    hit,
-                    settings,
-                    max_depth,
-                    light_select_pdf,
-                    i,
-                    &mut self.live,
-                ) {
-                    self.shadow.push(shadow);
-                }
-            }
-            if use_lanes && !self.lane_paths.is_empty() {
+            if scene.lanes.any && lanes::lanes_enabled() {
+                // The lanes take the paths they can as they come and hand the others to the
+                // scalar `shade`, whose outputs go to the stage's lists; the lanes' go to lists of
+                // their own, merged after (both ascend by path: merged, they are the scalar
+                // stage's order).
                 let params = lanes::LaneParams::new(scene, settings, max_depth, light_select_pdf);
-                // With scalar paths too, the lanes write lists of their own, merged after.
-                let merge = !self.scalar_paths.is_empty();
-                let (live, shadow) = if merge {
-                    self.lane_live.clear();
-                    self.lane_shadow.clear();
-                    (&mut self.lane_live, &mut self.lane_shadow)
-                } else {
-                    (&mut self.live, &mut self.shadow)
-                };
+                let (live, shadow) = (&mut self.live, &mut self.shadow);
+                self.lane_live.clear();
+                self.lane_shadow.clear();
                 lanes::shade_lanes(
                     &mut self.lane_chunks,
                     &mut self.paths,
                     &self.hits,
-                    &self.lane_paths,
+                    &self.surfaced,
                     params,
-                    live,
-                    shadow,
+                    &mut self.lane_live,
+                    &mut self.lane_shadow,
+                    &mut |path, hit, i| {
+                        if let Some(ray) = shade(
+                            scene,
+                            path,
+                            hit,
+                            settings,
+                            max_depth,
+                            light_select_pdf,
+                            i,
+                            live,
+                        ) {
+                            shadow.push(ray);
+                        }
+                    },
                 );
-                if merge {
-                    // Both lists ascend by path: merged, they are the scalar stage's order.
-                    lanes::merge_by(
+                lanes::merge_by(
+                    &mut self.live,
+                    &mut self.lane_live,
+                    &mut self.merge_live,
+                    |&i| i,
+                );
+                lanes::merge_by(
+                    &mut self.shadow,
+                    &mut self.lane_shadow,
+                    &mut self.merge_shadow,
+                    |r| r.path,
+                );
+            } else {
+                for &i in &self.surfaced {
+                    let path = &mut self.paths[i as usize];
+                    let hit = &self.hits[i as usize];
+                    if let Some(shadow) = shade(
+                        scene,
+                        path,
+                        hit,
+                        settings,
+                        max_depth,
+                        light_select_pdf,
+                        i,
                         &mut self.live,
-                        &self.lane_live,
-                        &mut self.merge_live,
-                        |&i| i,
-                    );
-                    lanes::merge_by(
-                        &mut self.shadow,
-                        &self.lane_shadow,
-                        &mut self.merge_shadow,
-                        |r| r.path,
-                    );
+                    ) {
+                        self.shadow.push(shadow);
+                    }
                 }
             }
 
@@ -497,6 +492,44 @@ impl Wavefront {
         }
     }
 }
+
+/// [`RenderScene::intersect`] into `slot`: whether the ray hits. Without instances, the hit's
+/// geometry is computed straight into the slot ([`RenderScene::surface_into`]); through
+/// `intersect`'s `Option` it was built on the stack and copied, 128 bytes whose loads waited on
+/// the callee's narrower stores.
+#[inline(always)]
+fn closest_hit(scene: &RenderScene, ray: &Ray, slot: &mut SurfaceHit) -> bool {
+    if scene.instances.is_some() {
+        return match scene.intersect(ray) {
+            Some(hit) => {
+                *slot = hit;
+                true
+            }
+            None => false,
+        };
+    }
+    match scene.accel.intersect(ray) {
+        Some(hit) => {
+            scene.surface_into(ray, &hit, slot);
+            true
+        }
+        None => false,
+    }
+}
+
+/// The hit slot of a path whose camera ray missed (never read: such a path escapes).
+const NO_HIT: SurfaceHit = SurfaceHit {
+    t: 0.0,
+    p: Vec3A::ZERO,
+    ng: Vec3A::Z,
+    ns: Vec3A::Z,
+    uv: Vec2::ZERO,
+    dpdu: Vec3A::ZERO,
+    dpdv: Vec3A::ZERO,
+    bary: Vec2::ZERO,
+    shape: 0,
+    prim: 0,
+};
 
 /// Whether escaped rays look environment maps up in batches (the default); the environment
 /// variable `TORREY_WAVEFRONT_ENV=scalar` makes them call the one-ray lookup per path instead

@@ -158,6 +158,13 @@ impl RenderScene {
         self.surface_hit(ray, hit)
     }
 
+    /// [`RenderScene::surface`] written into `out` (a caller that keeps hits in a buffer gets
+    /// them without a copy through the stack).
+    #[inline(never)]
+    pub fn surface_into(&self, ray: &Ray, hit: &ClosestHit, out: &mut SurfaceHit) {
+        *out = self.surface_hit(ray, hit);
+    }
+
     #[inline(always)]
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = &self.prims[hit.prim as usize];

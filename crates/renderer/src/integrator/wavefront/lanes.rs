@@ -3,8 +3,9 @@
 //! constant background's numbers or an environment map's batched sample) are gathered in chunks
 //! of the SIMD width into [`Chunk`]s, shaded by [`lane_kernel::shade`], and scattered back into
 //! their path states, shadow rays and the live list in the order the scalar `shade` gives them.
-//! The other paths take the scalar `shade`; the two lists are merged by path index, which is
-//! the order of the surfaced list (it ascends, as the live list it comes from).
+//! One pass over the surfaced paths: the gather itself decides whether the lanes take a path,
+//! and hands the others to the scalar `shade` at once; the two sets' lists are merged by path
+//! index, which is the order of the surfaced list (it ascends, as the live list it comes from).
 
 use super::lane_kernel::{self, Chunk};
 use super::lane_table::{LaneLight, LaneTable};
@@ -36,10 +37,10 @@ pub(super) fn lanes_enabled() -> bool {
     })
 }
 
-/// Whether the lanes shade path `path` at `hit`: its shape is in the table, and its light draw
+/// Whether the lanes shade path `path` at `hit` (the rule [`gather`] applies, for the tests): its shape is in the table, and its light draw
 /// is none, a point on a lane emitter, a point light's, a constant background's or an
 /// environment map's drawn sample.
-#[inline(always)]
+#[cfg(test)]
 pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
     table.shapes[hit.shape as usize].is_some()
         && match path.light_draw {
@@ -112,17 +113,27 @@ pub(super) struct LaneChunks {
     c8: Box<Chunk<8>>,
 }
 
-/// Shades paths `indices` (all lane-able) in lanes at the SIMD level [`Simd::detect`] gives,
-/// pushing the continuing ones onto `live` and their shadow rays onto `shadow`, in `indices`'
-/// order. Returns the count of chunks run.
+/// The scalar surface stage of one path (`wavefront::shade` and where its outputs go), for the
+/// surfaced paths the lanes do not take. Called through a pointer: one copy of the scalar code,
+/// not one per SIMD level.
+pub(super) type ScalarShade<'a> = dyn FnMut(&mut PathState, &SurfaceHit, u32) + 'a;
+
+/// Shades the surfaced paths `indices` (ascending) at the SIMD level [`Simd::detect`] gives:
+/// each path the lanes take (`lane_able`'s rule) is gathered into the chunk as it comes, and
+/// the chunk shaded in lanes when full (and at the end), pushing the continuing paths onto `live` and their shadow
+/// rays onto `shadow` in `indices`' order; every other path goes to `scalar` at once (the two
+/// sets touch different paths, so the order between them changes nothing). Returns the count of
+/// chunks run.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn shade_lanes(
     chunks: &mut LaneChunks,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
 ) -> usize {
     shade_lanes_at(
         Simd::detect(),
@@ -133,6 +144,7 @@ pub(super) fn shade_lanes(
         params,
         live,
         shadow,
+        scalar,
     )
 }
 
@@ -142,17 +154,22 @@ pub(super) fn shade_lanes_at(
     simd: Simd,
     chunks: &mut LaneChunks,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
 ) -> usize {
     // Without environment-map or point-light samples the kernel leaves their selects out.
     if params.table.env_or_point {
-        shade_lanes_with::<true>(simd, chunks, paths, hits, indices, params, live, shadow)
+        shade_lanes_with::<true>(
+            simd, chunks, paths, hits, indices, params, live, shadow, scalar,
+        )
     } else {
-        shade_lanes_with::<false>(simd, chunks, paths, hits, indices, params, live, shadow)
+        shade_lanes_with::<false>(
+            simd, chunks, paths, hits, indices, params, live, shadow, scalar,
+        )
     }
 }
 
@@ -162,44 +179,45 @@ fn shade_lanes_with<const EXTRA: bool>(
     simd: Simd,
     chunks: &mut LaneChunks,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
 ) -> usize {
     match simd {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
-            run::<16>(
-                &mut chunks.c16,
-                paths,
-                hits,
-                indices,
-                params,
-                live,
-                shadow,
-                |c, lsp, mis| {
-                    // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
-                    unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
-                },
-            )
+            // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
+            unsafe {
+                run_avx512::<EXTRA>(
+                    &mut chunks.c16,
+                    paths,
+                    hits,
+                    indices,
+                    params,
+                    live,
+                    shadow,
+                    scalar,
+                )
+            }
         }
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
-            run::<8>(
-                &mut chunks.c8,
-                paths,
-                hits,
-                indices,
-                params,
-                live,
-                shadow,
-                |c, lsp, mis| {
-                    // SAFETY: the CPU has AVX2 and FMA (checked).
-                    unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
-                },
-            )
+            // SAFETY: the CPU has AVX2 and FMA (checked).
+            unsafe {
+                run_avx2::<EXTRA>(
+                    &mut chunks.c8,
+                    paths,
+                    hits,
+                    indices,
+                    params,
+                    live,
+                    shadow,
+                    scalar,
+                )
+            }
         }
         _ => run::<8>(
             &mut chunks.c8,
@@ -209,36 +227,164 @@ fn shade_lanes_with<const EXTRA: bool>(
             params,
             live,
             shadow,
+            scalar,
             lane_kernel::shade_portable::<EXTRA>,
         ),
     }
 }
 
-/// Gathers `indices` `N` at a time, runs `kernel`, scatters back.
+/// [`run`] over sixteen lanes, compiled for AVX-512 as a whole: the gather and scatter around
+/// the kernel move single floats in and out of vectors with one instruction each
+/// (`vextractps`, `vinsertps`; SSE2 takes a shuffle and a move).
+///
+/// # Safety
+/// The CPU must have AVX-512 F, BW and VL, AVX2 and FMA (`accel::Simd::Avx512`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn run_avx512<const EXTRA: bool>(
+    c: &mut Chunk<16>,
+    paths: &mut [PathState],
+    hits: &[SurfaceHit],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
+) -> usize {
+    run::<16>(
+        c,
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+        scalar,
+        |c, lsp, mis| {
+            // SAFETY: this function's features are the kernel's.
+            unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
+        },
+    )
+}
+
+/// [`run`] over eight lanes, compiled for AVX2 as a whole (see [`run_avx512`]).
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA (`accel::Simd::Avx2` or better).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn run_avx2<const EXTRA: bool>(
+    c: &mut Chunk<8>,
+    paths: &mut [PathState],
+    hits: &[SurfaceHit],
+    indices: &[u32],
+    params: LaneParams,
+    live: &mut Vec<u32>,
+    shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
+) -> usize {
+    run::<8>(
+        c,
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+        scalar,
+        |c, lsp, mis| {
+            // SAFETY: this function's features are the kernel's.
+            unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
+        },
+    )
+}
+
+/// Gathers the lane-able paths of `indices` `N` at a time, runs `kernel` on each chunk and
+/// scatters it back; the others go to `scalar`. The shadow rays and live paths are appended
+/// without a branch: each lane writes its entry at the lists' end and moves the end by its flag
+/// (whether a lane connects or continues is data, which a branch mispredicts); the lists hold
+/// room for every path until the end is set.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run<const N: usize>(
     c: &mut Chunk<N>,
     paths: &mut [PathState],
-    hits: &[Option<SurfaceHit>],
+    hits: &[SurfaceHit],
     indices: &[u32],
     params: LaneParams,
     live: &mut Vec<u32>,
     shadow: &mut Vec<ShadowRay>,
+    scalar: &mut ScalarShade,
     kernel: impl Fn(&mut Chunk<N>, f32, bool),
 ) -> usize {
     let mut chunks = 0;
-    for group in indices.chunks(N) {
-        for (l, &i) in group.iter().enumerate() {
-            gather(c, l, &paths[i as usize], hits[i as usize].as_ref(), params);
+    let mut ends = (live.len(), shadow.len());
+    live.resize(ends.0 + indices.len(), 0);
+    shadow.resize(ends.1 + indices.len(), ShadowRay::default());
+    let mut group = [0u32; N];
+    let mut lanes = 0;
+    for &i in indices {
+        let hit = &hits[i as usize];
+        if gather(c, lanes, &paths[i as usize], hit, params) {
+            group[lanes] = i;
+            lanes += 1;
+            if lanes == N {
+                finish(c, &group, paths, params, live, shadow, &mut ends, &kernel);
+                chunks += 1;
+                lanes = 0;
+            }
+        } else {
+            scalar(&mut paths[i as usize], hit, i);
         }
-        kernel(c, params.light_select_pdf, params.infinite_mis);
-        for (l, &i) in group.iter().enumerate() {
-            scatter(c, l, i, &mut paths[i as usize], params, live, shadow);
-        }
+    }
+    if lanes > 0 {
+        finish(
+            c,
+            &group[..lanes],
+            paths,
+            params,
+            live,
+            shadow,
+            &mut ends,
+            &kernel,
+        );
         chunks += 1;
     }
+    live.truncate(ends.0);
+    shadow.truncate(ends.1);
     chunks
+}
+
+/// Runs `kernel` on `c`, whose lanes hold paths `group`, and scatters them back, writing their
+/// live entries and shadow rays at `ends` (see [`run`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn finish<const N: usize>(
+    c: &mut Chunk<N>,
+    group: &[u32],
+    paths: &mut [PathState],
+    params: LaneParams,
+    live: &mut [u32],
+    shadow: &mut [ShadowRay],
+    ends: &mut (usize, usize),
+    kernel: &impl Fn(&mut Chunk<N>, f32, bool),
+) {
+    kernel(c, params.light_select_pdf, params.infinite_mis);
+    for (l, &i) in group.iter().enumerate() {
+        shadow[ends.1] = ShadowRay {
+            path: i,
+            origin: take(&c.s_origin, l),
+            dir: take(&c.s_dir, l),
+            tmax: c.s_tmax[l],
+            contribution: take(&c.s_contribution, l),
+        };
+        ends.1 += c.shadow[l] as usize;
+        live[ends.0] = i;
+        ends.0 += c.alive[l] as usize;
+        scatter(c, l, &mut paths[i as usize], params);
+    }
 }
 
 #[inline(always)]
@@ -253,17 +399,64 @@ fn take<const N: usize>(v: &[[f32; N]; 3], l: usize) -> Vec3A {
     Vec3A::new(v[0][l], v[1][l], v[2][l])
 }
 
-/// Lane `l` of `c` from path `path` at `hit`.
+/// Lane `l` of `c` from path `path` at `hit`, if the lanes take it (`lane_able`'s rule, decided
+/// here with the lookups the gather needs anyway); false leaves lane `l` to the next path.
 #[inline(always)]
 fn gather<const N: usize>(
     c: &mut Chunk<N>,
     l: usize,
     path: &PathState,
-    hit: Option<&SurfaceHit>,
+    hit: &SurfaceHit,
     params: LaneParams,
-) {
-    let hit = hit.expect("surfaced paths hit");
-    let shape = params.table.shapes[hit.shape as usize].expect("lane-able shape");
+) -> bool {
+    let Some(shape) = &params.table.shapes[hit.shape as usize] else {
+        return false;
+    };
+    c.has_light[l] = 1;
+    match path.light_draw {
+        None => c.has_light[l] = 0,
+        Some((li, draw)) => match (draw, &params.table.lights[li]) {
+            (LightDraw::MeshPoint { q, n }, Some(LaneLight::Area(e))) => {
+                (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 0);
+                put(&mut c.q, l, q);
+                put(&mut c.nq, l, n);
+                put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
+                c.l_area[l] = e.area;
+            }
+            // The lanes' sphere sampling assumes u.y in [0, 1], as the sampler's numbers are.
+            (LightDraw::Deferred(u), Some(LaneLight::Constant(radiance)))
+                if (0.0..=1.0).contains(&u.y) =>
+            {
+                (c.infinite[l], c.env[l], c.point[l]) = (1, 0, 0);
+                c.q[0][l] = u.x;
+                c.q[1][l] = u.y;
+                put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
+            }
+            (
+                LightDraw::Deferred(_),
+                Some(LaneLight::Point {
+                    position,
+                    intensity,
+                }),
+            ) => {
+                // `PointLight::sample`'s radiance (the kernel repeats the rest).
+                let position = Vec3A::from_array(*position);
+                let dist2 = (position - hit.p).length_squared();
+                (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 1);
+                put(&mut c.q, l, position);
+                put(&mut c.l_radiance, l, Vec3A::from_array(*intensity) / dist2);
+            }
+            // An environment map's sample, drawn in lanes by `draw_env_lights` (a map sampled
+            // on its own at shading time, `Deferred`, takes the scalar stage).
+            (LightDraw::EnvSampled { wi, radiance, pdf }, Some(LaneLight::Env)) => {
+                (c.infinite[l], c.env[l], c.point[l]) = (1, 1, 0);
+                put(&mut c.q, l, wi);
+                put(&mut c.l_radiance, l, radiance);
+                c.l_area[l] = pdf;
+            }
+            _ => return false,
+        },
+    }
     put(&mut c.p, l, hit.p);
     put(&mut c.ng, l, hit.ng);
     put(&mut c.ns, l, hit.ns);
@@ -317,72 +510,15 @@ fn gather<const N: usize>(
         }
         _ => c.emits[l] = 0,
     }
-    c.has_light[l] = 1;
-    match (
-        path.light_draw,
-        params.table.lights.get(path.light_draw.map_or(0, |d| d.0)),
-    ) {
-        (Some((_, LightDraw::MeshPoint { q, n })), Some(Some(LaneLight::Area(e)))) => {
-            (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 0);
-            put(&mut c.q, l, q);
-            put(&mut c.nq, l, n);
-            put(&mut c.l_radiance, l, Vec3A::from_array(e.radiance));
-            c.l_area[l] = e.area;
-        }
-        (Some((_, LightDraw::Deferred(u))), Some(Some(LaneLight::Constant(radiance)))) => {
-            (c.infinite[l], c.env[l], c.point[l]) = (1, 0, 0);
-            c.q[0][l] = u.x;
-            c.q[1][l] = u.y;
-            put(&mut c.l_radiance, l, Vec3A::from_array(*radiance));
-        }
-        (
-            Some((_, LightDraw::Deferred(_))),
-            Some(Some(LaneLight::Point {
-                position,
-                intensity,
-            })),
-        ) => {
-            // `PointLight::sample`'s radiance (the kernel repeats the rest).
-            let position = Vec3A::from_array(*position);
-            let dist2 = (position - hit.p).length_squared();
-            (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 1);
-            put(&mut c.q, l, position);
-            put(&mut c.l_radiance, l, Vec3A::from_array(*intensity) / dist2);
-        }
-        (Some((_, LightDraw::EnvSampled { wi, radiance, pdf })), Some(Some(LaneLight::Env))) => {
-            (c.infinite[l], c.env[l], c.point[l]) = (1, 1, 0);
-            put(&mut c.q, l, wi);
-            put(&mut c.l_radiance, l, radiance);
-            c.l_area[l] = pdf;
-        }
-        _ => c.has_light[l] = 0,
-    }
+    true
 }
 
-/// Lane `l` of `c` back into path `index`.
+/// Lane `l` of `c` back into its path. A path the lane ends (`cont` false) is never read again
+/// but for its radiance, so the continuation is written whatever `cont` (no branch), all but the
+/// depth, which counts the bounces taken (as the scalar `shade` leaves it).
 #[inline(always)]
-fn scatter<const N: usize>(
-    c: &Chunk<N>,
-    l: usize,
-    index: u32,
-    path: &mut PathState,
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-) {
+fn scatter<const N: usize>(c: &Chunk<N>, l: usize, path: &mut PathState, params: LaneParams) {
     path.result = take(&c.result, l);
-    if c.shadow[l] != 0 {
-        shadow.push(ShadowRay {
-            path: index,
-            origin: take(&c.s_origin, l),
-            dir: take(&c.s_dir, l),
-            tmax: c.s_tmax[l],
-            contribution: take(&c.s_contribution, l),
-        });
-    }
-    if c.cont[l] == 0 {
-        return;
-    }
     // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1).
     if params.track_cones {
         path.cone = path.cone.at_distance(c.t[l]);
@@ -398,20 +534,23 @@ fn scatter<const N: usize>(
         dir: take(&c.new_dir, l),
         tmax: f32::INFINITY,
     };
-    path.depth += 1;
-    if c.alive[l] != 0 {
-        live.push(index);
-    }
+    path.depth += c.cont[l];
 }
 
-/// Merges `b` into `a`, both ascending by `key`: the order the scalar stage gives.
+/// Merges `b` into `a`, both ascending by `key`: the order the scalar stage gives (`b` is left
+/// in an unspecified state).
 pub(super) fn merge_by<T: Copy>(
     a: &mut Vec<T>,
-    b: &[T],
+    b: &mut Vec<T>,
     tmp: &mut Vec<T>,
     key: impl Fn(&T) -> u32,
 ) {
     if b.is_empty() {
+        return;
+    }
+    if a.is_empty() {
+        // Only `b` (every path took the lanes): the lists trade places, nothing is copied.
+        std::mem::swap(a, b);
         return;
     }
     tmp.clear();
@@ -517,8 +656,10 @@ mod tests {
         }
     }
 
-    /// Random paths at random hits: the lanes give what the scalar `shade` gives, bit for bit
-    /// (path state, shadow rays, live list, in order), at every SIMD level the CPU runs.
+    /// Random paths at random hits: the lanes, handing the paths they do not take to the scalar
+    /// `shade`, give what the scalar `shade` gives on every path, bit for bit (path state, shadow
+    /// rays, live list, in order), at every SIMD level the CPU runs; they take exactly the
+    /// paths `lane_able` admits.
     #[test]
     fn lanes_shade_as_the_scalar_stage() {
         let scene = scene();
@@ -624,7 +765,7 @@ mod tests {
                     .is_some_and(|s| s.texture.is_some()) as u32;
             }
             paths.push(path);
-            hits.push(Some(hit));
+            hits.push(hit);
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
         // samples (and point lights'), environment-map samples, textured surfaces.
@@ -639,19 +780,15 @@ mod tests {
             "{lane_count} {back_views} {emitted} {background} {env} {textured} {point}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
-            .filter(|&i| {
-                lane_able(
-                    &scene.lanes,
-                    &paths[i as usize],
-                    hits[i as usize].as_ref().unwrap(),
-                )
-            })
+            .filter(|&i| lane_able(&scene.lanes, &paths[i as usize], &hits[i as usize]))
             .collect();
 
+        // The scalar stage on every path (the lanes' run hands it the paths they do not take).
+        let all: Vec<u32> = (0..paths.len() as u32).collect();
         let mut want = paths.clone();
         let (mut want_live, mut want_shadow) = (Vec::new(), Vec::new());
-        for &i in &indices {
-            let hit = hits[i as usize].as_ref().unwrap();
+        for &i in &all {
+            let hit = &hits[i as usize];
             want_shadow.extend(shade(
                 scene,
                 &mut want[i as usize],
@@ -663,11 +800,12 @@ mod tests {
                 &mut want_live,
             ));
         }
-        assert!(want_shadow.len() > 300 && want_live.len() > 300);
+        assert!(want_shadow.len() > 600 && want_live.len() > 600);
         let params = LaneParams::new(scene, settings, max_depth, light_select_pdf);
         // One set of chunks for all levels and runs, as a worker keeps them.
         let mut lane_chunks = LaneChunks::default();
-        // The kernel without the environment-map and point-light selects, on the other paths.
+        // The kernel without the environment-map and point-light selects, on the other lane
+        // paths only (the scalar stage is not called).
         let mut plain_table = scene.lanes.clone();
         plain_table.env_or_point = false;
         let plain = |i: &u32| {
@@ -679,10 +817,11 @@ mod tests {
                 )
         };
         let plain_indices: Vec<u32> = indices.iter().copied().filter(plain).collect();
-        let plain_live: Vec<u32> = want_live.iter().copied().filter(plain).collect();
+        let is_plain = |i: &u32| plain_indices.binary_search(i).is_ok();
+        let plain_live: Vec<u32> = want_live.iter().copied().filter(is_plain).collect();
         let plain_shadow: Vec<ShadowRay> = want_shadow
             .iter()
-            .filter(|r| plain(&r.path))
+            .filter(|r| is_plain(&r.path))
             .copied()
             .collect();
         assert!(plain_indices.len() > 500 && plain_indices.len() < indices.len());
@@ -690,25 +829,52 @@ mod tests {
             table: &plain_table,
             ..params
         };
-        for (params, indices, want_live, want_shadow) in [
-            (params, &indices, &want_live, &want_shadow),
-            (plain_params, &plain_indices, &plain_live, &plain_shadow),
+        for (params, passed, lane_count, want_live, want_shadow) in [
+            (params, &all, indices.len(), &want_live, &want_shadow),
+            (
+                plain_params,
+                &plain_indices,
+                plain_indices.len(),
+                &plain_live,
+                &plain_shadow,
+            ),
         ] {
             for &simd in levels {
                 let mut got = paths.clone();
                 let (mut live, mut shadow) = (Vec::new(), Vec::new());
+                let (mut scalar_live, mut scalar_shadow) = (Vec::new(), Vec::new());
+                let mut scalar_calls = 0;
                 let chunks = shade_lanes_at(
                     simd,
                     &mut lane_chunks,
                     &mut got,
                     &hits,
-                    indices,
+                    passed,
                     params,
                     &mut live,
                     &mut shadow,
+                    &mut |path, hit, i| {
+                        scalar_calls += 1;
+                        scalar_shadow.extend(shade(
+                            scene,
+                            path,
+                            hit,
+                            settings,
+                            max_depth,
+                            light_select_pdf,
+                            i,
+                            &mut scalar_live,
+                        ));
+                    },
                 );
+                assert_eq!(scalar_calls, passed.len() - lane_count, "{simd:?}");
+                let mut tmp = Vec::new();
+                merge_by(&mut scalar_live, &mut live, &mut tmp, |&i| i);
+                let mut tmp = Vec::new();
+                merge_by(&mut scalar_shadow, &mut shadow, &mut tmp, |r| r.path);
+                let (live, shadow) = (scalar_live, scalar_shadow);
                 let width = if simd == Simd::Avx512 { 16 } else { 8 };
-                assert_eq!(chunks, indices.len().div_ceil(width), "{simd:?}");
+                assert_eq!(chunks, lane_count.div_ceil(width), "{simd:?}");
                 assert_eq!(live, *want_live, "{simd:?}");
                 assert_eq!(shadow.len(), want_shadow.len(), "{simd:?}");
                 for (s, w) in shadow.iter().zip(want_shadow.iter()) {
@@ -730,7 +896,7 @@ mod tests {
                         s.path
                     );
                 }
-                for &i in indices.iter() {
+                for &i in passed.iter() {
                     let (g, w) = (&got[i as usize], &want[i as usize]);
                     let what = format!("{simd:?} path {i}");
                     assert_eq!(bits(g.result), bits(w.result), "{what}");
@@ -801,9 +967,12 @@ mod tests {
     fn merge_interleaves_by_key() {
         let mut a = vec![1u32, 4, 5, 9];
         let mut tmp = Vec::new();
-        merge_by(&mut a, &[0, 2, 3, 10], &mut tmp, |&x| x);
+        merge_by(&mut a, &mut vec![0, 2, 3, 10], &mut tmp, |&x| x);
         assert_eq!(a, [0, 1, 2, 3, 4, 5, 9, 10]);
-        merge_by(&mut a, &[], &mut tmp, |&x| x);
+        merge_by(&mut a, &mut Vec::new(), &mut tmp, |&x| x);
         assert_eq!(a.len(), 8);
+        let mut empty = Vec::new();
+        merge_by(&mut empty, &mut vec![3, 7], &mut tmp, |&x| x);
+        assert_eq!(empty, [3, 7]);
     }
 }
