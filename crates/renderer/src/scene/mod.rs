@@ -158,6 +158,14 @@ impl RenderScene {
         self.surface_hit(ray, hit)
     }
 
+    /// [`RenderScene::surface`] written straight into `out` (e.g. a camera path in the render
+    /// loop's batch): returned by value, the surface went through a temporary whose fields,
+    /// just stored in pieces smaller than the copy's loads, could not be forwarded to them.
+    #[inline(never)]
+    pub(crate) fn surface_into(&self, ray: &Ray, hit: &ClosestHit, out: &mut Option<SurfaceHit>) {
+        *out = Some(self.surface_hit(ray, hit));
+    }
+
     #[inline(always)]
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = &self.prims[hit.prim as usize];
