@@ -530,8 +530,9 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                         dir: dirs[k],
                         position: positions[k],
                         cone,
-                        first_hit: clipped_first_hit(scene, origin, dirs[k], traced),
+                        first_hit: None,
                     });
+                    set_first_hit(scene, traced, cameras.last_mut().expect("just pushed"));
                 }
                 if per_path {
                     samplers.truncate(cameras.len());
@@ -600,6 +601,28 @@ impl<S> Default for WavefrontBuffers<S> {
             samplers: Vec::new(),
             radiance: Vec::new(),
         }
+    }
+}
+
+/// Sets the camera path's first hit to [`clipped_first_hit`] of its ray, a hit between the
+/// clip planes set up in place ([`RenderScene::surface_into`]): built in a temporary and
+/// copied into the batch, its fields were read back right after the set-up stored them, in
+/// pieces the CPU cannot forward from the stores (a stall per camera ray).
+#[inline]
+fn set_first_hit(scene: &RenderScene, traced: Option<Option<ClosestHit>>, path: &mut CameraPath) {
+    let (origin, dir) = (path.origin, path.dir);
+    let (near, far) = scene.camera().clip_range(dir);
+    match traced {
+        // `clipped_first_hit`'s last case for a traced hit.
+        Some(Some(h)) if !(h.t < near) && !(h.t > far) => {
+            let ray = Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            scene.surface_into(&ray, &h, &mut path.first_hit);
+        }
+        _ => path.first_hit = clipped_first_hit(scene, origin, dir, traced),
     }
 }
 
