@@ -612,9 +612,11 @@ impl<S> Default for WavefrontBuffers<S> {
 fn set_first_hit(scene: &RenderScene, traced: Option<Option<ClosestHit>>, path: &mut CameraPath) {
     let (origin, dir) = (path.origin, path.dir);
     let (near, far) = scene.camera().clip_range(dir);
+    // `clipped_first_hit`'s cases.
     match traced {
-        // `clipped_first_hit`'s last case for a traced hit.
-        Some(Some(h)) if !(h.t < near) && !(h.t > far) => {
+        Some(Some(h)) if h.t < near => path.first_hit = clip_near(scene, origin, dir, near, far),
+        Some(Some(h)) if h.t > far => path.first_hit = None,
+        Some(Some(h)) => {
             let ray = Ray {
                 origin,
                 dir,
