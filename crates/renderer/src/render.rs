@@ -578,9 +578,13 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
             rays,
             radiance,
         );
-        for (camera, &l) in cameras.iter().zip(radiance.iter()) {
-            film.add_sample((x, y), camera.position, l);
-        }
+        film.add_samples(
+            (x, y),
+            cameras
+                .iter()
+                .map(|c| c.position)
+                .zip(radiance.iter().copied()),
+        );
         start = end;
     }
 }
