@@ -5,7 +5,7 @@
 //! render.
 
 use crate::accel::ClosestHit;
-use crate::cameras::{Camera, CameraSample};
+use crate::cameras::{Camera, CameraSample, MAX_RAYS};
 use crate::film::{Film, Filter, TileFilm};
 use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
 use crate::integrator::{radiance, EnvStrategy, PathLoop, PathSettings, RayCount};
@@ -66,8 +66,9 @@ pub struct RenderOutput {
     pub first_tile: Duration,
 }
 
-/// The most camera rays a packet holds (the widest any layout traces).
-const MAX_PACKET: usize = 16;
+/// The most camera rays a packet holds (the widest any layout traces; what
+/// [`Camera::generate_packet`] takes).
+const MAX_PACKET: usize = MAX_RAYS;
 
 /// One piece of a render: a window of the film and a range of every pixel's samples. Pixel and
 /// sample indices stay those of the whole film and of `0..spp`, so pieces rendered apart (other
@@ -327,6 +328,19 @@ impl<'a> PixelCamera<'a> {
     /// `TileFilm::film_position`) and are not traced.
     #[inline(always)]
     fn ray<S: Sampler>(&self, sampler: &mut S, film: &TileFilm) -> (Vec3A, Vec3A, Vec2, bool) {
+        let (position, lens, inside) = self.draw(sampler, film);
+        let (o, d) = self.camera.generate_ray(&CameraSample {
+            film: position,
+            lens,
+        });
+        (o, d, position, inside)
+    }
+
+    /// One sample's camera draws: its film position, lens point (zero without a lens) and
+    /// whether the position counts; [`PixelCamera::ray`] without the ray, for packets, whose
+    /// rays [`Camera::generate_packet`] makes together once every lane has drawn.
+    #[inline(always)]
+    fn draw<S: Sampler>(&self, sampler: &mut S, film: &TileFilm) -> (Vec2, Vec2, bool) {
         let offset = self.filter.offset(sampler.next_2d());
         let (position, inside) = film.film_position(self.pixel, offset);
         let lens = if self.camera.lens_requests() > 0 {
@@ -334,11 +348,7 @@ impl<'a> PixelCamera<'a> {
         } else {
             Vec2::ZERO
         };
-        let (o, d) = self.camera.generate_ray(&CameraSample {
-            film: position,
-            lens,
-        });
-        (o, d, position, inside)
+        (position, lens, inside)
     }
 }
 
@@ -372,6 +382,7 @@ fn render_pixel<S: Sampler>(
     let mut origin = Vec3A::ZERO;
     let mut dirs = [Vec3A::ZERO; MAX_PACKET];
     let mut positions = [Vec2::ZERO; MAX_PACKET];
+    let mut lenses = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut resume = [[0u64; 2]; MAX_PACKET];
@@ -382,9 +393,14 @@ fn render_pixel<S: Sampler>(
             if lane == 0 {
                 for k in 0..lanes {
                     sampler.start_sample(s + k as u32);
-                    (origin, dirs[k], positions[k], insides[k]) = camera_ray(sampler, film);
+                    (positions[k], lenses[k], insides[k]) = pixel.draw(sampler, film);
                     resume[k] = sampler.checkpoint();
                 }
+                origin = camera.generate_packet(
+                    &positions[..lanes],
+                    &lenses[..lanes],
+                    &mut dirs[..lanes],
+                );
                 packed = scene
                     .accel()
                     .intersect_packet(origin, &dirs[..lanes], &mut hits[..lanes]);
@@ -464,6 +480,7 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
     } = wavefront;
     let mut dirs = [Vec3A::ZERO; MAX_PACKET];
     let mut positions = [Vec2::ZERO; MAX_PACKET];
+    let mut lenses = [Vec2::ZERO; MAX_PACKET];
     let mut insides = [true; MAX_PACKET];
     let mut hits = [None; MAX_PACKET];
     let mut start = samples.start;
@@ -475,7 +492,6 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
         while s < end {
             if in_packet(s, lanes, &samples) {
                 // A whole packet group (groups never straddle batches: lanes divide the batch).
-                let mut origin = Vec3A::ZERO;
                 for k in 0..lanes {
                     let index = s + k as u32;
                     let lane_sampler = if per_path {
@@ -487,8 +503,13 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                         sampler.start_sample(index);
                         &mut *sampler
                     };
-                    (origin, dirs[k], positions[k], insides[k]) = camera_ray(lane_sampler, film);
+                    (positions[k], lenses[k], insides[k]) = pixel.draw(lane_sampler, film);
                 }
+                let origin = camera.generate_packet(
+                    &positions[..lanes],
+                    &lenses[..lanes],
+                    &mut dirs[..lanes],
+                );
                 let packed =
                     scene
                         .accel()
@@ -509,8 +530,9 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
                         dir: dirs[k],
                         position: positions[k],
                         cone,
-                        first_hit: clipped_first_hit(scene, origin, dirs[k], traced),
+                        first_hit: None,
                     });
+                    set_first_hit(scene, traced, cameras.last_mut().expect("just pushed"));
                 }
                 if per_path {
                     samplers.truncate(cameras.len());
@@ -556,9 +578,13 @@ fn render_pixel_wavefront<S: Sampler + Clone>(
             rays,
             radiance,
         );
-        for (camera, &l) in cameras.iter().zip(radiance.iter()) {
-            film.add_sample((x, y), camera.position, l);
-        }
+        film.add_samples(
+            (x, y),
+            cameras
+                .iter()
+                .map(|c| c.position)
+                .zip(radiance.iter().copied()),
+        );
         start = end;
     }
 }
@@ -579,6 +605,30 @@ impl<S> Default for WavefrontBuffers<S> {
             samplers: Vec::new(),
             radiance: Vec::new(),
         }
+    }
+}
+
+/// Sets the camera path's first hit to [`clipped_first_hit`] of its ray, a hit between the
+/// clip planes set up in place ([`RenderScene::surface_into`]): built in a temporary and
+/// copied into the batch, its fields were read back right after the set-up stored them, in
+/// pieces the CPU cannot forward from the stores (a stall per camera ray).
+#[inline]
+fn set_first_hit(scene: &RenderScene, traced: Option<Option<ClosestHit>>, path: &mut CameraPath) {
+    let (origin, dir) = (path.origin, path.dir);
+    let (near, far) = scene.camera().clip_range(dir);
+    // `clipped_first_hit`'s cases.
+    match traced {
+        Some(Some(h)) if h.t < near => path.first_hit = clip_near(scene, origin, dir, near, far),
+        Some(Some(h)) if h.t > far => path.first_hit = None,
+        Some(Some(h)) => {
+            let ray = Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            scene.surface_into_some(&ray, &h, &mut path.first_hit);
+        }
+        _ => path.first_hit = clipped_first_hit(scene, origin, dir, traced),
     }
 }
 

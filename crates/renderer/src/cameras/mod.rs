@@ -104,4 +104,26 @@ impl Camera {
             Camera::Orthographic(c) => c.generate_ray(sample.film),
         }
     }
+
+    /// A packet's rays (at most [`MAX_RAYS`]; the camera's [`Camera::rays_share_origin`]):
+    /// the directions of [`Camera::generate_ray`] for the film positions `films` and lens
+    /// points `lenses` (read only by cameras with a lens) into `dirs`, to the bit, and the
+    /// origin of the last ray (every ray's, for cameras whose rays share it). The perspective
+    /// camera computes them together ([`PerspectiveCamera::generate_dirs`]).
+    #[inline]
+    pub fn generate_packet(&self, films: &[Vec2], lenses: &[Vec2], dirs: &mut [Vec3A]) -> Vec3A {
+        match self {
+            Camera::Perspective(c) => c.generate_dirs(films, dirs),
+            _ => {
+                let mut origin = Vec3A::ZERO;
+                for ((d, &film), &lens) in dirs.iter_mut().zip(films).zip(lenses) {
+                    (origin, *d) = self.generate_ray(&CameraSample { film, lens });
+                }
+                origin
+            }
+        }
+    }
 }
+
+/// The most rays [`Camera::generate_packet`] takes at once: the widest packet.
+pub const MAX_RAYS: usize = 16;

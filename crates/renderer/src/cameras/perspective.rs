@@ -137,6 +137,44 @@ impl PerspectiveCamera {
         (self.origin, dir)
     }
 
+    /// [`PerspectiveCamera::generate_ray`]'s directions for the film positions `films` (at
+    /// most [`super::MAX_RAYS`]) into `dirs`, to the bit; returns the shared origin. In
+    /// structure-of-arrays form (one array per component), so the divisions and square roots
+    /// of a packet's rays run as whole vectors instead of one latency chain per ray: every lane
+    /// does `generate_ray`'s IEEE operations in its order (glam's SSE `transform_vector3a`
+    /// adds `x_axis * x + y_axis * y` then `z_axis * 1`, its dot `(x x + y y) + z z`, and
+    /// `normalize` divides by the square root; Rust never fuses them).
+    #[inline]
+    pub fn generate_dirs(&self, films: &[Vec2], dirs: &mut [Vec3A]) -> Vec3A {
+        const N: usize = super::MAX_RAYS;
+        let n = films.len().min(dirs.len()).min(N);
+        let (mut x, mut y) = ([0.0f32; N], [0.0f32; N]);
+        for (k, f) in films[..n].iter().enumerate() {
+            (x[k], y[k]) = (f.x, f.y);
+        }
+        let (c0, c1, c2) = (
+            self.to_world.x_axis,
+            self.to_world.y_axis,
+            self.to_world.z_axis,
+        );
+        let (size, pp, tan) = (self.film_size, self.principal_point, self.tan_half);
+        let (mut dx, mut dy, mut dz) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+        for k in 0..N {
+            let lx = (1.0 - 2.0 * (x[k] / size.x + pp.x)) * tan.x;
+            let ly = (1.0 - 2.0 * (y[k] / size.y + pp.y)) * tan.y;
+            // z_axis * 1.0 is z_axis exactly.
+            let wx = (c0.x * lx + c1.x * ly) + c2.x;
+            let wy = (c0.y * lx + c1.y * ly) + c2.y;
+            let wz = (c0.z * lx + c1.z * ly) + c2.z;
+            let len = ((wx * wx + wy * wy) + wz * wz).sqrt();
+            (dx[k], dy[k], dz[k]) = (wx / len, wy / len, wz / len);
+        }
+        for (k, d) in dirs[..n].iter_mut().enumerate() {
+            *d = Vec3A::new(dx[k], dy[k], dz[k]);
+        }
+        self.origin
+    }
+
     /// The film position (pixels) a world direction from the camera origin projects to, if it is
     /// in front of the camera. Used by tests to check orientation.
     pub fn project(&self, dir_world: Vec3A) -> Option<Vec2> {
@@ -240,6 +278,66 @@ mod tests {
         let cos = a.dot(Vec3A::Z);
         assert!((near - 0.5 / cos).abs() < 1e-5 && (far - 20.0 / cos).abs() < 1e-3);
         assert_eq!(plain.clip_range(a), (0.0, f32::INFINITY));
+    }
+
+    /// A packet's directions are `generate_ray`'s, bit for bit: any packet size up to 16, film
+    /// positions inside, on the edges of and far outside the film, principal point offsets and
+    /// camera matrices with scales and shears (Mitsuba's `toWorld` may hold them).
+    #[test]
+    fn packet_directions_are_those_of_single_rays() {
+        let mut rng = torrey_testkit::Rng::new(11);
+        let frames = [
+            look_at(Vec3A::ZERO, -Vec3A::Z, Vec3A::Y),
+            look_at(
+                Vec3A::new(1.0, 2.0, 3.0),
+                Vec3A::new(-1.0, 0.5, 0.0),
+                Vec3A::new(0.1, 1.0, 0.0),
+            ),
+            Mat4::from_cols_array(&[
+                1.7, 0.2, -0.3, 0.0, 0.1, -2.5, 0.4, 0.0, 0.3, 0.6, 1.1, 0.0, 4.0, -1.0, 2.0, 1.0,
+            ]),
+        ];
+        let edges = [
+            Vec2::ZERO,
+            Vec2::new(64.0, 48.0),
+            Vec2::new(0.5, 47.999_996),
+            Vec2::new(-1e30, 3.0),
+            Vec2::new(1e-40, -0.0),
+            Vec2::new(1e7, -1e7),
+        ];
+        for (f, frame) in frames.iter().enumerate() {
+            for pp in [Vec2::ZERO, Vec2::new(0.25, -0.1)] {
+                let cam =
+                    PerspectiveCamera::new(*frame, 39.3 + 20.0 * f as f32, FovAxis::Y, 64, 48)
+                        .with_principal_point(pp);
+                for n in 1..=super::super::MAX_RAYS {
+                    let films: Vec<Vec2> = (0..n)
+                        .map(|k| match k % 3 {
+                            0 => edges[(k / 3 + n) % edges.len()],
+                            _ => Vec2::new(rng.range(-2.0, 66.0), rng.range(-2.0, 50.0)),
+                        })
+                        .collect();
+                    let mut dirs = [Vec3A::NAN; super::super::MAX_RAYS];
+                    let origin = cam.generate_dirs(&films, &mut dirs[..n]);
+                    for (k, &film) in films.iter().enumerate() {
+                        let (o, d) = cam.generate_ray(film);
+                        assert_eq!(
+                            origin.to_array().map(f32::to_bits),
+                            o.to_array().map(f32::to_bits)
+                        );
+                        assert_eq!(
+                            dirs[k].to_array().map(f32::to_bits),
+                            d.to_array().map(f32::to_bits),
+                            "frame {f} pp {pp} lane {k} of {n} film {film}"
+                        );
+                    }
+                    assert!(
+                        dirs[n..].iter().all(|d| d.is_nan()),
+                        "wrote past the packet"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

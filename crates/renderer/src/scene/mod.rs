@@ -165,6 +165,19 @@ impl RenderScene {
         *out = self.surface_hit(ray, hit);
     }
 
+    /// [`RenderScene::surface_into`] for an `Option` slot: the surface written straight into `out` (e.g. a camera path in the render
+    /// loop's batch): returned by value, the surface went through a temporary whose fields,
+    /// just stored in pieces smaller than the copy's loads, could not be forwarded to them.
+    #[inline(never)]
+    pub(crate) fn surface_into_some(
+        &self,
+        ray: &Ray,
+        hit: &ClosestHit,
+        out: &mut Option<SurfaceHit>,
+    ) {
+        *out = Some(self.surface_hit(ray, hit));
+    }
+
     #[inline(always)]
     fn surface_hit(&self, ray: &Ray, hit: &ClosestHit) -> SurfaceHit {
         let prim = &self.prims[hit.prim as usize];
