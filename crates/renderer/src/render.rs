@@ -609,7 +609,7 @@ impl<S> Default for WavefrontBuffers<S> {
 }
 
 /// Sets the camera path's first hit to [`clipped_first_hit`] of its ray, a hit between the
-/// clip planes set up in place ([`RenderScene::surface_into`]): built in a temporary and
+/// clip planes set up in place ([`RenderScene::surface_into_some`]): built in a temporary and
 /// copied into the batch, its fields were read back right after the set-up stored them, in
 /// pieces the CPU cannot forward from the stores (a stall per camera ray).
 #[inline]
