@@ -17,6 +17,9 @@ use glam::{Vec2, Vec3};
 
 const LANES: usize = BATCH_LANES;
 
+/// How many chunks of [`LANES`] samples ahead `sample_batch` hints the tables' reads.
+const PREFETCH_CHUNKS: usize = 1;
+
 /// One step of samples in structure-of-arrays form: the random pairs in, the samples out.
 #[derive(Default)]
 struct SampleLanes {
@@ -405,7 +408,20 @@ impl EnvMap {
             out.resize(us.len(), None);
             return;
         }
-        for chunk in us.chunks(LANES) {
+        // The slot and texel tables are megabytes read at random: the next chunks' reads are
+        // hinted (`prefetch_sample`) while this one is computed, so their cache misses overlap
+        // it rather than stall its gathers.
+        let hint = |c: usize| {
+            let start = (c * LANES).min(us.len());
+            for &u in &us[start..(start + LANES).min(us.len())] {
+                self.prefetch_sample(u);
+            }
+        };
+        for c in 0..PREFETCH_CHUNKS {
+            hint(c);
+        }
+        for (c, chunk) in us.chunks(LANES).enumerate() {
+            hint(c + PREFETCH_CHUNKS);
             let mut lanes = SampleLanes::default();
             for (k, u) in chunk.iter().enumerate() {
                 (lanes.ux[k], lanes.uy[k]) = (u.x, u.y);
