@@ -484,8 +484,8 @@ impl EnvMap {
     /// that needs no MIS weight) the density may be skipped and read 0: it costs a second
     /// lookup when the ray cone selects a coarser level. The directions are turned into uv and
     /// sin(theta) [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the
-    /// CPU was found to have), each lane's texel records are prefetched, then the texels are read
-    /// lane by lane. `out` is cleared first.
+    /// CPU was found to have), each lane's texel records are prefetched a chunk ahead, then the
+    /// texels are read lane by lane. `out` is cleared first.
     pub fn eval_pdf_batch(
         &self,
         dirs: &[Vec3],
@@ -499,40 +499,59 @@ impl EnvMap {
             out.resize(dirs.len(), (Vec3::ZERO, 0.0));
             return;
         }
-        for ((dirs, spreads), want_pdf) in dirs
-            .chunks(BATCH_LANES)
-            .zip(spreads.chunks(BATCH_LANES))
-            .zip(want_pdf.chunks(BATCH_LANES))
-        {
-            let mut lanes = UvLanes::default();
-            for (k, d) in dirs.iter().enumerate() {
-                let local = self.to_local * *d;
-                (lanes.x[k], lanes.y[k], lanes.z[k]) = (local.x, local.y, local.z);
+        // The uv of the next chunk is found, and its texels hinted, before this chunk's are
+        // read: the hints get a chunk's work to arrive.
+        let chunks = dirs.len().div_ceil(BATCH_LANES);
+        let chunk = |c: usize| c * BATCH_LANES..((c + 1) * BATCH_LANES).min(dirs.len());
+        let mut next = self.hinted_uv_lanes(&dirs[chunk(0)], simd);
+        for c in 0..chunks {
+            let lanes = next;
+            if c + 1 < chunks {
+                next = self.hinted_uv_lanes(&dirs[chunk(c + 1)], simd);
+            } else {
+                next = UvLanes::default();
             }
-            lanes.convert_to_uv_sin(simd);
-            for k in 0..dirs.len() {
-                // A hint only: the four texel records of the bilinear lookup, top-left at column
-                // floor(u W - 1/2) and row floor(v (H - 1)) (the row remap of
-                // `bilinear_finest_with_density`); the saturating casts and the clamps keep the
-                // address inside the table except at the seam and the nadir, where a neighbour
-                // is hinted instead (nothing is read).
-                let column = ((lanes.x[k] * self.size.x - 0.5) as u32).min(self.width as u32 - 1);
-                let row = ((lanes.y[k] * (self.size.y - 1.0)) as u32).min(self.height as u32 - 2);
-                let top = self
-                    .texels
-                    .as_ptr()
-                    .wrapping_add(row as usize * self.width + column as usize);
-                let bottom = top.wrapping_add(self.width);
-                prefetch(top);
-                prefetch(top.wrapping_add(1));
-                prefetch(bottom);
-                prefetch(bottom.wrapping_add(1));
-            }
-            for (k, (&spread, &want_pdf)) in spreads.iter().zip(want_pdf).enumerate() {
+            let range = chunk(c);
+            for (k, (&spread, &want_pdf)) in spreads[range.clone()]
+                .iter()
+                .zip(&want_pdf[range])
+                .enumerate()
+            {
                 let uv = Vec2::new(lanes.x[k], lanes.y[k]);
                 out.push(self.eval_pdf_uv(uv, lanes.z[k], spread, want_pdf));
             }
         }
+    }
+
+    /// The uv and sin(theta) of up to [`BATCH_LANES`] world directions (`eval_pdf_batch`), in
+    /// SIMD lanes, with the texel records their finest-level lookups read hinted.
+    #[inline]
+    fn hinted_uv_lanes(&self, dirs: &[Vec3], simd: BatchSimd) -> UvLanes {
+        let mut lanes = UvLanes::default();
+        for (k, d) in dirs.iter().enumerate() {
+            let local = self.to_local * *d;
+            (lanes.x[k], lanes.y[k], lanes.z[k]) = (local.x, local.y, local.z);
+        }
+        lanes.convert_to_uv_sin(simd);
+        for k in 0..dirs.len() {
+            // A hint only: the four texel records of the bilinear lookup, top-left at column
+            // floor(u W - 1/2) and row floor(v (H - 1)) (the row remap of
+            // `bilinear_finest_with_density`); the saturating casts and the clamps keep the
+            // address inside the table except at the seam and the nadir, where a neighbour
+            // is hinted instead (nothing is read).
+            let column = ((lanes.x[k] * self.size.x - 0.5) as u32).min(self.width as u32 - 1);
+            let row = ((lanes.y[k] * (self.size.y - 1.0)) as u32).min(self.height as u32 - 2);
+            let top = self
+                .texels
+                .as_ptr()
+                .wrapping_add(row as usize * self.width + column as usize);
+            let bottom = top.wrapping_add(self.width);
+            prefetch(top);
+            prefetch(top.wrapping_add(1));
+            prefetch(bottom);
+            prefetch(bottom.wrapping_add(1));
+        }
+        lanes
     }
 
     /// Starts loading the memory [`Self::sample`] will read for `u`: the row is chosen here (its

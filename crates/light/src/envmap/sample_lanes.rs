@@ -9,13 +9,16 @@
 //! coordinate outside the unit square, which the sampler never produces) take the one-sample
 //! code itself.
 
-use super::{floor_frac, row_v, sample_linear, BatchSimd, EnvMap, EnvSample, BATCH_LANES};
+use super::{row_v, sample_linear, BatchSimd, EnvMap, EnvSample, BATCH_LANES};
 use crate::alias::AliasSlot;
 use crate::fastmath;
 use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
 use glam::{Vec2, Vec3};
 
 const LANES: usize = BATCH_LANES;
+
+/// How many chunks of [`LANES`] samples ahead `sample_batch` hints the tables' reads.
+const PREFETCH_CHUNKS: usize = 1;
 
 /// One step of samples in structure-of-arrays form: the random pairs in, the samples out.
 #[derive(Default)]
@@ -33,6 +36,28 @@ struct SampleLanes {
     fallback: [bool; LANES],
 }
 
+/// `t as i32` for a lane: a plain truncating conversion (one vector instruction for all lanes)
+/// in place of the saturating `as`, whose NaN and range fix-ups the compiler builds lane by
+/// lane. `t` is first clamped into [`lo`, `hi`] (NaN to `lo`); callers pass a range that holds
+/// every `t` whose result they use, so those results are `as`'s.
+#[inline(always)]
+fn trunc_lane(t: f32, lo: f32, hi: f32) -> i32 {
+    let t = t.max(lo).min(hi);
+    debug_assert!(lo >= -2147483648.0 && hi < 2147483648.0);
+    // SAFETY: `t` is finite (max of NaN and `lo` is `lo`) and in [lo, hi], inside i32's range
+    // (every caller's bounds are).
+    unsafe { t.to_int_unchecked::<i32>() }
+}
+
+/// [`super::floor_frac`] for a lane whose `t` matters only in [-2, 2^24] (texel coordinates of
+/// a lookup inside the map); others give garbage, without undefined behaviour.
+#[inline(always)]
+fn floor_frac_lane(t: f32) -> (i32, f32) {
+    let k = trunc_lane(t, -2.0, 16_777_216.0);
+    let k = if k as f32 > t { k - 1 } else { k };
+    (k, t - k as f32)
+}
+
 /// The first half of [`crate::alias::pick`] on a table of `n` slots, for a lane: the slot to
 /// read and the fraction of `u` left.
 #[inline(always)]
@@ -41,7 +66,7 @@ fn pick_slot(n: u32, u: f32) -> (u32, f32) {
     // t is in [0, n) (u in [0, 1)), below 2^31: the signed conversion (one AVX2 instruction, the
     // unsigned one a sequence) gives `t as u32`; a compare and select rather than `Ord::min`,
     // whose three-way compare the loop vectoriser does not take.
-    let k = t as i32 as u32;
+    let k = trunc_lane(t, 0.0, n as f32) as u32;
     let k = if k < n - 1 { k } else { n - 1 };
     let frac = (t - k as f32).min(ONE_MINUS_EPSILON);
     (k, frac)
@@ -64,7 +89,7 @@ fn pick_choose(k: u32, frac: f32, q: f32, alias: u32) -> (u32, f32) {
 fn sin_cos_2pi_lane(t: f32) -> (f32, f32, bool) {
     let inside = (0.0..=1.0).contains(&t);
     // Saturating, so garbage in is garbage out, not undefined behaviour.
-    let q = (4.0 * t + 0.5) as i32;
+    let q = trunc_lane(4.0 * t + 0.5, -8.0, 8.0);
     let (s, c) = fastmath::sin_cos_eighth((t - q as f32 * 0.25) * (2.0 * std::f32::consts::PI));
     let q = q as u32;
     let (a, b) = if q & 1 != 0 { (c, s) } else { (s, c) };
@@ -94,8 +119,8 @@ fn finest_taps(env: &EnvMap, uv: Vec2) -> ([u32; 4], f32, f32, bool) {
     let x = uv.x * env.size.x - 0.5;
     let y = v * env.size.y - 0.5;
     let ok = x >= -1.0 && x < env.size.x && y >= -1.0 && y < env.size.y;
-    let (i, fx) = floor_frac(x);
-    let (j, fy) = floor_frac(y);
+    let (i, fx) = floor_frac_lane(x);
+    let (j, fy) = floor_frac_lane(y);
     let (w, h) = (env.width as i32, env.height as i32);
     let (c0, c1) = (
         if i < 0 { w - 1 } else { i },
@@ -405,7 +430,20 @@ impl EnvMap {
             out.resize(us.len(), None);
             return;
         }
-        for chunk in us.chunks(LANES) {
+        // The slot and texel tables are megabytes read at random: the next chunks' reads are
+        // hinted (`prefetch_sample`) while this one is computed, so their cache misses overlap
+        // it rather than stall its gathers.
+        let hint = |c: usize| {
+            let start = (c * LANES).min(us.len());
+            for &u in &us[start..(start + LANES).min(us.len())] {
+                self.prefetch_sample(u);
+            }
+        };
+        for c in 0..PREFETCH_CHUNKS {
+            hint(c);
+        }
+        for (c, chunk) in us.chunks(LANES).enumerate() {
+            hint(c + PREFETCH_CHUNKS);
             let mut lanes = SampleLanes::default();
             for (k, u) in chunk.iter().enumerate() {
                 (lanes.ux[k], lanes.uy[k]) = (u.x, u.y);
