@@ -37,13 +37,18 @@ pub(super) fn lanes_enabled() -> bool {
     })
 }
 
-/// Whether the lanes shade path `path` at `hit` (the rule [`gather`] applies, for the tests): its shape is in the table, and its light draw
+/// Whether the lanes shade path `path` at `hit` (the rule [`gather`] applies, for the tests):
+/// its shape is in the table, and it is a mirror (which reads no light draw) or its light draw
 /// is none, a point on a lane emitter, a point light's, a constant background's or an
 /// environment map's drawn sample.
 #[cfg(test)]
 pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
-    table.shapes[hit.shape as usize].is_some()
-        && match path.light_draw {
+    let Some(shape) = table.shapes[hit.shape as usize] else {
+        return false;
+    };
+    // A mirror connects to no light: any draw.
+    (table.any_mirror && shape.mirror)
+        || match path.light_draw {
             None => true,
             Some((li, LightDraw::MeshPoint { .. })) => {
                 matches!(table.lights[li], Some(LaneLight::Area(_)))
@@ -420,6 +425,8 @@ fn gather<const N: usize, const MIRROR: bool>(
     c.has_light[l] = 1;
     match path.light_draw {
         None => c.has_light[l] = 0,
+        // A mirror connects to no light: its draw, whatever it is, is not read.
+        Some(_) if MIRROR && shape.mirror => c.has_light[l] = 0,
         Some((li, draw)) => match (draw, &params.table.lights[li]) {
             (LightDraw::MeshPoint { q, n }, Some(LaneLight::Area(e))) => {
                 (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 0);
