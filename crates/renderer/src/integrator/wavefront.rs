@@ -11,8 +11,9 @@
 //!
 //! Three parts run in SIMD lanes (16 with AVX-512, 8 with AVX2): escaped rays' environment
 //! lookups, the surfaced paths' environment-map light samples (`draw_env_lights`), and the
-//! surface stage of constant `diffuse` surfaces lit by area lights, a constant background or an
-//! environment map's batched samples (`lanes`, admitted by the scene's `LaneTable`). Every other surface goes through the scalar
+//! surface stage of `diffuse` surfaces (constant or textured) lit by area lights, point lights, a
+//! constant background or an environment map's batched samples, and of torrey `mirror` surfaces
+//! (`lanes`, admitted by the scene's `LaneTable`). Every other surface goes through the scalar
 //! `shade`, one path at a time; there the batch buys independent work between dependent chains
 //! (one path's traversal overlaps the next path's set-up).
 

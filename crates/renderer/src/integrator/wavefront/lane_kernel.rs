@@ -4,14 +4,17 @@
 //! features allow (16 lanes with AVX-512, 8 with AVX2, 4 with SSE2).
 //!
 //! It repeats `wavefront::shade` for a `diffuse` lit by an area light sampled by area, a point
-//! light, a constant background or an environment map's drawn sample (what [`super::lane_table`] admits), operation for operation and in the same order: emission
-//! and its MIS weight, the shading frame, the cosine-weighted BSDF sample, the light connection
-//! with its shadow ray, the continuation ray and Russian roulette. Rust never fuses a multiply
+//! light, a constant background or an environment map's drawn sample, and for a torrey `mirror`
+//! (what [`super::lane_table`] admits), operation for operation and in the same order: emission
+//! and its MIS weight, the shading frame, the BSDF sample (cosine-weighted, or the mirror's
+//! reflection weighted by Schlick's Fresnel), the light connection with its shadow ray (none
+//! for the mirror, a delta lobe), the continuation ray and Russian roulette. Rust never fuses a multiply
 //! and an add, so the lanes give the scalar code's bits (tested against it).
 
 // Comparisons are written `!(x > 0.0)` on purpose, as the scalar code's: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::bsdfs::mirror_sample_select;
 use crate::sampling::{
     power_heuristic_select, square_to_cosine_hemisphere_select, square_to_uniform_sphere_select,
     uniform_sphere_pdf,
@@ -48,6 +51,8 @@ pub(super) struct Chunk<const N: usize> {
     // In: the material and the hit shape's emission (radiance zero: nothing added).
     pub reflectance: Lanes3<N>,
     pub two_sided: [u32; N],
+    /// The material is a `mirror` (else a `diffuse`); read with the kernel's `MIRROR` only.
+    pub mirror: [u32; N],
     /// The shape emits and emitters are visible at this depth.
     pub emits: [u32; N],
     pub le: Lanes3<N>,
@@ -102,6 +107,7 @@ impl<const N: usize> Default for Chunk<N> {
             roulette: [0; N],
             reflectance: z3,
             two_sided: [0; N],
+            mirror: [0; N],
             emits: [0; N],
             le: z3,
             le_area: [1.0; N],
@@ -193,9 +199,10 @@ fn offset_origin(p: [f32; 3], ng: [f32; 3], dir: [f32; 3]) -> [f32; 3] {
 /// The surface stage for every lane of `c` (see the module's documentation): `light_select_pdf`
 /// is the scene's, `infinite_mis` whether lights at infinity are weighed by MIS. `EXTRA` false:
 /// no lane holds an environment map's or a point light's sample (their selects compile away:
-/// cbox's kernel was 6% more instructions with them).
+/// cbox's kernel was 6% more instructions with them). `MIRROR` false: no lane is a mirror (its
+/// selects compile away likewise).
 #[inline(always)]
-pub(super) fn shade<const N: usize, const EXTRA: bool>(
+pub(super) fn shade<const N: usize, const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<N>,
     light_select_pdf: f32,
     infinite_mis: bool,
@@ -248,6 +255,7 @@ pub(super) fn shade<const N: usize, const EXTRA: bool>(
         let wo_bz = if mirrored { -wo_z } else { wo_z };
         let front = wo_bz > 0.0;
         let reflectance = get(&c.reflectance, l);
+        let mirror = MIRROR && c.mirror[l] != 0;
 
         // The light sample (`AreaLight::connect_point`, `Diffuse::eval` and `pdf`, MIS, and
         // `path::shadow_ray`).
@@ -290,7 +298,9 @@ pub(super) fn shade<const N: usize, const EXTRA: bool>(
         } else {
             0.0
         };
+        // A mirror (`BsdfFlags::has_smooth` false) connects to no light.
         let connects = shading
+            && !mirror
             && c.has_light[l] != 0
             && (infinite || (dist != 0.0 && (point || !(cos_light <= 0.0))))
             && max_element(f) > 0.0
@@ -336,16 +346,31 @@ pub(super) fn shade<const N: usize, const EXTRA: bool>(
         // The BSDF sample (`Diffuse::sample`: its weight is the reflectance) and the path's
         // continuation.
         let h = square_to_cosine_hemisphere_select(c.u_dir[0][l], c.u_dir[1][l]);
-        let sampled = front && h[2] > 0.0;
-        let pdf = if h[2] > 0.0 { h[2] * FRAC_1_PI } else { 0.0 };
+        let mut sampled = front && h[2] > 0.0;
+        let mut pdf = if h[2] > 0.0 { h[2] * FRAC_1_PI } else { 0.0 };
         let hz = if mirrored { -h[2] } else { h[2] };
-        let weight_max = max_element(reflectance);
+        let mut weight = reflectance;
+        let mut local = [h[0], h[1], hz];
+        if MIRROR {
+            // `Mirror::sample` on the side seen (`SidedBsdf::sample`): wi = reflect_z(wo), whose
+            // z flipped twice on a mirrored back is wo's z again; the weight's cosine is the
+            // side's; pdf infinite (a delta lobe: `scatter` keeps the cone's spread and the
+            // specular chain).
+            let (m_sampled, m_weight) = mirror_sample_select(reflectance, wo_bz);
+            let wo_x = dot(wo, s);
+            let wo_y = dot(wo, tt);
+            sampled = if mirror { m_sampled } else { sampled };
+            pdf = if mirror { f32::INFINITY } else { pdf };
+            weight = select3(mirror, m_weight, weight);
+            local = select3(mirror, [-wo_x, -wo_y, wo_z], local);
+        }
+        let weight_max = max_element(weight);
         let cont = shading && sampled && !(weight_max.is_nan() || weight_max <= 0.0);
-        let new_throughput = mul3(throughput, reflectance);
+        let new_throughput = mul3(throughput, weight);
         let dir = [
-            s[0] * h[0] + tt[0] * h[1] + n[0] * hz,
-            s[1] * h[0] + tt[1] * h[1] + n[1] * hz,
-            s[2] * h[0] + tt[2] * h[1] + n[2] * hz,
+            s[0] * local[0] + tt[0] * local[1] + n[0] * local[2],
+            s[1] * local[0] + tt[1] * local[1] + n[1] * local[2],
+            s[2] * local[0] + tt[2] * local[1] + n[2] * local[2],
         ];
         let new_origin = offset_origin(p, ng, dir);
         let eta = c.eta[l];
@@ -377,12 +402,12 @@ pub(super) fn shade<const N: usize, const EXTRA: bool>(
 /// The CPU must have AVX-512 F, BW and VL, AVX2 and FMA (`accel::Simd::Avx512`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
-pub(super) unsafe fn shade_avx512<const EXTRA: bool>(
+pub(super) unsafe fn shade_avx512<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<16>,
     light_select_pdf: f32,
     infinite_mis: bool,
 ) {
-    shade::<16, EXTRA>(c, light_select_pdf, infinite_mis)
+    shade::<16, EXTRA, MIRROR>(c, light_select_pdf, infinite_mis)
 }
 
 /// [`shade`] over eight lanes with AVX2.
@@ -391,21 +416,21 @@ pub(super) unsafe fn shade_avx512<const EXTRA: bool>(
 /// The CPU must have AVX2 and FMA (`accel::Simd::Avx2` or better).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn shade_avx2<const EXTRA: bool>(
+pub(super) unsafe fn shade_avx2<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<8>,
     light_select_pdf: f32,
     infinite_mis: bool,
 ) {
-    shade::<8, EXTRA>(c, light_select_pdf, infinite_mis)
+    shade::<8, EXTRA, MIRROR>(c, light_select_pdf, infinite_mis)
 }
 
 /// [`shade`] over eight lanes with the baseline instruction set (SSE2 on x86-64: two vectors
 /// of four).
 #[inline(never)]
-pub(super) fn shade_portable<const EXTRA: bool>(
+pub(super) fn shade_portable<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<8>,
     light_select_pdf: f32,
     infinite_mis: bool,
 ) {
-    shade::<8, EXTRA>(c, light_select_pdf, infinite_mis)
+    shade::<8, EXTRA, MIRROR>(c, light_select_pdf, infinite_mis)
 }

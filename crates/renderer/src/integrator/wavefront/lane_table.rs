@@ -1,12 +1,12 @@
 //! Which surfaces the wavefront shades in SIMD lanes, decided once per scene: a shape whose
-//! material is a plain `diffuse` of constant or textured reflectance (no normal or bump map, no
-//! second BSDF behind) and which emits nothing or a constant radiance sampled by area (a mesh,
+//! material is a plain `diffuse` or torrey `mirror` of constant or textured reflectance (no
+//! normal or bump map, no second BSDF behind) and which emits nothing or a constant radiance sampled by area (a mesh,
 //! disk or cylinder emitter), with light samples of such emitters, of point lights, of a
 //! constant background or of an environment map (its batched draws).
 //! The lane path repeats the scalar shading of exactly these cases;
 //! every other BSDF and light keeps the scalar `shade` (BSDFs move to lanes one by one).
 
-use crate::bsdfs::{BsdfParams, DiffuseParams};
+use crate::bsdfs::{BsdfParams, DiffuseParams, MirrorParams};
 use crate::lights::{AreaEmitter, Light};
 use crate::scene::Material;
 use crate::shapes::Shape;
@@ -15,6 +15,8 @@ use crate::textures::ColorSource;
 /// A shape shaded in lanes: its reflectance and sidedness, and what it emits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct LaneShape {
+    /// A torrey `mirror` (Schlick Fresnel of F0 `reflectance`, a delta lobe), else a `diffuse`.
+    pub mirror: bool,
     /// The constant reflectance (unused with `texture`).
     pub reflectance: [f32; 3],
     /// The reflectance's texture: looked up per path by the scalar [`crate::textures::TextureQuery`]
@@ -47,6 +49,8 @@ pub(crate) struct LaneTable {
     pub covers_lights: bool,
     /// Some light is an environment map or a point light (the kernel's selects for them).
     pub env_or_point: bool,
+    /// Some lane shape is a mirror (the kernel's selects for it).
+    pub any_mirror: bool,
 }
 
 impl LaneTable {
@@ -55,7 +59,7 @@ impl LaneTable {
         let shapes: Vec<Option<LaneShape>> = shapes
             .iter()
             .map(|shape| {
-                let (reflectance, texture) = materials
+                let (mirror, reflectance, texture) = materials
                     .get(shape.material as usize)
                     .and_then(lane_reflectance)?;
                 let emitter = match shape.area_light {
@@ -66,6 +70,7 @@ impl LaneTable {
                     },
                 };
                 Some(LaneShape {
+                    mirror,
                     reflectance,
                     texture,
                     two_sided: materials[shape.material as usize].two_sided,
@@ -78,12 +83,14 @@ impl LaneTable {
         let env_or_point = lights
             .iter()
             .any(|l| matches!(l, Some(LaneLight::Point { .. } | LaneLight::Env)));
+        let any_mirror = shapes.iter().flatten().any(|s| s.mirror);
         LaneTable {
             shapes,
             lights,
             any,
             covers_lights,
             env_or_point,
+            any_mirror,
         }
     }
 }
@@ -98,17 +105,21 @@ impl LaneTable {
     }
 }
 
-/// The reflectance of a material the lanes shade: a `diffuse` without a second BSDF, normal map
-/// or perturbation, whose reflectance is a finite constant or a texture (the constant, the
-/// texture).
-fn lane_reflectance(m: &Material) -> Option<([f32; 3], Option<u32>)> {
-    let BsdfParams::Diffuse(DiffuseParams { reflectance }) = m.bsdf else {
-        return None;
+/// The reflectance of a material the lanes shade: a `diffuse` or `mirror` without a second
+/// BSDF, normal map or perturbation, whose reflectance is a finite constant or a texture
+/// (whether a mirror, the constant, the texture).
+fn lane_reflectance(m: &Material) -> Option<(bool, [f32; 3], Option<u32>)> {
+    let (mirror, reflectance) = match m.bsdf {
+        BsdfParams::Diffuse(DiffuseParams { reflectance }) => (false, reflectance),
+        BsdfParams::Mirror(MirrorParams { reflectance }) => (true, reflectance),
+        _ => return None,
     };
     let plain = m.back.is_none() && m.normal_map.is_none() && m.perturb.is_none() && !m.anisotropic;
     match reflectance {
-        ColorSource::Constant(c) => (plain && c.is_finite()).then_some((c.to_array(), None)),
-        ColorSource::Texture(t) => plain.then_some(([0.0; 3], Some(t))),
+        ColorSource::Constant(c) => {
+            (plain && c.is_finite()).then_some((mirror, c.to_array(), None))
+        }
+        ColorSource::Texture(t) => plain.then_some((mirror, [0.0; 3], Some(t))),
     }
 }
 

@@ -37,13 +37,18 @@ pub(super) fn lanes_enabled() -> bool {
     })
 }
 
-/// Whether the lanes shade path `path` at `hit` (the rule [`gather`] applies, for the tests): its shape is in the table, and its light draw
+/// Whether the lanes shade path `path` at `hit` (the rule [`gather`] applies, for the tests):
+/// its shape is in the table, and it is a mirror (which reads no light draw) or its light draw
 /// is none, a point on a lane emitter, a point light's, a constant background's or an
 /// environment map's drawn sample.
 #[cfg(test)]
 pub(super) fn lane_able(table: &LaneTable, path: &PathState, hit: &SurfaceHit) -> bool {
-    table.shapes[hit.shape as usize].is_some()
-        && match path.light_draw {
+    let Some(shape) = table.shapes[hit.shape as usize] else {
+        return false;
+    };
+    // A mirror connects to no light: any draw.
+    (table.any_mirror && shape.mirror)
+        || match path.light_draw {
             None => true,
             Some((li, LightDraw::MeshPoint { .. })) => {
                 matches!(table.lights[li], Some(LaneLight::Area(_)))
@@ -161,37 +166,42 @@ pub(super) fn shade_lanes_at(
     shadow: &mut Vec<ShadowRay>,
     scalar: &mut ScalarShade,
 ) -> usize {
-    // Without environment-map or point-light samples the kernel leaves their selects out.
-    if params.table.env_or_point {
-        shade_lanes_with::<true>(
-            simd, chunks, paths, hits, indices, params, live, shadow, scalar,
-        )
-    } else {
-        shade_lanes_with::<false>(
-            simd, chunks, paths, hits, indices, params, live, shadow, scalar,
-        )
+    // Without environment-map or point-light samples, or without mirrors, the kernel leaves
+    // their selects out.
+    let args = (
+        simd, chunks, paths, hits, indices, params, live, shadow, scalar,
+    );
+    match (params.table.env_or_point, params.table.any_mirror) {
+        (true, true) => shade_lanes_with::<true, true>(args),
+        (true, false) => shade_lanes_with::<true, false>(args),
+        (false, true) => shade_lanes_with::<false, true>(args),
+        (false, false) => shade_lanes_with::<false, false>(args),
     }
 }
 
-/// [`shade_lanes_at`] with the kernel for `EXTRA` (see [`lane_kernel::shade`]).
-#[allow(clippy::too_many_arguments)]
-fn shade_lanes_with<const EXTRA: bool>(
-    simd: Simd,
-    chunks: &mut LaneChunks,
-    paths: &mut [PathState],
-    hits: &[SurfaceHit],
-    indices: &[u32],
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-    scalar: &mut ScalarShade,
+/// [`shade_lanes_at`]'s arguments.
+type LaneArgs<'a, 'b, 'c> = (
+    Simd,
+    &'a mut LaneChunks,
+    &'a mut [PathState],
+    &'a [SurfaceHit],
+    &'a [u32],
+    LaneParams<'b>,
+    &'a mut Vec<u32>,
+    &'a mut Vec<ShadowRay>,
+    &'a mut ScalarShade<'c>,
+);
+
+/// [`shade_lanes_at`] with the kernel for `EXTRA` and `MIRROR` (see [`lane_kernel::shade`]).
+fn shade_lanes_with<const EXTRA: bool, const MIRROR: bool>(
+    (simd, chunks, paths, hits, indices, params, live, shadow, scalar): LaneArgs,
 ) -> usize {
     match simd {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
             // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
             unsafe {
-                run_avx512::<EXTRA>(
+                run_avx512::<EXTRA, MIRROR>(
                     &mut chunks.c16,
                     paths,
                     hits,
@@ -207,7 +217,7 @@ fn shade_lanes_with<const EXTRA: bool>(
         Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
             // SAFETY: the CPU has AVX2 and FMA (checked).
             unsafe {
-                run_avx2::<EXTRA>(
+                run_avx2::<EXTRA, MIRROR>(
                     &mut chunks.c8,
                     paths,
                     hits,
@@ -219,7 +229,7 @@ fn shade_lanes_with<const EXTRA: bool>(
                 )
             }
         }
-        _ => run::<8>(
+        _ => run::<8, MIRROR>(
             &mut chunks.c8,
             paths,
             hits,
@@ -228,7 +238,7 @@ fn shade_lanes_with<const EXTRA: bool>(
             live,
             shadow,
             scalar,
-            lane_kernel::shade_portable::<EXTRA>,
+            lane_kernel::shade_portable::<EXTRA, MIRROR>,
         ),
     }
 }
@@ -242,7 +252,7 @@ fn shade_lanes_with<const EXTRA: bool>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn run_avx512<const EXTRA: bool>(
+unsafe fn run_avx512<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<16>,
     paths: &mut [PathState],
     hits: &[SurfaceHit],
@@ -252,7 +262,7 @@ unsafe fn run_avx512<const EXTRA: bool>(
     shadow: &mut Vec<ShadowRay>,
     scalar: &mut ScalarShade,
 ) -> usize {
-    run::<16>(
+    run::<16, MIRROR>(
         c,
         paths,
         hits,
@@ -263,7 +273,7 @@ unsafe fn run_avx512<const EXTRA: bool>(
         scalar,
         |c, lsp, mis| {
             // SAFETY: this function's features are the kernel's.
-            unsafe { lane_kernel::shade_avx512::<EXTRA>(c, lsp, mis) }
+            unsafe { lane_kernel::shade_avx512::<EXTRA, MIRROR>(c, lsp, mis) }
         },
     )
 }
@@ -275,7 +285,7 @@ unsafe fn run_avx512<const EXTRA: bool>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn run_avx2<const EXTRA: bool>(
+unsafe fn run_avx2<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<8>,
     paths: &mut [PathState],
     hits: &[SurfaceHit],
@@ -285,7 +295,7 @@ unsafe fn run_avx2<const EXTRA: bool>(
     shadow: &mut Vec<ShadowRay>,
     scalar: &mut ScalarShade,
 ) -> usize {
-    run::<8>(
+    run::<8, MIRROR>(
         c,
         paths,
         hits,
@@ -296,7 +306,7 @@ unsafe fn run_avx2<const EXTRA: bool>(
         scalar,
         |c, lsp, mis| {
             // SAFETY: this function's features are the kernel's.
-            unsafe { lane_kernel::shade_avx2::<EXTRA>(c, lsp, mis) }
+            unsafe { lane_kernel::shade_avx2::<EXTRA, MIRROR>(c, lsp, mis) }
         },
     )
 }
@@ -308,7 +318,7 @@ unsafe fn run_avx2<const EXTRA: bool>(
 /// room for every path until the end is set.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn run<const N: usize>(
+fn run<const N: usize, const MIRROR: bool>(
     c: &mut Chunk<N>,
     paths: &mut [PathState],
     hits: &[SurfaceHit],
@@ -327,11 +337,11 @@ fn run<const N: usize>(
     let mut lanes = 0;
     for &i in indices {
         let hit = &hits[i as usize];
-        if gather(c, lanes, &paths[i as usize], hit, params) {
+        if gather::<N, MIRROR>(c, lanes, &paths[i as usize], hit, params) {
             group[lanes] = i;
             lanes += 1;
             if lanes == N {
-                finish(c, &group, paths, params, live, shadow, &mut ends, &kernel);
+                finish::<N, MIRROR>(c, &group, paths, params, live, shadow, &mut ends, &kernel);
                 chunks += 1;
                 lanes = 0;
             }
@@ -340,7 +350,7 @@ fn run<const N: usize>(
         }
     }
     if lanes > 0 {
-        finish(
+        finish::<N, MIRROR>(
             c,
             &group[..lanes],
             paths,
@@ -361,7 +371,7 @@ fn run<const N: usize>(
 /// live entries and shadow rays at `ends` (see [`run`]).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn finish<const N: usize>(
+fn finish<const N: usize, const MIRROR: bool>(
     c: &mut Chunk<N>,
     group: &[u32],
     paths: &mut [PathState],
@@ -383,7 +393,7 @@ fn finish<const N: usize>(
         ends.1 += c.shadow[l] as usize;
         live[ends.0] = i;
         ends.0 += c.alive[l] as usize;
-        scatter(c, l, &mut paths[i as usize], params);
+        scatter::<N, MIRROR>(c, l, &mut paths[i as usize], params);
     }
 }
 
@@ -402,7 +412,7 @@ fn take<const N: usize>(v: &[[f32; N]; 3], l: usize) -> Vec3A {
 /// Lane `l` of `c` from path `path` at `hit`, if the lanes take it (`lane_able`'s rule, decided
 /// here with the lookups the gather needs anyway); false leaves lane `l` to the next path.
 #[inline(always)]
-fn gather<const N: usize>(
+fn gather<const N: usize, const MIRROR: bool>(
     c: &mut Chunk<N>,
     l: usize,
     path: &PathState,
@@ -415,6 +425,8 @@ fn gather<const N: usize>(
     c.has_light[l] = 1;
     match path.light_draw {
         None => c.has_light[l] = 0,
+        // A mirror connects to no light: its draw, whatever it is, is not read.
+        Some(_) if MIRROR && shape.mirror => c.has_light[l] = 0,
         Some((li, draw)) => match (draw, &params.table.lights[li]) {
             (LightDraw::MeshPoint { q, n }, Some(LaneLight::Area(e))) => {
                 (c.infinite[l], c.env[l], c.point[l]) = (0, 0, 0);
@@ -501,6 +513,9 @@ fn gather<const N: usize>(
     };
     put(&mut c.reflectance, l, reflectance);
     c.two_sided[l] = shape.two_sided as u32;
+    if MIRROR {
+        c.mirror[l] = shape.mirror as u32;
+    }
     let visible = path.depth > 0 || !params.hide_emitters;
     match (shape.emitter, visible) {
         (Some(e), true) => {
@@ -517,17 +532,29 @@ fn gather<const N: usize>(
 /// but for its radiance, so the continuation is written whatever `cont` (no branch), all but the
 /// depth, which counts the bounces taken (as the scalar `shade` leaves it).
 #[inline(always)]
-fn scatter<const N: usize>(c: &Chunk<N>, l: usize, path: &mut PathState, params: LaneParams) {
+fn scatter<const N: usize, const MIRROR: bool>(
+    c: &Chunk<N>,
+    l: usize,
+    path: &mut PathState,
+    params: LaneParams,
+) {
     path.result = take(&c.result, l);
-    // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1).
+    // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1), or of a
+    // mirror's (a delta lobe, eta 1: the cone's spread and the specular chain unchanged).
+    let delta = MIRROR && c.mirror[l] != 0;
     if params.track_cones {
         path.cone = path.cone.at_distance(c.t[l]);
-        path.cone.spread += params.footprint_scale;
+        let spread = path.cone.spread;
+        path.cone.spread = if delta {
+            spread
+        } else {
+            spread + params.footprint_scale
+        };
     }
-    path.specular_chain = false;
+    path.specular_chain &= delta;
     path.throughput = take(&c.new_throughput, l);
     path.prev_bsdf_pdf = c.new_pdf[l];
-    path.prev_delta = false;
+    path.prev_delta = delta;
     path.prev_p = take(&c.p, l);
     path.ray = Ray {
         origin: take(&c.new_origin, l),
@@ -580,9 +607,10 @@ mod tests {
     use torrey_testkit::Rng;
     use torrey_texture::RayCone;
 
-    /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), two emitters sampled by
-    /// area (a one-sided rectangle and a two-sided disk), a constant background, an environment
-    /// map, a point light, a spot light (scalar) and a plastic box (scalar), inside a closed room so random
+    /// Diffuse shapes one- and two-sided (a mesh, a sphere, a disk), mirrors (a one-sided
+    /// sphere, a two-sided textured rectangle), two emitters sampled by area (a one-sided
+    /// rectangle and a two-sided disk), a constant background, an environment map, a point
+    /// light, a spot light (scalar) and a plastic box (scalar), inside a closed room so random
     /// rays hit from both sides.
     fn scene() -> RenderScene {
         let xml = r#"<scene version="3.0.0">
@@ -601,6 +629,10 @@ mod tests {
                 <bsdf type="twosided"><bsdf type="diffuse"><texture name="reflectance" type="checkerboard"><float name="uscale" value="6"/></texture></bsdf></bsdf></shape>
             <shape type="cube"><transform name="toWorld"><scale value="0.4"/><translate x="1" y="1" z="-1"/></transform>
                 <bsdf type="plastic"/></shape>
+            <shape type="sphere"><point name="center" x="1.7" y="-1.8" z="-1.6"/><float name="radius" value="0.9"/>
+                <bsdf type="mirror"><rgb name="reflectance" value="0.9, 0.6, 0.3"/></bsdf></shape>
+            <shape type="rectangle"><transform name="toWorld"><scale value="1.1"/><rotate x="1" angle="35"/><translate x="-1.4" y="1.4" z="-1.7"/></transform>
+                <bsdf type="twosided"><bsdf type="mirror"><texture name="reflectance" type="checkerboard"><float name="uscale" value="4"/></texture></bsdf></bsdf></shape>
             <shape type="rectangle">
                 <transform name="toWorld"><rotate x="1" angle="90"/><translate y="2.5"/></transform>
                 <emitter type="area"><rgb name="radiance" value="4, 3, 2"/></emitter><ref id="grey"/>
@@ -708,6 +740,7 @@ mod tests {
         let (mut paths, mut hits) = (Vec::new(), Vec::new());
         let (mut lane_count, mut back_views, mut emitted, mut background) = (0, 0, 0, 0);
         let (mut env, mut textured, mut point) = (0, 0, 0);
+        let (mut mirrors, mut mirror_backs, mut mirror_edges) = (0, 0, 0);
         while paths.len() < 3000 {
             let origin = Vec3A::new(
                 rng.f32() * 5.8 - 2.9,
@@ -720,9 +753,27 @@ mod tests {
                 dir,
                 tmax: f32::INFINITY,
             };
-            let Some(hit) = scene.intersect(&ray) else {
+            let Some(mut hit) = scene.intersect(&ray) else {
                 continue;
             };
+            let on_mirror = scene.lanes.shapes[hit.shape as usize].is_some_and(|s| s.mirror);
+            // Edge views of mirrors: wo exactly in the tangent plane (both signs of zero),
+            // along the normal, and normals of either z sign (the frame's two branches); the
+            // kernel and `shade` need not see consistent geometry, only the same numbers.
+            let mut ray = ray;
+            if on_mirror && paths.len() % 16 == 0 {
+                let k = paths.len() / 16 % 5;
+                let (n, d) = [
+                    (Vec3A::Z, Vec3A::X),
+                    (Vec3A::NEG_Z, Vec3A::NEG_Y),
+                    (Vec3A::Y, Vec3A::NEG_Y),
+                    (Vec3A::NEG_Y, Vec3A::new(0.6, 0.0, 0.8)),
+                    (Vec3A::new(0.0, 0.6, -0.8), Vec3A::X),
+                ][k];
+                hit.ns = n;
+                ray.dir = d;
+                mirror_edges += 1;
+            }
             let light_index = (rng.f32() * scene.lights.len() as f32) as usize;
             let depth = (rng.f32() * max_depth as f32) as u32;
             let path = PathState {
@@ -753,7 +804,7 @@ mod tests {
             };
             if lane_able(&scene.lanes, &path, &hit) {
                 lane_count += 1;
-                back_views += (hit.ns.dot(dir) > 0.0) as u32;
+                back_views += (hit.ns.dot(ray.dir) > 0.0) as u32;
                 emitted += scene.shapes[hit.shape as usize].area_light.is_some() as u32;
                 background += matches!(path.light_draw, Some((_, LightDraw::Deferred(_)))) as u32;
                 env += matches!(path.light_draw, Some((_, LightDraw::EnvSampled { .. }))) as u32;
@@ -763,12 +814,15 @@ mod tests {
                 ) as u32;
                 textured += scene.lanes.shapes[hit.shape as usize]
                     .is_some_and(|s| s.texture.is_some()) as u32;
+                mirrors += on_mirror as u32;
+                mirror_backs += (on_mirror && hit.ns.dot(ray.dir) > 0.0) as u32;
             }
             paths.push(path);
             hits.push(hit);
         }
         // Enough of each case: lane paths, paths seeing a back, emitters hit, background
-        // samples (and point lights'), environment-map samples, textured surfaces.
+        // samples (and point lights'), environment-map samples, textured surfaces, mirrors
+        // (seen from the back, at the edges).
         assert!(
             lane_count > 1500
                 && back_views > 300
@@ -776,8 +830,12 @@ mod tests {
                 && background > 200
                 && env > 150
                 && textured > 100
-                && point > 150,
-            "{lane_count} {back_views} {emitted} {background} {env} {textured} {point}"
+                && point > 150
+                && mirrors > 120
+                && mirror_backs > 40
+                && mirror_edges > 8,
+            "{lane_count} {back_views} {emitted} {background} {env} {textured} {point} \
+             {mirrors} {mirror_backs} {mirror_edges}"
         );
         let indices: Vec<u32> = (0..paths.len() as u32)
             .filter(|&i| lane_able(&scene.lanes, &paths[i as usize], &hits[i as usize]))
@@ -804,41 +862,49 @@ mod tests {
         let params = LaneParams::new(scene, settings, max_depth, light_select_pdf);
         // One set of chunks for all levels and runs, as a worker keeps them.
         let mut lane_chunks = LaneChunks::default();
-        // The kernel without the environment-map and point-light selects, on the other lane
-        // paths only (the scalar stage is not called).
-        let mut plain_table = scene.lanes.clone();
-        plain_table.env_or_point = false;
-        let plain = |i: &u32| {
-            let draw = paths[*i as usize].light_draw;
-            !matches!(draw, Some((_, LightDraw::EnvSampled { .. })))
-                && !matches!(
+        // The kernels without the environment-map and point-light selects, without the
+        // mirror's, or without both, on the lane paths that need none of them only (the scalar
+        // stage is not called).
+        let extra_path = |i: u32| {
+            let draw = paths[i as usize].light_draw;
+            matches!(draw, Some((_, LightDraw::EnvSampled { .. })))
+                || matches!(
                     draw.map(|d| &scene.lights[d.0]),
                     Some(crate::lights::Light::Point(_))
                 )
         };
-        let plain_indices: Vec<u32> = indices.iter().copied().filter(plain).collect();
-        let is_plain = |i: &u32| plain_indices.binary_search(i).is_ok();
-        let plain_live: Vec<u32> = want_live.iter().copied().filter(is_plain).collect();
-        let plain_shadow: Vec<ShadowRay> = want_shadow
-            .iter()
-            .filter(|r| is_plain(&r.path))
-            .copied()
-            .collect();
-        assert!(plain_indices.len() > 500 && plain_indices.len() < indices.len());
-        let plain_params = LaneParams {
-            table: &plain_table,
-            ..params
-        };
-        for (params, passed, lane_count, want_live, want_shadow) in [
-            (params, &all, indices.len(), &want_live, &want_shadow),
-            (
-                plain_params,
-                &plain_indices,
-                plain_indices.len(),
-                &plain_live,
-                &plain_shadow,
-            ),
-        ] {
+        let mirror_path =
+            |i: u32| scene.lanes.shapes[hits[i as usize].shape as usize].is_some_and(|s| s.mirror);
+        let mut variants = vec![(
+            params.table.clone(),
+            all.clone(),
+            indices.len(),
+            want_live.clone(),
+            want_shadow.clone(),
+        )];
+        for (extra, mirror) in [(false, true), (true, false), (false, false)] {
+            let mut table = scene.lanes.clone();
+            table.env_or_point = extra;
+            table.any_mirror = mirror;
+            let kept: Vec<u32> = indices
+                .iter()
+                .copied()
+                .filter(|&i| (extra || !extra_path(i)) && (mirror || !mirror_path(i)))
+                .collect();
+            let is_kept = |i: &u32| kept.binary_search(i).is_ok();
+            let kept_live: Vec<u32> = want_live.iter().copied().filter(is_kept).collect();
+            let kept_shadow: Vec<ShadowRay> = want_shadow
+                .iter()
+                .filter(|r| is_kept(&r.path))
+                .copied()
+                .collect();
+            assert!(kept.len() > 400 && kept.len() < indices.len());
+            let count = kept.len();
+            variants.push((table, kept, count, kept_live, kept_shadow));
+        }
+        for (table, passed, lane_count, want_live, want_shadow) in &variants {
+            let params = LaneParams { table, ..params };
+            let lane_count = *lane_count;
             for &simd in levels {
                 let mut got = paths.clone();
                 let (mut live, mut shadow) = (Vec::new(), Vec::new());
@@ -934,14 +1000,20 @@ mod tests {
     fn the_table_admits_diffuse_and_area_point_or_infinite_lights() {
         let scene = scene();
         let admitted: Vec<bool> = scene.lanes.shapes.iter().map(Option::is_some).collect();
-        assert_eq!(admitted, [true, true, true, true, true, false, true, true]);
+        assert_eq!(
+            admitted,
+            [true, true, true, true, true, false, true, true, true, true]
+        );
+        let mirrors = scene.lanes.shapes.iter().flatten().filter(|s| s.mirror);
+        assert_eq!(mirrors.count(), 2);
+        assert!(scene.lanes.any_mirror);
         let textured = scene
             .lanes
             .shapes
             .iter()
             .flatten()
             .filter(|s| s.texture.is_some());
-        assert_eq!(textured.count(), 2);
+        assert_eq!(textured.count(), 3);
         let emitting = scene
             .lanes
             .shapes
