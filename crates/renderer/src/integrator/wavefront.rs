@@ -273,36 +273,48 @@ impl Wavefront {
             // shadow ray) and the path's continuation.
             self.shadow.clear();
             self.live.clear();
+            // The scalar stage of one path, its shadow ray queued.
+            let shade_one = |path: &mut PathState,
+                             hit: &SurfaceHit,
+                             i: u32,
+                             live: &mut Vec<u32>,
+                             shadow: &mut Vec<ShadowRay>| {
+                if let Some(ray) = shade(
+                    scene,
+                    path,
+                    hit,
+                    settings,
+                    max_depth,
+                    light_select_pdf,
+                    i,
+                    live,
+                ) {
+                    shadow.push(ray);
+                }
+            };
             if scene.lanes.any && lanes::lanes_enabled() {
                 // The lanes take the paths they can as they come and hand the others to the
                 // scalar `shade`, whose outputs go to the stage's lists; the lanes' go to lists of
                 // their own, merged after (both ascend by path: merged, they are the scalar
                 // stage's order).
-                let params = lanes::LaneParams::new(scene, settings, max_depth, light_select_pdf);
                 let (live, shadow) = (&mut self.live, &mut self.shadow);
                 self.lane_live.clear();
                 self.lane_shadow.clear();
                 lanes::shade_lanes(
                     &mut self.lane_chunks,
-                    &mut self.paths,
-                    &self.hits,
-                    &self.surfaced,
-                    params,
-                    &mut self.lane_live,
-                    &mut self.lane_shadow,
-                    &mut |path, hit, i| {
-                        if let Some(ray) = shade(
+                    lanes::LaneWork {
+                        paths: &mut self.paths,
+                        hits: &self.hits,
+                        indices: &self.surfaced,
+                        params: lanes::LaneParams::new(
                             scene,
-                            path,
-                            hit,
                             settings,
                             max_depth,
                             light_select_pdf,
-                            i,
-                            live,
-                        ) {
-                            shadow.push(ray);
-                        }
+                        ),
+                        live: &mut self.lane_live,
+                        shadow: &mut self.lane_shadow,
+                        scalar: &mut |path, hit, i| shade_one(path, hit, i, live, shadow),
                     },
                 );
                 lanes::merge_by(
@@ -319,20 +331,13 @@ impl Wavefront {
                 );
             } else {
                 for &i in &self.surfaced {
-                    let path = &mut self.paths[i as usize];
-                    let hit = &self.hits[i as usize];
-                    if let Some(shadow) = shade(
-                        scene,
-                        path,
-                        hit,
-                        settings,
-                        max_depth,
-                        light_select_pdf,
+                    shade_one(
+                        &mut self.paths[i as usize],
+                        &self.hits[i as usize],
                         i,
                         &mut self.live,
-                    ) {
-                        self.shadow.push(shadow);
-                    }
+                        &mut self.shadow,
+                    );
                 }
             }
 

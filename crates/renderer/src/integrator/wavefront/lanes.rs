@@ -129,115 +129,54 @@ pub(super) type ScalarShade<'a> = dyn FnMut(&mut PathState, &SurfaceHit, u32) + 
 /// rays onto `shadow` in `indices`' order; every other path goes to `scalar` at once (the two
 /// sets touch different paths, so the order between them changes nothing). Returns the count of
 /// chunks run.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn shade_lanes(
-    chunks: &mut LaneChunks,
-    paths: &mut [PathState],
-    hits: &[SurfaceHit],
-    indices: &[u32],
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-    scalar: &mut ScalarShade,
-) -> usize {
-    shade_lanes_at(
-        Simd::detect(),
-        chunks,
-        paths,
-        hits,
-        indices,
-        params,
-        live,
-        shadow,
-        scalar,
-    )
+pub(super) fn shade_lanes(chunks: &mut LaneChunks, work: LaneWork) -> usize {
+    shade_lanes_at(Simd::detect(), chunks, work)
+}
+
+/// One call of the lane stage: the batch's paths and hits, the surfaced paths to shade
+/// (`indices`, ascending), and where their outputs go.
+pub(super) struct LaneWork<'a, 'p, 's> {
+    pub paths: &'a mut [PathState],
+    pub hits: &'a [SurfaceHit],
+    pub indices: &'a [u32],
+    pub params: LaneParams<'p>,
+    pub live: &'a mut Vec<u32>,
+    pub shadow: &'a mut Vec<ShadowRay>,
+    pub scalar: &'a mut ScalarShade<'s>,
 }
 
 /// [`shade_lanes`] at a given level (the tests run each level the CPU has).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn shade_lanes_at(
-    simd: Simd,
-    chunks: &mut LaneChunks,
-    paths: &mut [PathState],
-    hits: &[SurfaceHit],
-    indices: &[u32],
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-    scalar: &mut ScalarShade,
-) -> usize {
+pub(super) fn shade_lanes_at(simd: Simd, chunks: &mut LaneChunks, work: LaneWork) -> usize {
     // Without environment-map or point-light samples, or without mirrors, the kernel leaves
     // their selects out.
-    let args = (
-        simd, chunks, paths, hits, indices, params, live, shadow, scalar,
-    );
-    match (params.table.env_or_point, params.table.any_mirror) {
-        (true, true) => shade_lanes_with::<true, true>(args),
-        (true, false) => shade_lanes_with::<true, false>(args),
-        (false, true) => shade_lanes_with::<false, true>(args),
-        (false, false) => shade_lanes_with::<false, false>(args),
+    match (work.params.table.env_or_point, work.params.table.any_mirror) {
+        (true, true) => shade_lanes_with::<true, true>(simd, chunks, work),
+        (true, false) => shade_lanes_with::<true, false>(simd, chunks, work),
+        (false, true) => shade_lanes_with::<false, true>(simd, chunks, work),
+        (false, false) => shade_lanes_with::<false, false>(simd, chunks, work),
     }
 }
 
-/// [`shade_lanes_at`]'s arguments.
-type LaneArgs<'a, 'b, 'c> = (
-    Simd,
-    &'a mut LaneChunks,
-    &'a mut [PathState],
-    &'a [SurfaceHit],
-    &'a [u32],
-    LaneParams<'b>,
-    &'a mut Vec<u32>,
-    &'a mut Vec<ShadowRay>,
-    &'a mut ScalarShade<'c>,
-);
-
 /// [`shade_lanes_at`] with the kernel for `EXTRA` and `MIRROR` (see [`lane_kernel::shade`]).
 fn shade_lanes_with<const EXTRA: bool, const MIRROR: bool>(
-    (simd, chunks, paths, hits, indices, params, live, shadow, scalar): LaneArgs,
+    simd: Simd,
+    chunks: &mut LaneChunks,
+    work: LaneWork,
 ) -> usize {
     match simd {
         #[cfg(target_arch = "x86_64")]
         Simd::Avx512 if crate::accel::x86_64::avx512::available() => {
             // SAFETY: the CPU has AVX-512 F, BW and VL, AVX2 and FMA (checked).
-            unsafe {
-                run_avx512::<EXTRA, MIRROR>(
-                    &mut chunks.c16,
-                    paths,
-                    hits,
-                    indices,
-                    params,
-                    live,
-                    shadow,
-                    scalar,
-                )
-            }
+            unsafe { run_avx512::<EXTRA, MIRROR>(&mut chunks.c16, work) }
         }
         #[cfg(target_arch = "x86_64")]
         Simd::Avx2 | Simd::Avx512 if crate::accel::x86_64::avx2::available() => {
             // SAFETY: the CPU has AVX2 and FMA (checked).
-            unsafe {
-                run_avx2::<EXTRA, MIRROR>(
-                    &mut chunks.c8,
-                    paths,
-                    hits,
-                    indices,
-                    params,
-                    live,
-                    shadow,
-                    scalar,
-                )
-            }
+            unsafe { run_avx2::<EXTRA, MIRROR>(&mut chunks.c8, work) }
         }
         _ => run::<8, MIRROR>(
             &mut chunks.c8,
-            paths,
-            hits,
-            indices,
-            params,
-            live,
-            shadow,
-            scalar,
+            work,
             lane_kernel::shade_portable::<EXTRA, MIRROR>,
         ),
     }
@@ -251,31 +190,14 @@ fn shade_lanes_with<const EXTRA: bool, const MIRROR: bool>(
 /// The CPU must have AVX-512 F, BW and VL, AVX2 and FMA (`accel::Simd::Avx512`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx2,fma")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn run_avx512<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<16>,
-    paths: &mut [PathState],
-    hits: &[SurfaceHit],
-    indices: &[u32],
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-    scalar: &mut ScalarShade,
+    work: LaneWork,
 ) -> usize {
-    run::<16, MIRROR>(
-        c,
-        paths,
-        hits,
-        indices,
-        params,
-        live,
-        shadow,
-        scalar,
-        |c, lsp, mis| {
-            // SAFETY: this function's features are the kernel's.
-            unsafe { lane_kernel::shade_avx512::<EXTRA, MIRROR>(c, lsp, mis) }
-        },
-    )
+    run::<16, MIRROR>(c, work, |c, lsp, mis| {
+        // SAFETY: this function's features are the kernel's.
+        unsafe { lane_kernel::shade_avx512::<EXTRA, MIRROR>(c, lsp, mis) }
+    })
 }
 
 /// [`run`] over eight lanes, compiled for AVX2 as a whole (see [`run_avx512`]).
@@ -284,31 +206,14 @@ unsafe fn run_avx512<const EXTRA: bool, const MIRROR: bool>(
 /// The CPU must have AVX2 and FMA (`accel::Simd::Avx2` or better).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn run_avx2<const EXTRA: bool, const MIRROR: bool>(
     c: &mut Chunk<8>,
-    paths: &mut [PathState],
-    hits: &[SurfaceHit],
-    indices: &[u32],
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-    scalar: &mut ScalarShade,
+    work: LaneWork,
 ) -> usize {
-    run::<8, MIRROR>(
-        c,
-        paths,
-        hits,
-        indices,
-        params,
-        live,
-        shadow,
-        scalar,
-        |c, lsp, mis| {
-            // SAFETY: this function's features are the kernel's.
-            unsafe { lane_kernel::shade_avx2::<EXTRA, MIRROR>(c, lsp, mis) }
-        },
-    )
+    run::<8, MIRROR>(c, work, |c, lsp, mis| {
+        // SAFETY: this function's features are the kernel's.
+        unsafe { lane_kernel::shade_avx2::<EXTRA, MIRROR>(c, lsp, mis) }
+    })
 }
 
 /// Gathers the lane-able paths of `indices` `N` at a time, runs `kernel` on each chunk and
@@ -316,19 +221,21 @@ unsafe fn run_avx2<const EXTRA: bool, const MIRROR: bool>(
 /// without a branch: each lane writes its entry at the lists' end and moves the end by its flag
 /// (whether a lane connects or continues is data, which a branch mispredicts); the lists hold
 /// room for every path until the end is set.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run<const N: usize, const MIRROR: bool>(
     c: &mut Chunk<N>,
-    paths: &mut [PathState],
-    hits: &[SurfaceHit],
-    indices: &[u32],
-    params: LaneParams,
-    live: &mut Vec<u32>,
-    shadow: &mut Vec<ShadowRay>,
-    scalar: &mut ScalarShade,
+    work: LaneWork,
     kernel: impl Fn(&mut Chunk<N>, f32, bool),
 ) -> usize {
+    let LaneWork {
+        paths,
+        hits,
+        indices,
+        params,
+        live,
+        shadow,
+        scalar,
+    } = work;
     let mut chunks = 0;
     let mut ends = (live.len(), shadow.len());
     live.resize(ends.0 + indices.len(), 0);
@@ -910,16 +817,14 @@ mod tests {
                 let (mut live, mut shadow) = (Vec::new(), Vec::new());
                 let (mut scalar_live, mut scalar_shadow) = (Vec::new(), Vec::new());
                 let mut scalar_calls = 0;
-                let chunks = shade_lanes_at(
-                    simd,
-                    &mut lane_chunks,
-                    &mut got,
-                    &hits,
-                    passed,
+                let work = LaneWork {
+                    paths: &mut got,
+                    hits: &hits,
+                    indices: passed,
                     params,
-                    &mut live,
-                    &mut shadow,
-                    &mut |path, hit, i| {
+                    live: &mut live,
+                    shadow: &mut shadow,
+                    scalar: &mut |path, hit, i| {
                         scalar_calls += 1;
                         scalar_shadow.extend(shade(
                             scene,
@@ -932,7 +837,8 @@ mod tests {
                             &mut scalar_live,
                         ));
                     },
-                );
+                };
+                let chunks = shade_lanes_at(simd, &mut lane_chunks, work);
                 assert_eq!(scalar_calls, passed.len() - lane_count, "{simd:?}");
                 let mut tmp = Vec::new();
                 merge_by(&mut scalar_live, &mut live, &mut tmp, |&i| i);
