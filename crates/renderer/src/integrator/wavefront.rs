@@ -199,16 +199,14 @@ impl Wavefront {
             // memory that sample will read is prefetched here, to overlap the traversal.
             let prefetch_env = self.live.len() < ENV_BATCH_MIN;
             match &mut samplers {
-                PathSamplers::Shared(s) => {
-                    self.draws.clear();
-                    self.draws.extend(self.live.iter().map(|&i| {
+                // All the paths' requests at once (the lobe's number is its pair's x).
+                PathSamplers::Shared(s) => s.next_2d_resumed(
+                    self.live.iter().map(|&i| {
                         let path = &self.paths[i as usize];
-                        s.resume_sample(path.sample, path.requests);
-                        let (light_rr, u_pos, u_dir) = (s.next_2d(), s.next_2d(), s.next_2d());
-                        [light_rr, u_pos, u_dir, Vec2::new(s.next_1d(), 0.0)]
-                    }));
-                }
-                // All the streams' requests at once (the lobe's number is its pair's x).
+                        (path.sample, path.requests)
+                    }),
+                    &mut self.draws,
+                ),
                 PathSamplers::PerPath(s) => S::next_2d_each(s, &self.live, &mut self.draws),
             }
             for (&i, &[light_rr, u_pos, u_dir, u_lobe]) in self.live.iter().zip(&self.draws) {

@@ -70,6 +70,24 @@ pub trait Sampler {
             std::array::from_fn(|_| sampler.next_2d())
         }));
     }
+    /// The next `R` requests (as [`Sampler::next_2d`]) of each sample `(index, requests)` of
+    /// `samples`, resumed there as [`Sampler::resume_sample`] does, into `out` (replacing its
+    /// contents): the wavefront loop's shared sampler drawn a bounce at a time. Where it leaves
+    /// the current sample is unspecified (callers resume or start one next). Resumed one after
+    /// the other by default; [`SobolSampler`] reads its table's columns directly.
+    fn next_2d_resumed<const R: usize>(
+        &mut self,
+        samples: impl Iterator<Item = (u32, u32)>,
+        out: &mut Vec<[Vec2; R]>,
+    ) where
+        Self: Sized,
+    {
+        out.clear();
+        out.extend(samples.map(|(index, requests)| {
+            self.resume_sample(index, requests);
+            std::array::from_fn(|_| self.next_2d())
+        }));
+    }
 }
 
 /// 24 random mantissa bits: uniform in [0, 1) and never rounds up to 1.
