@@ -282,41 +282,46 @@ impl Sampler for SobolSampler {
     ) {
         out.clear();
         for (index, requests) in samples {
-            let points = match self.table.as_deref_mut() {
-                Some(table) => table.points::<R>(self.pixel_seed, index, requests),
-                None => None,
+            out.push([Vec2::ZERO; R]);
+            let points = out.last_mut().expect("just pushed");
+            let tabled = match self.table.as_deref_mut() {
+                Some(table) => table.points(self.pixel_seed, index, requests, points),
+                None => false,
             };
-            out.push(points.unwrap_or_else(|| {
+            if !tabled {
                 self.resume_sample(index, requests);
-                std::array::from_fn(|_| self.next_2d())
-            }));
+                *points = std::array::from_fn(|_| self.next_2d());
+            }
         }
     }
 }
 
 impl Table {
-    /// Requests `requests..requests + R` of sample `index`, if the table's block holds the
-    /// sample and the requests are within [`TABLE_REQUESTS`] (computing columns not yet
-    /// filled); the points [`Sampler::next_2d`] draws there.
+    /// Writes to `points` requests `requests..requests + R` of sample `index` (the points
+    /// [`Sampler::next_2d`] draws there), if the table's block holds the sample and the
+    /// requests are within [`TABLE_REQUESTS`] (computing columns not yet filled); whether it
+    /// did. Written in place: returned by value, the points went through the stack.
     #[inline(always)]
     fn points<const R: usize>(
         &mut self,
         pixel_seed: u32,
         index: u32,
         requests: u32,
-    ) -> Option<[Vec2; R]> {
+        points: &mut [Vec2; R],
+    ) -> bool {
         let sample = index.wrapping_sub(self.base) as usize;
         let end = requests as usize + R;
         if sample >= self.len as usize || end > TABLE_REQUESTS {
-            return None;
+            return false;
         }
         if end > self.filled as usize {
             self.fill(pixel_seed, requests + (R as u32).max(FILL_STEP));
         }
         let start = requests as usize;
-        Some(std::array::from_fn(|r| {
-            Vec2::new(self.x[start + r][sample], self.y[start + r][sample])
-        }))
+        for (r, point) in points.iter_mut().enumerate() {
+            *point = Vec2::new(self.x[start + r][sample], self.y[start + r][sample]);
+        }
+        true
     }
 }
 
