@@ -78,7 +78,7 @@ impl Sampler for PcgSampler {
 
     /// Each stream's numbers of the `R` requests at once: PCG32's state `n` steps ahead is an
     /// affine function of the current state and increment ([`JUMPS`]), so the `2R` outputs
-    /// (at most [`JUMPS`]` - 1`) are computed side by side in SIMD lanes (AVX-512 or AVX2 where
+    /// (up to eight) are computed side by side in SIMD lanes (AVX-512 or AVX2 where
     /// the CPU has them) instead of as a chain of dependent 64-bit multiplies, and stored as
     /// they come, already in request order.
     fn next_2d_each<const R: usize>(

@@ -55,8 +55,9 @@ pub trait Sampler {
     }
     /// The next `R` requests (as [`Sampler::next_2d`]) of each sampler `samplers[i]`, for `i` in
     /// `indices` in that order, into `out` (replacing its contents): the wavefront loop's
-    /// per-path streams drawn a bounce at a time. One sampler after the other by default;
-    /// [`PcgSampler`] steps many streams at once in SIMD lanes (the same numbers).
+    /// per-path streams drawn a bounce at a time. One `next_2d` after the other by default;
+    /// [`PcgSampler`] computes a stream's numbers side by side in SIMD lanes (the same
+    /// numbers).
     fn next_2d_each<const R: usize>(
         samplers: &mut [Self],
         indices: &[u32],
