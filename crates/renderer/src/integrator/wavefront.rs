@@ -105,6 +105,9 @@ pub struct Wavefront {
     live: Vec<u32>,
     /// Each path's last closest hit (valid for the paths in `surfaced`).
     hits: Vec<SurfaceHit>,
+    /// Stage 1's draws of each live path (same order): the light's and Russian roulette's
+    /// numbers, the light sample's, the BSDF direction's, the BSDF lobe's (x).
+    draws: Vec<[Vec2; 4]>,
     escaped: Vec<u32>,
     surfaced: Vec<u32>,
     shadow: Vec<ShadowRay>,
@@ -195,19 +198,21 @@ impl Wavefront {
             // `draw_env_lights`), each path samples the map on its own at shading time, and the
             // memory that sample will read is prefetched here, to overlap the traversal.
             let prefetch_env = self.live.len() < ENV_BATCH_MIN;
-            for &i in &self.live {
+            match &mut samplers {
+                // All the paths' requests at once (the lobe's number is its pair's x).
+                PathSamplers::Shared(s) => s.next_2d_resumed(
+                    self.live.iter().map(|&i| {
+                        let path = &self.paths[i as usize];
+                        (path.sample, path.requests)
+                    }),
+                    &mut self.draws,
+                ),
+                PathSamplers::PerPath(s) => S::next_2d_each(s, &self.live, &mut self.draws),
+            }
+            for (&i, &[light_rr, u_pos, u_dir, u_lobe]) in self.live.iter().zip(&self.draws) {
                 let path = &mut self.paths[i as usize];
-                let sampler: &mut S = match &mut samplers {
-                    PathSamplers::Shared(s) => {
-                        s.resume_sample(path.sample, path.requests);
-                        s
-                    }
-                    PathSamplers::PerPath(s) => &mut s[i as usize],
-                };
-                let light_rr = sampler.next_2d();
-                let u_pos = sampler.next_2d();
-                path.u_dir = sampler.next_2d();
-                path.u_lobe = sampler.next_1d();
+                path.u_dir = u_dir;
+                path.u_lobe = u_lobe.x;
                 path.requests += 4;
                 path.u_rr = light_rr.y;
                 let last_segment = path.depth + 1 >= max_depth;

@@ -46,9 +46,48 @@ pub trait Sampler {
     fn restore(&mut self, _checkpoint: [u64; 2], index: u32, requests: u32) {
         self.resume_sample(index, requests);
     }
+    /// A 1D request's number. The wavefront loop takes it as the x of the pair `next_2d` would
+    /// draw at the same request ([`Sampler::next_2d_each`] draws pairs only): a sampler must
+    /// give the same number both ways.
     fn next_1d(&mut self) -> f32;
     fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())
+    }
+    /// The next `R` requests (as [`Sampler::next_2d`]) of each sampler `samplers[i]`, for `i` in
+    /// `indices` in that order, into `out` (replacing its contents): the wavefront loop's
+    /// per-path streams drawn a bounce at a time. One `next_2d` after the other by default;
+    /// [`PcgSampler`] computes a stream's numbers side by side in SIMD lanes (the same
+    /// numbers).
+    fn next_2d_each<const R: usize>(
+        samplers: &mut [Self],
+        indices: &[u32],
+        out: &mut Vec<[Vec2; R]>,
+    ) where
+        Self: Sized,
+    {
+        out.clear();
+        out.extend(indices.iter().map(|&i| {
+            let sampler = &mut samplers[i as usize];
+            std::array::from_fn(|_| sampler.next_2d())
+        }));
+    }
+    /// The next `R` requests (as [`Sampler::next_2d`]) of each sample `(index, requests)` of
+    /// `samples`, resumed there as [`Sampler::resume_sample`] does, into `out` (replacing its
+    /// contents): the wavefront loop's shared sampler drawn a bounce at a time. Where it leaves
+    /// the current sample is unspecified (callers resume or start one next). Resumed one after
+    /// the other by default; [`SobolSampler`] reads its table's columns directly.
+    fn next_2d_resumed<const R: usize>(
+        &mut self,
+        samples: impl Iterator<Item = (u32, u32)>,
+        out: &mut Vec<[Vec2; R]>,
+    ) where
+        Self: Sized,
+    {
+        out.clear();
+        out.extend(samples.map(|(index, requests)| {
+            self.resume_sample(index, requests);
+            std::array::from_fn(|_| self.next_2d())
+        }));
     }
 }
 
