@@ -265,6 +265,14 @@ impl Ray4 {
         }
     }
 
+    /// The permuted axes, the shear and the origin along the permuted axes: one lane of a
+    /// shadow packet.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn lane_constants(&self) -> ([usize; 3], [f32; 3], [f32; 3]) {
+        (self.axes, self.shear.map(|s| s.x), self.origin.map(|o| o.x))
+    }
+
     /// The constants from a [`WatertightRay`]: the reference [`Ray4::for_ray`] is tested against
     /// (the traversals build theirs with `for_ray`).
     #[cfg(test)]

@@ -10,7 +10,7 @@ pub use build::BuildError;
 pub use material::Material;
 
 use crate::accel::instances::Instances;
-use crate::accel::{Accel, ClosestHit, PrimGeom};
+use crate::accel::{Accel, ClosestHit, PrimGeom, SHADOW_BATCH};
 use crate::cameras::Camera;
 use crate::lights::Light;
 use crate::ray::Ray;
@@ -210,6 +210,40 @@ impl RenderScene {
     pub fn visible(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> bool {
         let ray = Ray { origin, dir, tmax };
         !self.accel.occluded(&ray) && self.instances.as_ref().is_none_or(|i| !i.occluded(&ray))
+    }
+
+    /// [`RenderScene::visible`] of `count` rays (`ray(i)` the i-th), calling `visible(i)` for
+    /// each unblocked one, in order: the same answers, the rays traced together (as packets
+    /// where the CPU has them, [`Accel::occluded_batch`]).
+    pub fn visible_batch(
+        &self,
+        count: usize,
+        ray: impl Fn(usize) -> Ray,
+        mut visible: impl FnMut(usize),
+    ) {
+        let mut rays = [Ray {
+            origin: Vec3A::ZERO,
+            dir: Vec3A::ZERO,
+            tmax: 0.0,
+        }; SHADOW_BATCH];
+        let mut occluded = [false; SHADOW_BATCH];
+        for start in (0..count).step_by(SHADOW_BATCH) {
+            let n = (count - start).min(SHADOW_BATCH);
+            for (k, r) in rays[..n].iter_mut().enumerate() {
+                *r = ray(start + k);
+            }
+            self.accel.occluded_batch(&rays[..n], &mut occluded[..n]);
+            for k in 0..n {
+                if !occluded[k]
+                    && self
+                        .instances
+                        .as_ref()
+                        .is_none_or(|i| !i.occluded(&rays[k]))
+                {
+                    visible(start + k);
+                }
+            }
+        }
     }
 }
 
