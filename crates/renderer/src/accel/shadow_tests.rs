@@ -179,11 +179,11 @@ fn shadow_packets_answer_as_single_rays() {
             "{blocked} of {} blocked: the test needs both answers often",
             rays.len()
         );
-        // Every ray in a packet (min 1), packets of at least half, and the batch in random
-        // order too (other packet mates).
-        for min_lanes in [1, width / 2] {
+        // Every ray in a packet (min 1), packets of at least half, only coherent packets, and
+        // the batch in random order too (other packet mates).
+        for (min_lanes, spread) in [(1, f32::INFINITY), (width / 2, f32::INFINITY), (1, 0.25)] {
             let mut out = vec![false; rays.len()];
-            accel.occluded_batch_with(&rays, &mut out, width, min_lanes);
+            accel.occluded_batch_with(&rays, &mut out, width, min_lanes, spread);
             for (i, (&a, &b)) in out.iter().zip(&single).enumerate() {
                 assert_eq!(
                     a, b,
@@ -198,7 +198,7 @@ fn shadow_packets_answer_as_single_rays() {
             shuffled.swap(i, j);
         }
         let mut out = vec![false; shuffled.len()];
-        accel.occluded_batch_with(&shuffled, &mut out, width, 1);
+        accel.occluded_batch_with(&shuffled, &mut out, width, 1, f32::INFINITY);
         for (ray, &a) in shuffled.iter().zip(&out) {
             assert_eq!(
                 a,

@@ -25,9 +25,13 @@
 //! all are.
 
 use crate::accel::leaves::Leaves;
-use crate::accel::traversal::{reciprocal, ChildRef, InnerNodes, EXIT_WIDENING, LEAF, STACK_SIZE};
+use crate::accel::traversal::{
+    reciprocal, ChildRef, InnerNodes, EXIT_WIDENING, LEAF, NEAR_FAR, STACK_SIZE,
+};
 use crate::accel::triangle4::{Ray4, Triangle4};
+use crate::accel::SHADOW_BATCH;
 use crate::ray::Ray;
+use crate::shapes::triangle::PERMUTATION;
 use std::mem::MaybeUninit;
 
 /// The most rays a packet holds (sixteen, with AVX-512).
@@ -79,74 +83,101 @@ pub(crate) trait ShadowNodes: InnerNodes {
     unsafe fn bound(&self, r: ChildRef, row: usize, child: usize) -> f32;
 }
 
-/// Up to sixteen shadow rays of one octant and one largest axis, with each lane's constants of
-/// the box and triangle tests, structure-of-arrays. Lanes beyond `count` repeat lane 0.
-pub(crate) struct ShadowPacket {
-    rays: [Ray; MAX_LANES],
-    count: usize,
-    inv: [[f32; MAX_LANES]; 3],
-    org_inv: [[f32; MAX_LANES]; 3],
-    tmax: [f32; MAX_LANES],
-    shear: [[f32; MAX_LANES]; 3],
+/// The constants of a run of shadow rays, structure-of-arrays, in group order (rays of one
+/// octant and largest axis next to each other): what the single-ray set-up computes, once per
+/// ray. A packet is a window of [`MAX_LANES`] entries; the entries past a group's end (another
+/// group's, or stale ones) fill its unused lanes, whose answers are dropped.
+pub(crate) struct ShadowBatch {
+    inv: [[f32; PADDED]; 3],
+    org_inv: [[f32; PADDED]; 3],
+    tmax: [f32; PADDED],
+    shear: [[f32; PADDED]; 3],
     /// The origin's coordinates along the permuted axes.
-    origin: [[f32; MAX_LANES]; 3],
+    origin: [[f32; PADDED]; 3],
+}
+
+/// Entries of a [`ShadowBatch`]: a run of rays and one window more.
+const PADDED: usize = SHADOW_BATCH + MAX_LANES;
+
+impl ShadowBatch {
+    /// All entries zero (reused from run to run: no per-run initialisation).
+    pub(crate) fn new() -> Box<Self> {
+        Box::new(Self {
+            inv: [[0.0; PADDED]; 3],
+            org_inv: [[0.0; PADDED]; 3],
+            tmax: [0.0; PADDED],
+            shear: [[0.0; PADDED]; 3],
+            origin: [[0.0; PADDED]; 3],
+        })
+    }
+
+    /// Entry `i` (below [`SHADOW_BATCH`]) takes `ray`'s constants, those of the single-ray
+    /// set-up.
+    #[inline(always)]
+    pub(crate) fn set(&mut self, i: usize, ray: &Ray) {
+        let inv = reciprocal(ray);
+        let org_inv = ray.origin * inv;
+        let (_, shear, origin) = Ray4::for_ray(ray, inv).lane_constants();
+        for axis in 0..3 {
+            self.inv[axis][i] = inv[axis];
+            self.org_inv[axis][i] = org_inv[axis];
+            self.shear[axis][i] = shear[axis];
+            self.origin[axis][i] = origin[axis];
+        }
+        self.tmax[i] = ray.tmax;
+    }
+}
+
+/// Up to sixteen shadow rays of one group: entries `start..start + rays.len()` of a
+/// [`ShadowBatch`], the rays themselves (for the single-ray fallbacks), and the group's box rows
+/// and axis permutation.
+pub(crate) struct ShadowPacket<'a> {
+    batch: &'a ShadowBatch,
+    start: usize,
+    rays: &'a [Ray],
     near: [usize; 3],
     far: [usize; 3],
     axes: [usize; 3],
 }
 
-impl ShadowPacket {
-    /// A packet of `rays` (1 to 16), which must share their octant and largest axis
-    /// ([`crate::accel::shadow_batch::group_key`]); their constants are the single-ray ones.
-    pub(crate) fn new(rays: impl ExactSizeIterator<Item = Ray>) -> Self {
-        let count = rays.len();
-        assert!((1..=MAX_LANES).contains(&count), "1 to 16 rays per packet");
-        let mut p = ShadowPacket {
-            rays: [Ray {
-                origin: glam::Vec3A::ZERO,
-                dir: glam::Vec3A::ZERO,
-                tmax: 0.0,
-            }; MAX_LANES],
-            count,
-            inv: [[0.0; MAX_LANES]; 3],
-            org_inv: [[0.0; MAX_LANES]; 3],
-            tmax: [0.0; MAX_LANES],
-            shear: [[0.0; MAX_LANES]; 3],
-            origin: [[0.0; MAX_LANES]; 3],
-            near: [0; 3],
-            far: [0; 3],
-            axes: [0; 3],
-        };
-        for (k, ray) in rays.enumerate() {
-            p.set_lane(k, ray);
+impl<'a> ShadowPacket<'a> {
+    /// A packet of `rays` (1 to 16), whose constants are entries `start..` of `batch` and whose
+    /// group key is `key` ([`group_key`]).
+    pub(crate) fn new(batch: &'a ShadowBatch, start: usize, rays: &'a [Ray], key: usize) -> Self {
+        assert!((1..=MAX_LANES).contains(&rays.len()) && start + rays.len() <= SHADOW_BATCH);
+        let (near, far) = NEAR_FAR[key / 3];
+        Self {
+            batch,
+            start,
+            rays,
+            near,
+            far,
+            axes: PERMUTATION[key % 3],
         }
-        for k in count..MAX_LANES {
-            p.set_lane(k, p.rays[0]);
-        }
-        p
-    }
-
-    fn set_lane(&mut self, k: usize, ray: Ray) {
-        let inv = reciprocal(&ray);
-        let (org_inv, near, far) = crate::accel::traversal::slab_setup(&ray, inv);
-        let ray4 = Ray4::for_ray(&ray, inv);
-        let (axes, shear, origin) = ray4.lane_constants();
-        debug_assert!(k == 0 || (near, far, axes) == (self.near, self.far, self.axes));
-        (self.near, self.far, self.axes) = (near, far, axes);
-        for axis in 0..3 {
-            self.inv[axis][k] = inv[axis];
-            self.org_inv[axis][k] = org_inv[axis];
-            self.shear[axis][k] = shear[axis];
-            self.origin[axis][k] = origin[axis];
-        }
-        self.tmax[k] = ray.tmax;
-        self.rays[k] = ray;
     }
 
     /// The rays, lane by lane.
     pub(crate) fn rays(&self) -> &[Ray] {
-        &self.rays[..self.count]
+        self.rays
     }
+
+    /// The window of `row` this packet's lanes read.
+    #[inline(always)]
+    fn lanes<'r>(&self, row: &'r [f32; PADDED]) -> &'r [f32; MAX_LANES] {
+        // In bounds: `start` <= SHADOW_BATCH (checked in `new`), PADDED = SHADOW_BATCH + 16.
+        row[self.start..self.start + MAX_LANES].try_into().unwrap()
+    }
+}
+
+/// The group of a ray: its octant (the bound rows its box tests read, [`NEAR_FAR`]) and the
+/// largest axis of its direction (the watertight test's permutation), `octant × 3 + axis`,
+/// computed as the single-ray set-up does.
+#[inline(always)]
+pub(crate) fn group_key(ray: &Ray) -> usize {
+    let inv = reciprocal(ray);
+    let octant = inv.cmplt(glam::Vec3A::ZERO).bitmask() as usize & 7;
+    let kz = Ray4::for_ray(ray, inv).lane_constants().0[2];
+    octant * 3 + kz
 }
 
 /// The lanes of `packet` (bit i for ray i) that something blocks in (0, tmax).
@@ -161,16 +192,17 @@ pub(crate) unsafe fn occluded_lanes<L: Lanes, N: ShadowNodes>(
     root: ChildRef,
     packet: &ShadowPacket,
 ) -> u32 {
-    debug_assert!(packet.count <= L::N);
-    let used = (1u32 << packet.count) - 1;
+    debug_assert!(packet.rays.len() <= L::N);
+    let used = (1u32 << packet.rays.len()) - 1;
     let mut hit = 0u32;
     // SAFETY (the whole body): the caller's contract; stack accesses are below `top`, which
     // stays within STACK_SIZE as in the single-ray traversal (one entry per node on the path and
     // at most width − 1 waiting below each, whatever the lanes).
     unsafe {
-        let inv = load3::<L>(&packet.inv);
-        let org_inv = load3::<L>(&packet.org_inv);
-        let tmax = L::load(&packet.tmax);
+        let batch = packet.batch;
+        let inv = load3::<L>(packet, &batch.inv);
+        let org_inv = load3::<L>(packet, &batch.org_inv);
+        let tmax = L::load(packet.lanes(&batch.tmax));
         let zero = L::splat(0.0);
         let widening = L::splat(EXIT_WIDENING);
         let (near_rows, far_rows) = (packet.near, packet.far);
@@ -186,6 +218,11 @@ pub(crate) unsafe fn occluded_lanes<L: Lanes, N: ShadowNodes>(
             }
             if node & LEAF == 0 {
                 for child in 0..N::WIDTH {
+                    // Unused lanes point at the empty leaf: nothing to find there.
+                    let child_ref = nodes.child(node, child);
+                    if child_ref == Leaves::EMPTY_LEAF {
+                        continue;
+                    }
                     // Macros, not closures: a closure is a function of its own, compiled without
                     // the kernel's features, and every intrinsic in it a call if not inlined.
                     macro_rules! t {
@@ -209,8 +246,7 @@ pub(crate) unsafe fn occluded_lanes<L: Lanes, N: ShadowNodes>(
                     let entered = L::le(near, far) & active;
                     if entered != 0 {
                         debug_assert!(top < STACK_SIZE);
-                        *stack.get_unchecked_mut(top) =
-                            MaybeUninit::new((nodes.child(node, child), entered));
+                        *stack.get_unchecked_mut(top) = MaybeUninit::new((child_ref, entered));
                         top += 1;
                     }
                 }
@@ -258,8 +294,8 @@ unsafe fn block_occludes<L: Lanes>(
     // SAFETY (the whole body): the caller's contract.
     unsafe {
         let [kx, ky, kz] = packet.axes;
-        let [ox, oy, oz] = load3::<L>(&packet.origin);
-        let [sx, sy, sz] = load3::<L>(&packet.shear);
+        let [ox, oy, oz] = load3::<L>(packet, &packet.batch.origin);
+        let [sx, sy, sz] = load3::<L>(packet, &packet.batch.shear);
         let zero = L::splat(0.0);
         let mut exact_zero = 0u32;
         let mut blocked = 0u32;
@@ -323,9 +359,15 @@ unsafe fn block_occludes<L: Lanes>(
 /// # Safety
 /// `L`'s instruction set is present.
 #[inline(always)]
-unsafe fn load3<L: Lanes>(rows: &[[f32; MAX_LANES]; 3]) -> [L::F; 3] {
+unsafe fn load3<L: Lanes>(packet: &ShadowPacket, rows: &[[f32; PADDED]; 3]) -> [L::F; 3] {
     // SAFETY: the caller's contract.
-    unsafe { [L::load(&rows[0]), L::load(&rows[1]), L::load(&rows[2])] }
+    unsafe {
+        [
+            L::load(packet.lanes(&rows[0])),
+            L::load(packet.lanes(&rows[1])),
+            L::load(packet.lanes(&rows[2])),
+        ]
+    }
 }
 
 /// The single-ray any-hit test of one block (the rare fallback of [`block_occludes`]).
