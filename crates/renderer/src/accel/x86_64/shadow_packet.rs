@@ -176,8 +176,7 @@ impl<'a> ShadowPacket<'a> {
 pub(crate) fn group_key(ray: &Ray) -> usize {
     let inv = reciprocal(ray);
     let octant = inv.cmplt(glam::Vec3A::ZERO).bitmask() as usize & 7;
-    let kz = Ray4::for_ray(ray, inv).lane_constants().0[2];
-    octant * 3 + kz
+    octant * 3 + Ray4::largest_axis(ray.dir)
 }
 
 /// The lanes of `packet` (bit i for ray i) that something blocks in (0, tmax).
