@@ -5,13 +5,13 @@
 
 use super::Accel;
 use crate::ray::Ray;
-use std::mem::MaybeUninit;
 use std::sync::OnceLock;
 
 /// The most rays one call groups at once; longer batches are cut into runs of this many.
 pub const SHADOW_BATCH: usize = 256;
 
 /// Group keys: 8 octants × 3 largest axes.
+#[cfg(target_arch = "x86_64")]
 const KEYS: usize = 24;
 
 /// The fewest rays of one group traced as a packet (fewer go one by one): `TORREY_SHADOW_PACKET`
@@ -45,6 +45,7 @@ fn spread() -> f32 {
 /// origins and around their end points both within `spread` × their mean length (a pixel's first
 /// hits towards one light, not rays scattered over the scene, which a packet would trace as the
 /// union of their paths through the tree). An infinite `spread` packs any rays (tests).
+#[cfg(target_arch = "x86_64")]
 #[inline]
 fn coherent(rays: &[Ray], spread: f32) -> bool {
     if spread == f32::INFINITY {
@@ -127,6 +128,7 @@ impl Accel {
     ) {
         use super::x86_64::shadow_packet::{group_key, ShadowBatch, ShadowPacket};
         use std::cell::RefCell;
+        use std::mem::MaybeUninit;
         thread_local! {
             static BATCH: RefCell<Box<ShadowBatch>> = RefCell::new(ShadowBatch::new());
         }
@@ -214,10 +216,11 @@ impl Accel {
         }
     }
 
+    /// No packets on this target: one by one.
     #[cfg(not(target_arch = "x86_64"))]
-    fn occluded_packet(&self, members: &[u16], rays: &[Ray], _width: usize) -> u32 {
-        members.iter().enumerate().fold(0, |m, (k, &i)| {
-            m | (self.occluded(&rays[i as usize]) as u32) << k
-        })
+    fn occluded_run(&self, rays: &[Ray], occluded: &mut [bool], _rule: (usize, usize, f32)) {
+        for (ray, occluded) in rays.iter().zip(occluded) {
+            *occluded = self.occluded(ray);
+        }
     }
 }
