@@ -103,7 +103,13 @@ impl Accel {
         spread: f32,
     ) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
-        if width == 0 || self.root == super::traversal::EMPTY || rays.len() < min_lanes {
+        // No packets where the tree does not take them (no wide layout, a tree too deep for
+        // the fixed stack, an empty scene), whatever `width` asks for.
+        if width == 0
+            || self.packet_width() == 0
+            || self.root == super::traversal::EMPTY
+            || rays.len() < min_lanes
+        {
             for (ray, occluded) in rays.iter().zip(occluded) {
                 *occluded = self.occluded(ray);
             }
