@@ -28,6 +28,9 @@ mod build;
 pub mod instances;
 mod leaves;
 mod nodes4;
+mod shadow_batch;
+#[cfg(test)]
+mod shadow_tests;
 #[cfg(test)]
 mod tests;
 pub(crate) mod traversal;
@@ -40,6 +43,7 @@ use crate::shapes::object_rows::ObjectRows;
 use glam::Vec3A;
 use leaves::Leaves;
 use nodes4::Nodes4;
+pub use shadow_batch::SHADOW_BATCH;
 use std::mem::MaybeUninit;
 use std::sync::OnceLock;
 use traversal::{any_hit, closest_hit, ChildRef, InnerNodes, EMPTY, STACK_SIZE};

@@ -43,7 +43,9 @@ impl Triangle4 {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn coordinate(&self, vertex: usize, axis: usize, lane: usize) -> f32 {
-        self.v[vertex][axis].to_array()[lane]
+        // Through a reference, not `to_array`: one broadcast from memory, not a copy first.
+        let lanes: &[f32; 4] = self.v[vertex][axis].as_ref();
+        lanes[lane]
     }
 
     /// The vertices of one lane.
@@ -243,10 +245,7 @@ impl Ray4 {
     /// included.
     #[inline(always)]
     pub(crate) fn for_ray(ray: &Ray, inv: Vec3A) -> Self {
-        /// Largest axis by the comparison bits (`shapes::triangle::largest_axis`'s table).
-        const LARGEST: [usize; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
-        let ad = ray.dir.abs();
-        let kz = LARGEST[ad.xxy().cmpgt(ad.yzz()).bitmask() as usize & 7];
+        let kz = Self::largest_axis(ray.dir);
         let axes = PERMUTATION[kz];
         let (d, inv, o) = (ray.dir.to_array(), inv.to_array(), ray.origin.to_array());
         let sz = inv[kz];
@@ -263,6 +262,23 @@ impl Ray4 {
                 Vec4::splat(o[axes[2]]),
             ],
         }
+    }
+
+    /// The permuted axes, the shear and the origin along the permuted axes: one lane of a
+    /// shadow packet.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn lane_constants(&self) -> ([usize; 3], [f32; 3], [f32; 3]) {
+        (self.axes, self.shear.map(|s| s.x), self.origin.map(|o| o.x))
+    }
+
+    /// The watertight test's axis z for direction `dir`: the largest by the comparison bits
+    /// (`shapes::triangle::largest_axis`'s table).
+    #[inline(always)]
+    pub(crate) fn largest_axis(dir: Vec3A) -> usize {
+        const LARGEST: [usize; 8] = [2, 2, 2, 0, 1, 2, 1, 0];
+        let ad = dir.abs();
+        LARGEST[ad.xxy().cmpgt(ad.yzz()).bitmask() as usize & 7]
     }
 
     /// The constants from a [`WatertightRay`]: the reference [`Ray4::for_ray`] is tested against

@@ -346,13 +346,18 @@ impl Wavefront {
                 }
             }
 
-            // Stage 5: shadow rays.
-            for ray in &self.shadow {
-                rays.shadow += 1;
-                if scene.visible(ray.origin, ray.dir, ray.tmax) {
-                    self.paths[ray.path as usize].result += ray.contribution;
-                }
-            }
+            // Stage 5: shadow rays, traced together (as packets where the CPU has them).
+            rays.shadow += self.shadow.len() as u64;
+            let (shadow, paths) = (&self.shadow, &mut self.paths);
+            scene.visible_batch(
+                shadow.len(),
+                |i| Ray {
+                    origin: shadow[i].origin,
+                    dir: shadow[i].dir,
+                    tmax: shadow[i].tmax,
+                },
+                |i| paths[shadow[i].path as usize].result += shadow[i].contribution,
+            );
         }
         out.extend(self.paths.iter().map(|p| p.result));
     }

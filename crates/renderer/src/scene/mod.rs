@@ -10,7 +10,7 @@ pub use build::BuildError;
 pub use material::Material;
 
 use crate::accel::instances::Instances;
-use crate::accel::{Accel, ClosestHit, PrimGeom};
+use crate::accel::{Accel, ClosestHit, PrimGeom, SHADOW_BATCH};
 use crate::cameras::Camera;
 use crate::lights::Light;
 use crate::ray::Ray;
@@ -19,6 +19,7 @@ use crate::shapes::mesh::MeshData;
 use crate::shapes::{PrimInfo, Shape, ShapeKind, SurfaceHit};
 use crate::textures::Texture;
 use glam::Vec3A;
+use std::mem::MaybeUninit;
 
 /// A scene ready to render. Shapes, primitives, materials, textures and lights refer to each
 /// other by index; the build establishes that every index is valid, so the fields are private.
@@ -210,6 +211,49 @@ impl RenderScene {
     pub fn visible(&self, origin: Vec3A, dir: Vec3A, tmax: f32) -> bool {
         let ray = Ray { origin, dir, tmax };
         !self.accel.occluded(&ray) && self.instances.as_ref().is_none_or(|i| !i.occluded(&ray))
+    }
+
+    /// [`RenderScene::visible`] of `count` rays (`ray(i)` the i-th), calling `visible(i)` for
+    /// each unblocked one, in order: the same answers, the rays traced together as packets
+    /// where that pays ([`Accel::shadow_packets_pay`], [`Accel::occluded_batch`]).
+    pub fn visible_batch(
+        &self,
+        count: usize,
+        ray: impl Fn(usize) -> Ray,
+        mut visible: impl FnMut(usize),
+    ) {
+        if !self.accel.shadow_packets_pay(count) {
+            for k in 0..count {
+                let r = ray(k);
+                if self.visible(r.origin, r.dir, r.tmax) {
+                    visible(k);
+                }
+            }
+            return;
+        }
+        // Uninitialised: zeroing the whole array on every call (a wavefront stage's few dozen
+        // rays) cost more than the packets saved.
+        let mut rays = [const { MaybeUninit::<Ray>::uninit() }; SHADOW_BATCH];
+        let mut occluded = [false; SHADOW_BATCH];
+        for start in (0..count).step_by(SHADOW_BATCH) {
+            let n = (count - start).min(SHADOW_BATCH);
+            for (k, r) in rays[..n].iter_mut().enumerate() {
+                r.write(ray(start + k));
+            }
+            // SAFETY: the first `n` entries were written just above.
+            let rays = unsafe { std::slice::from_raw_parts(rays.as_ptr().cast::<Ray>(), n) };
+            self.accel.occluded_batch(rays, &mut occluded[..n]);
+            for k in 0..n {
+                if !occluded[k]
+                    && self
+                        .instances
+                        .as_ref()
+                        .is_none_or(|i| !i.occluded(&rays[k]))
+                {
+                    visible(start + k);
+                }
+            }
+        }
     }
 }
 

@@ -1,12 +1,14 @@
-//! AVX2 and FMA: eight-wide BVH nodes ([`Nodes8`]) and camera-ray packets of eight
-//! ([`packet`]). The traversal loops are the generic ones of [`crate::accel::traversal`],
+//! AVX2 and FMA: eight-wide BVH nodes ([`Nodes8`]), camera-ray packets of eight ([`packet`]) and
+//! the eight lanes of shadow-ray packets ([`Lanes8`]). The traversal loops are the generic ones of [`crate::accel::traversal`],
 //! instantiated here inside functions compiled with these features enabled. (The same loops
 //! compiled with AVX-512VL too, for its 32 vector registers and no spills around the leaf tests,
 //! measured no faster on a Zen 5 CPU: renders within 1-3%, not kept.)
 
+mod lanes8;
 mod nodes8;
 pub(crate) mod packet;
 
+pub(crate) use lanes8::Lanes8;
 pub(crate) use nodes8::Nodes8;
 pub(crate) use packet::PACKET;
 

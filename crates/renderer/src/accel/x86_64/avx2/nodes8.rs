@@ -5,6 +5,7 @@ use crate::accel::build::WideBuilder;
 use crate::accel::traversal::{
     near_far_offsets, slab_setup_offsets, ChildRef, InnerNodes, EXIT_WIDENING,
 };
+use crate::accel::x86_64::shadow_packet::ShadowNodes;
 use crate::ray::Ray;
 use glam::Vec3A;
 use std::arch::x86_64::*;
@@ -95,6 +96,22 @@ impl Nodes8 {
             );
             let far = _mm256_min_ps(_mm256_min_ps(exit(0), exit(1)), exit(2));
             entered(near, far, tmax)
+        }
+    }
+}
+
+impl ShadowNodes for Nodes8 {
+    #[inline(always)]
+    unsafe fn bound(&self, r: ChildRef, row: usize, child: usize) -> f32 {
+        debug_assert!((r as usize) < self.0.len() && row < 6 && child < 8);
+        // SAFETY: the caller's contract (an inner node, a row and a child in range).
+        unsafe {
+            *self
+                .0
+                .get_unchecked(r as usize)
+                .bounds
+                .get_unchecked(row)
+                .get_unchecked(child)
         }
     }
 }

@@ -1,12 +1,15 @@
 //! AVX-512 (F, with AVX2 and FMA): sixteen-wide BVH nodes ([`Nodes16`]), through which the
 //! camera-ray packets of eight trace with [`super::avx2::packet::closest_hits16`], and camera-ray
-//! packets of sixteen through eight- or sixteen-wide nodes ([`packet16`]). The traversal loops
+//! packets of sixteen through eight- or sixteen-wide nodes ([`packet16`]), and the sixteen lanes
+//! of shadow-ray packets ([`Lanes16`]). The traversal loops
 //! are the generic ones of [`crate::accel::traversal`], instantiated here inside functions
 //! compiled with these features enabled.
 
+mod lanes16;
 mod nodes16;
 pub(crate) mod packet16;
 
+pub(crate) use lanes16::Lanes16;
 pub(crate) use nodes16::Nodes16;
 
 use crate::accel::leaves::Leaves;
