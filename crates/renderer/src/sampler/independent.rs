@@ -1,7 +1,7 @@
 //! Independent uniform numbers (Mitsuba's `independent` sampler), from PCG32 streams indexed by
 //! (seed, pixel, sample).
 
-use super::{to_unit, Sampler};
+use super::{next_2d_one_by_one, to_unit, Sampler};
 #[cfg(target_arch = "x86_64")]
 use crate::accel::Simd;
 use glam::Vec2;
@@ -89,11 +89,7 @@ impl Sampler for PcgSampler {
         out.clear();
         if 2 * R >= JUMPS.len() {
             // More numbers than the table jumps to: one stream after the other.
-            out.extend(indices.iter().map(|&i| {
-                let sampler = &mut samplers[i as usize];
-                std::array::from_fn(|_| sampler.next_2d())
-            }));
-            return;
+            return next_2d_one_by_one(samplers, indices, out);
         }
         out.resize(indices.len(), [Vec2::ZERO; R]);
         #[cfg(target_arch = "x86_64")]
@@ -162,7 +158,7 @@ unsafe fn each_avx512<const R: usize>(
             _mm512_mullo_epi64(_mm512_set1_epi64(state as i64), a),
             _mm512_mullo_epi64(_mm512_set1_epi64(increment as i64), c),
         );
-        // `Pcg32::next_u32`'s output of each state: the XOR-shift truncated to 32 bits, rotated
+        // `Pcg32::output` of each state: the XOR-shift truncated to 32 bits, rotated
         // by the state's top five bits; then `to_unit`.
         let xorshifted = _mm512_cvtepi64_epi32(_mm512_srli_epi64::<27>(_mm512_xor_si512(
             _mm512_srli_epi64::<18>(old),
@@ -172,10 +168,7 @@ unsafe fn each_avx512<const R: usize>(
         let bits = _mm256_rorv_epi32(xorshifted, rotation);
         let units = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(bits)), scale);
         unsafe { _mm256_mask_storeu_ps(out.as_mut_ptr().cast(), mask, units) };
-        let (a, c) = JUMPS[2 * R];
-        rng.state = state
-            .wrapping_mul(a)
-            .wrapping_add(increment.wrapping_mul(c));
+        rng.state = rng.state_after(2 * R);
     }
 }
 
@@ -197,22 +190,14 @@ fn each_lanes<const R: usize>(samplers: &mut [PcgSampler], indices: &[u32], out:
     const N: usize = JUMPS.len() - 1;
     for (&i, out) in indices.iter().zip(out) {
         let rng = &mut samplers[i as usize].rng;
-        let (state, increment) = (rng.state, rng.increment);
         let mut units = [0f32; N];
-        for (unit, &(a, c)) in units.iter_mut().zip(&JUMPS[..N]) {
-            let old = state
-                .wrapping_mul(a)
-                .wrapping_add(increment.wrapping_mul(c));
-            let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-            let bits = xorshifted.rotate_right((old >> 59) as u32);
+        for (n, unit) in units.iter_mut().enumerate() {
+            let bits = Pcg32::output(rng.state_after(n));
             // `to_unit`, with a conversion that has a vector instruction (the value fits in 24
             // bits: the same float).
             *unit = (bits >> 8) as i32 as f32 * (1.0 / (1u32 << 24) as f32);
         }
-        let (a, c) = JUMPS[2 * R];
-        rng.state = state
-            .wrapping_mul(a)
-            .wrapping_add(increment.wrapping_mul(c));
+        rng.state = rng.state_after(2 * R);
         for (r, u) in out.iter_mut().enumerate() {
             *u = Vec2::new(units[2 * r], units[2 * r + 1]);
         }
@@ -245,8 +230,24 @@ impl Pcg32 {
         self.state = old
             .wrapping_mul(Self::MULTIPLIER)
             .wrapping_add(self.increment);
+        Self::output(old)
+    }
+
+    /// XSH-RR: the output of state `old` (the XOR-shift truncated to 32 bits, rotated by the
+    /// state's top five bits).
+    #[inline(always)]
+    fn output(old: u64) -> u32 {
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         xorshifted.rotate_right((old >> 59) as u32)
+    }
+
+    /// The state `n` steps ahead (`n` < `JUMPS.len()`), without stepping through them.
+    #[inline(always)]
+    fn state_after(&self, n: usize) -> u64 {
+        let (a, c) = JUMPS[n];
+        self.state
+            .wrapping_mul(a)
+            .wrapping_add(self.increment.wrapping_mul(c))
     }
 }
 

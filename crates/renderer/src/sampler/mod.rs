@@ -65,11 +65,7 @@ pub trait Sampler {
     ) where
         Self: Sized,
     {
-        out.clear();
-        out.extend(indices.iter().map(|&i| {
-            let sampler = &mut samplers[i as usize];
-            std::array::from_fn(|_| sampler.next_2d())
-        }));
+        next_2d_one_by_one(samplers, indices, out)
     }
     /// The next `R` requests (as [`Sampler::next_2d`]) of each sample `(index, requests)` of
     /// `samples`, resumed there as [`Sampler::resume_sample`] does, into `out` (replacing its
@@ -89,6 +85,20 @@ pub trait Sampler {
             std::array::from_fn(|_| self.next_2d())
         }));
     }
+}
+
+/// [`Sampler::next_2d_each`] one `next_2d` after the other: the default, and PCG's fallback
+/// past its jump table.
+fn next_2d_one_by_one<S: Sampler, const R: usize>(
+    samplers: &mut [S],
+    indices: &[u32],
+    out: &mut Vec<[Vec2; R]>,
+) {
+    out.clear();
+    out.extend(indices.iter().map(|&i| {
+        let sampler = &mut samplers[i as usize];
+        std::array::from_fn(|_| sampler.next_2d())
+    }));
 }
 
 /// 24 random mantissa bits: uniform in [0, 1) and never rounds up to 1.
