@@ -225,26 +225,26 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         eprintln!("warning: {w}");
     }
     let build_time = build_start.elapsed();
-    let settings = torrey_renderer::RenderSettings {
-        spp: args.spp.unwrap_or(scene.sampler.sample_count).max(1),
-        max_depth: args.max_depth.unwrap_or(scene.integrator.max_depth),
-        rr_depth: scene.integrator.rr_depth,
-        seed: args.seed.unwrap_or(scene.sampler.seed),
-        filter: scene.film.filter,
-        tile_size: 16,
-        env_strategy: Default::default(),
-        sampler: match args.sampler {
-            SamplerArg::Sobol => torrey_renderer::SamplerKind::Sobol,
-            SamplerArg::Independent => torrey_renderer::SamplerKind::Independent,
+    let settings = torrey_renderer::RenderSettings::new(
+        &scene,
+        &torrey_renderer::Overrides {
+            spp: args.spp,
+            max_depth: args.max_depth,
+            seed: args.seed,
+            sampler: Some(match args.sampler {
+                SamplerArg::Sobol => torrey_renderer::SamplerKind::Sobol,
+                SamplerArg::Independent => torrey_renderer::SamplerKind::Independent,
+            }),
+            mipmapping: Some(!args.no_mipmap),
+            packets: Some(!args.no_packets),
+            path_loop: Some(match args.integrator_loop {
+                PathLoopArg::Auto => torrey_renderer::PathLoop::Auto,
+                PathLoopArg::Scalar => torrey_renderer::PathLoop::Scalar,
+                PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
+            }),
+            tile_size: None,
         },
-        mipmapping: !args.no_mipmap,
-        packets: !args.no_packets,
-        path_loop: match args.integrator_loop {
-            PathLoopArg::Auto => torrey_renderer::PathLoop::Auto,
-            PathLoopArg::Scalar => torrey_renderer::PathLoop::Scalar,
-            PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
-        },
-    };
+    );
     let output = output_path(
         args.output.as_deref(),
         scene_path,
@@ -295,7 +295,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         out.image.width,
         out.image.height,
         out.spp,
-        settings.max_depth,
+        settings.integrator.max_depth(),
         render_scene.triangle_count(),
         match render_scene.instance_count() {
             0 => String::new(),

@@ -59,20 +59,17 @@ fn every_shared_torrey_scene_renders() {
         let scene = result.unwrap_or_else(|e| panic!("{e}"));
         let rs =
             torrey_renderer::RenderScene::build(&scene, 24, 16).unwrap_or_else(|e| panic!("{e}"));
-        let settings = torrey_renderer::RenderSettings {
-            spp: 1,
-            max_depth: scene.integrator.max_depth.min(4),
-            rr_depth: scene.integrator.rr_depth,
-            seed: 0,
-            filter: scene.film.filter,
-            tile_size: 16,
-            env_strategy: Default::default(),
-            // Independent samples: the per-pixel variance then estimates the error exactly.
-            sampler: torrey_renderer::SamplerKind::Independent,
-            mipmapping: true,
-            packets: true,
-            path_loop: Default::default(),
-        };
+        let settings = torrey_renderer::RenderSettings::new(
+            &scene,
+            &torrey_renderer::Overrides {
+                spp: Some(1),
+                max_depth: Some(scene.integrator.max_depth().min(4)),
+                seed: Some(0),
+                // Independent samples: the per-pixel variance then estimates the error exactly.
+                sampler: Some(torrey_renderer::SamplerKind::Independent),
+                ..Default::default()
+            },
+        );
         let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
         assert_eq!(out.nonfinite_samples, 0, "{name}: NaN or infinite samples");
         assert!(

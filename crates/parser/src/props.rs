@@ -472,6 +472,53 @@ impl<'a> Props<'a> {
     }
 
     /// Marks parameters as accepted without effect (e.g. `focus_distance`).
+    /// An integer parameter in 1..=`max` (`default` when absent); `limit` names the `--limit`
+    /// that raises `max`, if any.
+    pub fn positive(
+        &mut self,
+        ctx: &Ctx,
+        name: &str,
+        default: i64,
+        max: u64,
+        limit: Option<&str>,
+    ) -> Result<u32> {
+        let max = max.min(u32::MAX as u64) as i64;
+        match self.opt_int_pos(ctx, &[name])? {
+            None => Ok(default as u32),
+            Some((v, pos)) if v <= 0 => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{name}' of {} must be positive, found {v}",
+                    self.owner
+                ),
+            )),
+            Some((v, pos)) if v > max => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{name}' of {} must be at most {max}, found {v}{}",
+                    self.owner,
+                    limit.map_or(String::new(), |l| format!(" (raise with --limit {l}=N)"))
+                ),
+            )),
+            Some((v, _)) => Ok(v as u32),
+        }
+    }
+
+    /// An optional integer parameter that must not be negative.
+    pub fn non_negative(&mut self, ctx: &Ctx, name: &str) -> Result<Option<u32>> {
+        match self.opt_int_pos(ctx, &[name])? {
+            None => Ok(None),
+            Some((v, pos)) if v < 0 || v > u32::MAX as i64 => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{name}' of {} must not be negative, found {v}",
+                    self.owner
+                ),
+            )),
+            Some((v, _)) => Ok(Some(v as u32)),
+        }
+    }
+
     pub fn ignore(&mut self, names: &[&str]) {
         for n in names {
             while self.take(n).is_some() {}

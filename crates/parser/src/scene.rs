@@ -183,21 +183,69 @@ pub struct Sampler {
     pub kind: String,
 }
 
+/// The integrator: which one, with its parameters (one parser file per plugin:
+/// plugins/integrator/).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Integrator {
-    /// Mitsuba's `max_depth`: path segments; 1 = emitters seen directly, 2 = direct light, -1 = unbounded.
+    /// The plugin's type as written (`path`, `direct`, `volpath`, ...; a wrapper's inner one),
+    /// for messages.
+    pub type_name: String,
+    pub kind: IntegratorKind,
+}
+
+/// The integrators torrey renders.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IntegratorKind {
+    /// Mitsuba's `path`, and the types rendered by the path tracer.
+    Path(PathParams),
+    /// Mitsuba's `direct`.
+    Direct(DirectParams),
+}
+
+/// The path tracer's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathParams {
+    /// Mitsuba's `max_depth`: path segments; 1 = emitters seen directly, 2 = direct light,
+    /// -1 = unbounded.
     pub max_depth: i32,
     /// Russian roulette starts at this depth (Mitsuba's `rr_depth`, default 5).
     pub rr_depth: i32,
-    /// The integrator's type name (`path`, `direct`, ...), kept for information; wrappers
-    /// (`moment`, `aov`) are read through to the integrator inside them.
-    pub kind: String,
     /// Mitsuba's `hide_emitters`: emitters seen directly by the camera are black.
     pub hide_emitters: bool,
-    /// `direct` only: emitter and bsdf samples per shading point (Mitsuba's `emitter_samples`,
-    /// `bsdf_samples`, both defaulting to `shading_samples`, 1). 1 and 1 otherwise.
+}
+
+/// `direct`'s parameters: emitter and BSDF samples per shading point (Mitsuba's
+/// `emitter_samples`, `bsdf_samples`, both defaulting to `shading_samples`, 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectParams {
     pub emitter_samples: u32,
     pub bsdf_samples: u32,
+    pub hide_emitters: bool,
+}
+
+impl Integrator {
+    /// Path segments followed: `direct` follows two (the camera ray and one bounce).
+    pub fn max_depth(&self) -> i32 {
+        match self.kind {
+            IntegratorKind::Path(p) => p.max_depth,
+            IntegratorKind::Direct(_) => 2,
+        }
+    }
+
+    /// Where Russian roulette starts (`direct` never reaches it).
+    pub fn rr_depth(&self) -> i32 {
+        match self.kind {
+            IntegratorKind::Path(p) => p.rr_depth,
+            IntegratorKind::Direct(_) => 5,
+        }
+    }
+
+    pub fn hide_emitters(&self) -> bool {
+        match self.kind {
+            IntegratorKind::Path(p) => p.hide_emitters,
+            IntegratorKind::Direct(d) => d.hide_emitters,
+        }
+    }
 }
 
 /// A colour that may be a constant or come from a texture.

@@ -7,8 +7,8 @@ mod common;
 use common::{assert_err, parse_in, parse_ok, pos_of, temp_dir};
 use glam::{Mat4, Vec3, Vec4};
 use torrey_parser::{
-    parse_scene_str_with, BsdfKind, CameraKind, ColorParam, Dialect, FovAxis, Light, LoadOptions,
-    PixelFilter,
+    parse_scene_str_with, BsdfKind, CameraKind, ColorParam, Dialect, FovAxis, IntegratorKind,
+    Light, LoadOptions, PixelFilter,
 };
 
 fn write(dir: &std::path::Path, name: &str, text: &str) {
@@ -289,10 +289,10 @@ fn integrators_and_samplers() {
 </scene>"#,
     );
     assert_eq!(
-        (s.integrator.kind.as_str(), s.integrator.max_depth),
+        (s.integrator.type_name.as_str(), s.integrator.max_depth()),
         ("path", 7)
     );
-    assert!(s.integrator.hide_emitters);
+    assert!(s.integrator.hide_emitters());
     assert_eq!((s.sampler.sample_count, s.sampler.seed), (16, 3));
     assert_eq!(s.sampler.kind, "stratified");
     assert_eq!(
@@ -307,17 +307,17 @@ fn integrators_and_samplers() {
   <sensor type="perspective"><sampler type="orthogonal"><integer name="sample_count" value="10"/></sampler></sensor>
 </scene>"#,
     );
-    assert_eq!(s.integrator.kind, "direct");
-    assert_eq!(
-        (s.integrator.emitter_samples, s.integrator.bsdf_samples),
-        (4, 1)
-    );
+    assert_eq!(s.integrator.type_name, "direct");
+    let IntegratorKind::Direct(direct) = s.integrator.kind else {
+        panic!("{:?}", s.integrator)
+    };
+    assert_eq!((direct.emitter_samples, direct.bsdf_samples), (4, 1));
     assert_eq!(s.sampler.sample_count, 25);
     for ty in ["ptracer", "volpath"] {
         let s = parse_ok(&format!(
             r#"<scene version="3.0.0"><integrator type="{ty}"><integer name="max_depth" value="3"/></integrator></scene>"#
         ));
-        assert_eq!(s.integrator.max_depth, 3);
+        assert_eq!(s.integrator.max_depth(), 3);
         assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     }
 }

@@ -111,8 +111,8 @@ fn torrey_scene_details() {
         &[],
     )
     .unwrap();
-    assert_eq!(room.integrator.max_depth, 2);
-    assert_eq!(room.integrator.kind, "direct");
+    assert_eq!(room.integrator.max_depth(), 2);
+    assert_eq!(room.integrator.type_name, "direct");
     assert!(room
         .bsdfs
         .iter()

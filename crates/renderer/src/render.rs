@@ -8,7 +8,7 @@ use crate::accel::ClosestHit;
 use crate::cameras::{Camera, CameraSample, MAX_RAYS};
 use crate::film::{Film, Filter, TileFilm};
 use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
-use crate::integrator::{radiance, EnvStrategy, PathLoop, PathSettings, RayCount};
+use crate::integrator::{radiance, EnvStrategy, Integrator, PathLoop, PathSettings, RayCount};
 use crate::lights::Light;
 use crate::ray::Ray;
 use crate::sampler::{PcgSampler, Sampler, SamplerKind, SobolSampler};
@@ -25,8 +25,8 @@ use torrey_texture::{centre_weight, spp_scale, Image, RayCone};
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
     pub spp: u32,
-    pub max_depth: i32,
-    pub rr_depth: i32,
+    /// The integrator and its parameters (the scene's, with `--max-depth` applied).
+    pub integrator: Integrator,
     pub seed: u64,
     pub filter: PixelFilter,
     pub tile_size: u32,
@@ -39,10 +39,51 @@ pub struct RenderSettings {
     /// slower.
     pub packets: bool,
     /// Run the path tracer one path at a time or as a wavefront of a pixel's samples (`Auto`:
-    /// the wavefront where an environment map lights the scene, or where its surface stage
-    /// shades diffuse surfaces in SIMD lanes and every light's samples too): the same images,
-    /// bit for bit.
+    /// the wavefront where an environment map lights the scene): the same images, bit for bit.
     pub path_loop: PathLoop,
+}
+
+/// What a caller changes of a scene's own render settings (the command line, Python, the
+/// fuzzer); None keeps the scene's value or the default.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    pub spp: Option<u32>,
+    /// The path tracer's `max_depth` (`direct` with several samples per hit has none).
+    pub max_depth: Option<i32>,
+    pub seed: Option<u64>,
+    /// Default: Sobol.
+    pub sampler: Option<SamplerKind>,
+    /// Default: on.
+    pub mipmapping: Option<bool>,
+    /// Default: on.
+    pub packets: Option<bool>,
+    pub path_loop: Option<PathLoop>,
+    /// Default: 16 pixels.
+    pub tile_size: Option<u32>,
+}
+
+impl RenderSettings {
+    /// The settings of `scene`: its sampler's sample count and seed, its integrator and its
+    /// film's filter, with `overrides` applied. The one place settings are made, so the same
+    /// scene and overrides give the same pixels from every front end.
+    pub fn new(scene: &torrey_parser::Scene, overrides: &Overrides) -> Self {
+        let integrator = Integrator::from_desc(&scene.integrator);
+        RenderSettings {
+            spp: overrides.spp.unwrap_or(scene.sampler.sample_count).max(1),
+            integrator: match overrides.max_depth {
+                Some(depth) => integrator.with_max_depth(depth),
+                None => integrator,
+            },
+            seed: overrides.seed.unwrap_or(scene.sampler.seed),
+            filter: scene.film.filter,
+            tile_size: overrides.tile_size.unwrap_or(16),
+            env_strategy: EnvStrategy::default(),
+            sampler: overrides.sampler.unwrap_or_default(),
+            mipmapping: overrides.mipmapping.unwrap_or(true),
+            packets: overrides.packets.unwrap_or(true),
+            path_loop: overrides.path_loop.unwrap_or_default(),
+        }
+    }
 }
 
 pub struct RenderOutput {
@@ -155,9 +196,11 @@ pub fn render_slice(
     let closest_rays = AtomicU64::new(0);
     let shadow_rays = AtomicU64::new(0);
     let first_tile_ns = AtomicU64::new(u64::MAX);
+    let integrator = settings.integrator;
     let path = PathSettings {
-        max_depth: settings.max_depth,
-        rr_depth: settings.rr_depth,
+        max_depth: u32::try_from(integrator.max_depth()).unwrap_or(u32::MAX),
+        rr_depth: integrator.rr_depth(),
+        hide_emitters: integrator.hide_emitters(),
         mipmapping: settings.mipmapping,
         // The footprint is the whole render's (its spp), whatever range this slice holds.
         footprint_scale: spp_scale(settings.spp),
@@ -165,14 +208,11 @@ pub fn render_slice(
     };
 
     // `direct` with several samples per hit has no wavefront form: one path at a time.
-    let wavefront = scene.direct_samples.is_none()
+    let wavefront = matches!(integrator, Integrator::Path(_))
         && match settings.path_loop {
             PathLoop::Scalar => false,
             PathLoop::Wavefront => true,
-            PathLoop::Auto => {
-                scene.lights.iter().any(|l| matches!(l, Light::Env(_)))
-                    || scene.lanes.wavefront_pays()
-            }
+            PathLoop::Auto => scene.lights.iter().any(|l| matches!(l, Light::Env(_))),
         };
 
     let rendered: Vec<TileFilm> = tiles
@@ -420,7 +460,17 @@ fn render_pixel<S: Sampler>(
         };
         if inside {
             let first_hit = clipped_first_hit(scene, o, d, first_hit);
-            let l = radiance(scene, o, d, cone, path, sampler, rays, first_hit);
+            let l = radiance(
+                scene,
+                &settings.integrator,
+                o,
+                d,
+                cone,
+                path,
+                sampler,
+                rays,
+                first_hit,
+            );
             film.add_sample((x, y), position, l);
         }
     }
@@ -721,8 +771,11 @@ mod tests {
     fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
         RenderSettings {
             spp,
-            max_depth: 5,
-            rr_depth: 5,
+            integrator: Integrator::Path(crate::integrator::PathIntegrator {
+                max_depth: 5,
+                rr_depth: 5,
+                hide_emitters: false,
+            }),
             seed: 3,
             filter: PixelFilter::Box,
             tile_size: 8,
@@ -1068,8 +1121,10 @@ mod tests {
     /// point), textured area emitters (radiance and pdf at the hit's uv), instances (two-level
     /// BVH, no packets), bump and normal maps (the perturbation), clip planes and a principal
     /// point, a film crop window, a splatted filter, a projector, a thin lens, disks and cylinders,
-    /// mesh attributes as textures. Each scene at its
-    /// own film size and filter, 3 spp, both samplers.
+    /// mesh attributes as textures, Mitsuba's BSDFs (rough conductor, rough plastic, rough and
+    /// smooth dielectrics, blend, mask, principled, principledthin), `hide_emitters`, an
+    /// environment map with a sun, a textured spot light. Each scene at its own film size and
+    /// filter, 3 spp, both samplers.
     #[test]
     fn wavefront_renders_the_scalar_image_of_the_feature_scenes() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/scenes");
@@ -1087,6 +1142,16 @@ mod tests {
             "mitsuba_bsdfs/bumpmap_env.xml",
             "mitsuba_bsdfs/normalmap_twosided_env.xml",
             "mitsuba_bsdfs/principled_area.xml",
+            "mitsuba_bsdfs/principledthin_env.xml",
+            "mitsuba_bsdfs/roughconductor_area.xml",
+            "mitsuba_bsdfs/roughplastic_area.xml",
+            "mitsuba_bsdfs/roughdielectric_env.xml",
+            "mitsuba_bsdfs/dielectric_area.xml",
+            "mitsuba_bsdfs/blendbsdf_area.xml",
+            "mitsuba_bsdfs/mask_env.xml",
+            "mitsuba/hide_emitters.xml",
+            "mitsuba/envmap_sun.xml",
+            "mitsuba/spot_textured.xml",
         ] {
             let desc = torrey_parser::load_scene(&root.join(name), &[]).unwrap();
             let scene = RenderScene::build(&desc, desc.film.width, desc.film.height).unwrap();
@@ -1100,8 +1165,7 @@ mod tests {
             for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
                 let scalar = RenderSettings {
                     filter: desc.film.filter,
-                    max_depth: desc.integrator.max_depth,
-                    rr_depth: desc.integrator.rr_depth,
+                    integrator: Integrator::from_desc(&desc.integrator),
                     ..settings(3, sampler, true)
                 };
                 let wave = RenderSettings {
@@ -1203,6 +1267,7 @@ mod tests {
                 let path = PathSettings {
                     max_depth: 5,
                     rr_depth: 5,
+                    hide_emitters: false,
                     mipmapping: true,
                     footprint_scale: spp_scale(12),
                     env_strategy: EnvStrategy::default(),

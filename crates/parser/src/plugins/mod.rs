@@ -2,6 +2,7 @@
 
 pub(crate) mod bsdf;
 pub(crate) mod emitter;
+pub(crate) mod integrator;
 pub(crate) mod sensor;
 pub(crate) mod shape;
 pub(crate) mod texture;
@@ -136,7 +137,7 @@ pub(crate) fn parse_scene(
                 }
             }
             "integrator" => {
-                let i = sensor::parse_integrator(&mut ctx, child)?;
+                let i = integrator::parse_integrator(&mut ctx, child)?;
                 if integrator.is_some() {
                     ctx.warn(
                         child.pos,
@@ -205,7 +206,7 @@ pub(crate) fn parse_scene(
         camera,
         film,
         sampler,
-        integrator: integrator.unwrap_or_else(sensor::default_integrator),
+        integrator: integrator.unwrap_or_else(integrator::default_integrator),
         textures: ctx.textures,
         bsdfs: ctx.bsdfs,
         shapes,

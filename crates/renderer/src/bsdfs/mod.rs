@@ -64,7 +64,7 @@ pub use dielectric::{Dielectric, DielectricParams, ThinDielectric, ThinDielectri
 pub use diffuse::{Diffuse, DiffuseParams};
 pub use flags::BsdfFlags;
 pub use microfacet::MicrofacetKind;
-pub use mirror::{mirror_sample_select, Mirror, MirrorParams};
+pub use mirror::{Mirror, MirrorParams};
 pub use null::Null;
 pub use perturbed::Perturbation;
 pub use phong::{Phong, PhongParams};
