@@ -157,10 +157,9 @@ impl ColorSource {
 #[derive(Clone, Copy)]
 pub struct TextureQuery<'a> {
     pub textures: &'a [Texture],
-    /// The hit, for `mesh_attribute` textures (None where there is no mesh hit). Held by value,
-    /// so that a query (and a BSDF resolved through it, which a blend keeps) borrows only the
-    /// scene.
-    pub at: Option<AttributePoint<'a>>,
+    /// The hit, for `mesh_attribute` textures (None where there is no mesh hit).
+    /// A reference, not the point itself: the query is copied into every blend of every hit.
+    pub at: Option<&'a AttributePoint<'a>>,
     pub uv: Vec2,
     /// The filter's footprint, an ellipse in the surface's uv units ([`Footprint::POINT`]: the
     /// finest level, bilinear).

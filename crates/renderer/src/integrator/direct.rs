@@ -10,8 +10,9 @@
 //! tracer's ([`super::shading`]).
 
 use super::path_state::infinite_radiance;
-use super::shading::{choose_light, emission_pdf, hit_emission, light_select_pdf, ShadingPoint};
+use super::shading::{emission_pdf, hit_emission, ShadingPoint};
 use super::{EnvStrategy, PathSettings, RayCount};
+use crate::lights::EarlyChoice;
 use crate::ray::{offset_origin, Ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
@@ -47,8 +48,8 @@ pub fn radiance(
         bsdf_samples,
         hide_emitters,
     } = *integrator;
-    let light_count = scene.lights.len();
-    let light_select_pdf = light_select_pdf(light_count);
+    let selection = &scene.light_selection;
+    let infinite_select_pdf = selection.pmf_unbounded();
     let total = (emitter_samples + bsdf_samples).max(1) as f32;
     let (frac_lum, frac_bsdf) = (emitter_samples as f32 / total, bsdf_samples as f32 / total);
     rays.closest += 1;
@@ -66,7 +67,7 @@ pub fn radiance(
             dir,
             spread,
             None,
-            light_select_pdf,
+            infinite_select_pdf,
             settings.env_strategy,
         );
     };
@@ -78,16 +79,25 @@ pub fn radiance(
     }
 
     let cone = cone.at_distance(hit.t);
-    let sp = ShadingPoint::new(scene, &hit, dir, &cone, settings.mipmapping);
+    let at = scene.attribute_point(&hit);
+    let sp = ShadingPoint::new(scene, &hit, dir, &cone, settings.mipmapping, at.as_ref());
     let mis_env = settings.env_strategy == EnvStrategy::ImportanceMis;
 
     // Emitter sampling (only where the BSDF has a smooth lobe, as Mitsuba).
-    if light_count > 0 && sp.bsdf.flags().has_smooth() {
+    if !scene.lights.is_empty() && sp.bsdf.flags().has_smooth() {
         let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
         for _ in 0..emitter_samples {
             let u_light = sampler.next_1d();
             let u_pos = sampler.next_2d();
-            let light = &scene.lights[choose_light(u_light, light_count, light_count as f32)];
+            let (index, light_select_pdf) = match selection.choose_early(u_light) {
+                EarlyChoice::None => continue,
+                EarlyChoice::Light { index, pmf } => (index, pmf),
+                EarlyChoice::Tree(u) => match selection.choose_at(u, hit.p, sp.frame.n) {
+                    Some(choice) => choice,
+                    None => continue,
+                },
+            };
+            let light = &scene.lights[index];
             let Some(c) = sp.connect(scene, &hit, light, light.draw(u_pos), uniform_env) else {
                 continue;
             };
@@ -156,14 +166,16 @@ pub fn radiance(
                         sum += light.radiance_infinite(wi, spread);
                     } else if mis_env || emitter_samples == 0 {
                         let (le, pdf) = light.eval_infinite(wi, spread);
-                        sum += le * weight(pdf * light_select_pdf);
+                        sum += le * weight(pdf * infinite_select_pdf);
                     }
                 }
                 sum
             }
             Some(h) => match hit_emission(scene, &h, wi) {
-                Some((radiance, light)) => {
-                    radiance * weight(emission_pdf(light, hit.p, wi, &h, light_select_pdf))
+                Some((radiance, index)) => {
+                    let select = selection.pmf(index, hit.p, sp.frame.n);
+                    let light = &scene.lights[index];
+                    radiance * weight(emission_pdf(light, hit.p, wi, &h, select))
                 }
                 None => Vec3A::ZERO,
             },

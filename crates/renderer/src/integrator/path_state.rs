@@ -27,9 +27,9 @@
 //! cone only along purely specular chains; after a rough bounce they are read at full resolution so
 //! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
 
-use super::shading::{choose_light, emission_pdf, hit_emission, light_select_pdf, ShadingPoint};
+use super::shading::{emission_pdf, hit_emission, ShadingPoint};
 use super::{EnvStrategy, PathSettings};
-use crate::lights::LightDraw;
+use crate::lights::{EarlyChoice, LightDraw};
 use crate::ray::{offset_origin, Ray};
 use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
@@ -37,15 +37,13 @@ use crate::shapes::SurfaceHit;
 use glam::{Vec2, Vec3A};
 use torrey_texture::RayCone;
 
-/// What a render's paths share: the scene, the settings and the light selection.
+/// What a render's paths share: the scene and the settings.
 #[derive(Clone, Copy)]
 pub struct PathContext<'a> {
     pub scene: &'a RenderScene,
     pub settings: PathSettings,
-    /// The probability of each light's choice for next-event estimation.
-    pub light_select_pdf: f32,
-    /// The light count as a float (converted once: usize to f32 is several instructions).
-    light_count_f32: f32,
+    /// The probability of choosing each light at infinity (anywhere the same).
+    pub infinite_select_pdf: f32,
     /// Cones only matter where they filter: textures (mip-mapping) and environment maps.
     track_cones: bool,
 }
@@ -55,8 +53,7 @@ impl<'a> PathContext<'a> {
         Self {
             scene,
             settings,
-            light_select_pdf: light_select_pdf(scene.lights.len()),
-            light_count_f32: scene.lights.len() as f32,
+            infinite_select_pdf: scene.light_selection.pmf_unbounded(),
             track_cones: settings.mipmapping && scene.uses_cones,
         }
     }
@@ -68,11 +65,30 @@ impl<'a> PathContext<'a> {
     }
 }
 
+/// The light a bounce samples for next-event estimation ([`crate::lights::LightSelection`]).
+#[derive(Clone, Copy, Debug)]
+pub enum LightPick {
+    None,
+    /// Chosen before the ray is traced, with probability `pmf` wherever the hit is, its sample
+    /// started ([`crate::lights::Light::draw`]).
+    Chosen {
+        index: usize,
+        pmf: f32,
+        draw: LightDraw,
+    },
+    /// To be chosen from the light tree at the shading point with number `u`; `u_pos` is its
+    /// sample's pair.
+    AtHit {
+        u: f32,
+        u_pos: Vec2,
+    },
+}
+
 /// One bounce's random numbers: the light to sample and its draw, the BSDF direction's pair and
 /// its lobe's number, Russian roulette's number.
 #[derive(Clone, Copy, Debug)]
 pub struct BounceDraws {
-    pub light: Option<(usize, LightDraw)>,
+    pub light: LightPick,
     pub u_dir: Vec2,
     pub u_lobe: f32,
     pub u_rr: f32,
@@ -81,7 +97,7 @@ pub struct BounceDraws {
 impl BounceDraws {
     /// A bounce that draws nothing (the last segment only looks for emission).
     pub const NONE: BounceDraws = BounceDraws {
-        light: None,
+        light: LightPick::None,
         u_dir: Vec2::ZERO,
         u_lobe: 0.0,
         u_rr: 0.0,
@@ -89,20 +105,44 @@ impl BounceDraws {
 
     /// The bounce's draws from its four sampler requests: the light's choice and Russian
     /// roulette's number, the light sample's pair, the BSDF direction's pair and the lobe's
-    /// number (x). The light's sample is started here, before the ray is traced, where that is
-    /// worth it ([`crate::lights::Light::draw`]).
+    /// number (x). As much of the light's choice and sample as does not depend on the hit is
+    /// made here, before the ray is traced, so that it overlaps the traversal.
     #[inline(always)]
     pub fn new(ctx: &PathContext, [light_rr, u_pos, u_dir, u_lobe]: [Vec2; 4]) -> Self {
-        let lights = &ctx.scene.lights;
-        let light = (!lights.is_empty()).then(|| {
-            let index = choose_light(light_rr.x, lights.len(), ctx.light_count_f32);
-            (index, lights[index].draw(u_pos))
-        });
+        let scene = ctx.scene;
+        let light = match scene.light_selection.choose_early(light_rr.x) {
+            EarlyChoice::None => LightPick::None,
+            EarlyChoice::Light { index, pmf } => LightPick::Chosen {
+                index,
+                pmf,
+                draw: scene.lights[index].draw(u_pos),
+            },
+            EarlyChoice::Tree(u) => LightPick::AtHit { u, u_pos },
+        };
         BounceDraws {
             light,
             u_dir,
             u_lobe: u_lobe.x,
             u_rr: light_rr.y,
+        }
+    }
+
+    /// The bounce's light at the shading point `p` (normal `n`): its index, the probability of
+    /// its choice there and its draw. None when there is no light to sample.
+    #[inline(always)]
+    pub fn light_at(
+        &self,
+        scene: &RenderScene,
+        p: Vec3A,
+        n: Vec3A,
+    ) -> Option<(usize, f32, LightDraw)> {
+        match self.light {
+            LightPick::None => None,
+            LightPick::Chosen { index, pmf, draw } => Some((index, pmf, draw)),
+            LightPick::AtHit { u, u_pos } => {
+                let (index, pmf) = scene.light_selection.choose_at(u, p, n)?;
+                Some((index, pmf, scene.lights[index].draw(u_pos)))
+            }
         }
     }
 }
@@ -128,8 +168,10 @@ pub struct PathState {
     /// whether it came from a delta lobe (camera rays count as delta: weight 1).
     pub prev_bsdf_pdf: f32,
     pub prev_delta: bool,
-    /// Where `ray` left from.
+    /// Where `ray` left from, and the shading normal there (for the light choice's probability
+    /// in MIS).
     pub prev_p: Vec3A,
+    pub prev_n: Vec3A,
     /// Every bounce so far was specular (environment maps are then filtered by the cone).
     pub specular_chain: bool,
     /// Product of the relative IORs crossed (Mitsuba's `eta`): radiance inside glass is scaled
@@ -155,6 +197,7 @@ impl PathState {
             prev_bsdf_pdf: 0.0,
             prev_delta: true,
             prev_p: origin,
+            prev_n: Vec3A::ZERO,
             specular_chain: true,
             eta: 1.0,
             depth: 0,
@@ -203,7 +246,7 @@ impl PathState {
                 self.ray.dir,
                 self.escape_spread(ctx),
                 self.mis_bsdf_pdf(),
-                ctx.light_select_pdf,
+                ctx.infinite_select_pdf,
                 ctx.settings.env_strategy,
             );
     }
@@ -222,11 +265,12 @@ impl PathState {
         let scene = ctx.scene;
         let dir = self.ray.dir;
         if self.sees_emitters(ctx) {
-            if let Some((radiance, light)) = hit_emission(scene, hit, dir) {
+            if let Some((radiance, index)) = hit_emission(scene, hit, dir) {
                 let w = if self.prev_delta {
                     1.0
                 } else {
-                    let pdf = emission_pdf(light, self.prev_p, dir, hit, ctx.light_select_pdf);
+                    let select = scene.light_selection.pmf(index, self.prev_p, self.prev_n);
+                    let pdf = emission_pdf(&scene.lights[index], self.prev_p, dir, hit, select);
                     power_heuristic(self.prev_bsdf_pdf, pdf)
                 };
                 self.result += self.throughput * radiance * w;
@@ -239,18 +283,30 @@ impl PathState {
         if ctx.track_cones {
             self.cone = self.cone.at_distance(hit.t);
         }
-        let sp = ShadingPoint::new(scene, hit, dir, &self.cone, ctx.settings.mipmapping);
+        let at = scene.attribute_point(hit);
+        let sp = ShadingPoint::new(
+            scene,
+            hit,
+            dir,
+            &self.cone,
+            ctx.settings.mipmapping,
+            at.as_ref(),
+        );
         // The BSDF sample that continues the path, drawn before next-event estimation although
         // used after it: it depends only on this hit, so its dependent chain of a division, a
         // polynomial and square roots overlaps the light connection instead of waiting for it.
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
 
         let mut shadow = None;
-        if let (true, Some((index, draw))) = (sp.bsdf.flags().has_smooth(), draws.light) {
+        let light = match sp.bsdf.flags().has_smooth() {
+            true => draws.light_at(scene, hit.p, sp.frame.n),
+            false => None,
+        };
+        if let Some((index, select_pdf, draw)) = light {
             let light = &scene.lights[index];
             let uniform_env = ctx.settings.env_strategy == EnvStrategy::Uniform;
             if let Some(c) = sp.connect(scene, hit, light, draw, uniform_env) {
-                let light_pdf = c.ls.pdf * ctx.light_select_pdf;
+                let light_pdf = c.ls.pdf * select_pdf;
                 let w = if c.ls.is_delta || (light.is_infinite() && !ctx.infinite_mis()) {
                     1.0
                 } else {
@@ -283,6 +339,7 @@ impl PathState {
         self.prev_bsdf_pdf = bs.pdf;
         self.prev_delta = bs.is_delta();
         self.prev_p = hit.p;
+        self.prev_n = sp.frame.n;
         self.ray = Ray {
             origin: offset_origin(hit.p, hit.ng, wi),
             dir: wi,
@@ -304,8 +361,8 @@ impl PathState {
 
 /// The radiance of the lights at infinity seen along an escaped ray `dir`, weighted against light
 /// sampling by MIS; `bsdf_pdf` is the density of the BSDF sample that chose `dir` (None after a
-/// delta bounce or for camera rays: weight 1). `spread` filters environment maps (0: finest
-/// level).
+/// delta bounce or for camera rays: weight 1), `light_select_pdf` the probability of choosing
+/// each of them. `spread` filters environment maps (0: finest level).
 pub fn infinite_radiance(
     scene: &RenderScene,
     dir: Vec3A,

@@ -8,6 +8,7 @@ use crate::lights::{Light, LightDraw, LightSample};
 use crate::ray::offset_origin;
 use crate::sampling::Frame;
 use crate::scene::RenderScene;
+use crate::shapes::attributes::AttributePoint;
 use crate::shapes::SurfaceHit;
 use crate::textures::TextureQuery;
 use glam::Vec3A;
@@ -25,7 +26,9 @@ pub struct ShadingPoint<'a> {
 
 impl<'a> ShadingPoint<'a> {
     /// The shading point of `hit`, found along `dir`. With `mipmapping`, textures are filtered by
-    /// the footprint of `cone` (already grown to the hit) on the surface.
+    /// the footprint of `cone` (already grown to the hit) on the surface. `at` is
+    /// [`RenderScene::attribute_point`] of the hit, made by the caller: the BSDF may keep a
+    /// reference to it (a blend resolves its children lazily), which keeps the per-hit BSDF small.
     #[inline(always)]
     pub fn new(
         scene: &'a RenderScene,
@@ -33,6 +36,7 @@ impl<'a> ShadingPoint<'a> {
         dir: Vec3A,
         cone: &RayCone,
         mipmapping: bool,
+        at: Option<&'a AttributePoint<'a>>,
     ) -> Self {
         let shape = &scene.shapes[hit.shape as usize];
         let material = &scene.materials[shape.material as usize];
@@ -47,7 +51,7 @@ impl<'a> ShadingPoint<'a> {
         let bsdf = material.bsdf_facing(
             &TextureQuery {
                 textures: &scene.textures,
-                at: scene.attribute_point(hit),
+                at,
                 uv: hit.uv,
                 footprint,
             },
@@ -109,21 +113,16 @@ pub struct LightConnection {
 }
 
 /// The radiance that the emitting surface at `hit` sends back along the ray `dir` that found it,
-/// and its light (for the pdf of light sampling); None when the surface does not emit or is seen
-/// from behind (area lights emit along their normal only).
+/// and its light's index (for the pdf of light sampling); None when the surface does not emit or
+/// is seen from behind (area lights emit along their normal only).
 #[inline(always)]
-pub fn hit_emission<'s>(
-    scene: &'s RenderScene,
-    hit: &SurfaceHit,
-    dir: Vec3A,
-) -> Option<(Vec3A, &'s Light)> {
-    let li = scene.shapes[hit.shape as usize].area_light?;
+pub fn hit_emission(scene: &RenderScene, hit: &SurfaceHit, dir: Vec3A) -> Option<(Vec3A, usize)> {
+    let li = scene.shapes[hit.shape as usize].area_light? as usize;
     if !(hit.ng.dot(-dir) > 0.0) {
         return None;
     }
-    let light = &scene.lights[li as usize];
-    match light {
-        Light::Area(area) => Some((area.radiance_at(&scene.textures, hit.uv), light)),
+    match &scene.lights[li] {
+        Light::Area(area) => Some((area.radiance_at(&scene.textures, hit.uv), li)),
         _ => None,
     }
 }
@@ -159,22 +158,6 @@ pub fn shadow_ray(p: Vec3A, ng: Vec3A, ls: &LightSample) -> (Vec3A, Vec3A, f32) 
         return (origin, ls.wi, 0.0);
     }
     (origin, to_target / len, len * (1.0 - 2e-4))
-}
-
-/// The light chosen by the number `u` in [0, 1) among `count` lights (uniformly, as Mitsuba).
-#[inline(always)]
-pub fn choose_light(u: f32, count: usize, count_f32: f32) -> usize {
-    // Through u32: float-to-usize conversion costs a dozen instructions, u32 one.
-    ((u * count_f32) as u32 as usize).min(count - 1)
-}
-
-/// The probability of choosing each of `count` lights.
-pub fn light_select_pdf(count: usize) -> f32 {
-    if count > 0 {
-        1.0 / count as f32
-    } else {
-        0.0
-    }
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 //! samples in SIMD lanes, shadow rays traced as packets where they are coherent, and
 //! independent work between one path's dependent chains.
 
-use super::path_state::{BounceDraws, PathContext, PathState, ShadowRay};
+use super::path_state::{BounceDraws, LightPick, PathContext, PathState, ShadowRay};
 use super::{EnvStrategy, PathSettings, RayCount};
 use crate::accel::Simd;
 use crate::lights::{Light, LightDraw};
@@ -152,8 +152,8 @@ impl Wavefront {
                 } else {
                     BounceDraws::new(&ctx, numbers)
                 };
-                if let (Some((li, _)), true) = (draws.light, prefetch_env) {
-                    if let Light::Env(env) = &scene.lights[li] {
+                if let (LightPick::Chosen { index, .. }, true) = (draws.light, prefetch_env) {
+                    if let Light::Env(env) = &scene.lights[index] {
                         env.map.prefetch_sample(numbers[1]);
                     }
                 }
@@ -258,7 +258,12 @@ impl Wavefront {
             self.env_draw_paths.clear();
             self.env_draw_us.clear();
             for &i in &self.surfaced {
-                if let Some((index, LightDraw::Deferred(u))) = self.draws[i as usize].light {
+                if let LightPick::Chosen {
+                    index,
+                    draw: LightDraw::Deferred(u),
+                    ..
+                } = self.draws[i as usize].light
+                {
                     if index == li as usize {
                         self.env_draw_paths.push(i);
                         self.env_draw_us.push(u);
@@ -284,7 +289,9 @@ impl Wavefront {
                         pdf: 0.0,
                     },
                 };
-                self.draws[i as usize].light = Some((li as usize, draw));
+                if let LightPick::Chosen { draw: d, .. } = &mut self.draws[i as usize].light {
+                    *d = draw;
+                }
             }
         }
     }
@@ -292,7 +299,7 @@ impl Wavefront {
     /// Adds to every escaped path (`self.escaped`) the radiance of the lights at infinity along
     /// its ray: what `path_state::infinite_radiance` gives each, summed over the lights in the same order.
     fn escaped_radiance(&mut self, ctx: &PathContext) {
-        let (scene, light_select_pdf) = (ctx.scene, ctx.light_select_pdf);
+        let (scene, light_select_pdf) = (ctx.scene, ctx.infinite_select_pdf);
         // With one light at infinity (the usual case) each path's sum is that light's term, added
         // to the path at once; with several, the terms are summed per path in the lights' order
         // first. Either way the bits of the scalar loop: its sum starts at zero too.

@@ -392,6 +392,7 @@ impl RenderScene {
             materials,
             textures,
             attributes,
+            light_selection: crate::lights::LightSelection::new(&lights),
             lights,
             infinite_lights,
             has_area_lights,

@@ -38,6 +38,8 @@ pub struct RenderScene {
     /// Mesh attributes for `mesh_attribute` textures (empty when no texture reads them).
     pub(crate) attributes: MeshAttributes,
     pub(crate) lights: Vec<Light>,
+    /// How next-event estimation chooses among `lights`.
+    pub(crate) light_selection: crate::lights::LightSelection,
     /// Indices of lights at infinity (constant background, environment maps).
     pub(crate) infinite_lights: Vec<u32>,
     /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
