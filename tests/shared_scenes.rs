@@ -118,12 +118,10 @@ fn shared_scenes_match_mitsuba() {
         // Mitsuba does not mip-map: compare like with like here; what mip-mapping changes is
         // measured separately (docs/validation.md).
         // tests/mitsuba/torrey_to_mitsuba.py converts with the torrey course's rules (two-sided
-        // surfaces, the implicit grey sky), so torrey reads these course scenes in that dialect
-        // even where nothing in the file marks it.
-        let options = torrey_parser::LoadOptions {
-            dialect: Some(torrey_parser::Dialect::Torrey),
-            ..Default::default()
-        };
+        // surfaces, the implicit grey sky); torrey detects them (every plugin in these scenes is
+        // one the course's renderer reads), so the scenes are loaded as the command line loads
+        // them.
+        let options = torrey_parser::LoadOptions::default();
         let r = common::render_scene_with(&source, &options, (w, h), spp, depth, 3, false);
         let name = json.file_stem().unwrap().to_string_lossy().into_owned();
         let v = common::compare_to_reference(

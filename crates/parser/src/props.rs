@@ -430,14 +430,25 @@ impl<'a> Props<'a> {
         what: &str,
         ok: impl Fn(f32) -> bool,
     ) -> Result<f32> {
+        // The name the file gives (`alpha` for `exponent`, say), found as `take_any` finds it.
+        let name = names
+            .iter()
+            .find_map(|n| {
+                self.items
+                    .iter()
+                    .find(|i| !i.used && i.name.as_deref() == Some(*n))
+            })
+            .and_then(|i| i.elem.attr_value("name"))
+            .unwrap_or(names[0])
+            .to_string();
         match self.opt_float_pos(ctx, names)? {
             None => Ok(default),
             Some((v, _)) if ok(v) => Ok(v),
             Some((v, pos)) => Err(ctx.err(
                 pos,
                 format!(
-                    "parameter '{}' of {} must be {what}, found {v}",
-                    names[0], self.owner
+                    "parameter '{name}' of {} must be {what}, found {v}",
+                    self.owner
                 ),
             )),
         }

@@ -15,8 +15,8 @@ pub type BsdfId = usize;
 pub type TextureId = usize;
 
 /// Which rules a scene is read with. Version 2.0 and up is Mitsuba 3; 1.x is the torrey
-/// course's; 0.5/0.6 files are the torrey dialect only when they contain something only the
-/// course has (`<background>`, its phong/blinn/blinn_microfacet/mirror), otherwise Mitsuba's.
+/// course's; 0.5/0.6 files are the torrey dialect when every plugin in them is one the course's
+/// renderer reads, otherwise Mitsuba's (`plugins/dialect.rs`).
 /// [`crate::LoadOptions::dialect`] overrides the detection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dialect {
@@ -69,8 +69,8 @@ pub struct Scene {
     /// The scene file this was read from (relative paths inside were resolved against its folder).
     pub path: PathBuf,
     pub dialect: Dialect,
-    /// Why [`Scene::dialect`] was chosen (the version, the element that marks the torrey
-    /// dialect, or an override), for the command line's summary.
+    /// Why [`Scene::dialect`] was chosen (the version, the first plugin the torrey course does
+    /// not read with its file:line:column, or an override), for the command line's summary.
     pub dialect_reason: String,
     pub camera: Camera,
     pub film: Film,

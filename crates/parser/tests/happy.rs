@@ -178,7 +178,28 @@ fn colours_and_refs() {
     };
     assert_eq!((color0, color1), (Vec3::splat(0.1), Vec3::splat(0.2)));
     assert!((to_uv.transform_point2(Vec2::new(0.5, 0.5)) - Vec2::new(4.5, 2.0)).length() < 1e-6);
-    // Torrey dialect without background: the implicit 0.5 grey environment.
+    // The checkerboard is not a texture the course's renderer reads: a Mitsuba 0.6 file (the
+    // course's mirror and phong notwithstanding), so no implicit grey environment.
+    assert_eq!(s.dialect, torrey_parser::Dialect::Mitsuba3);
+    assert!(
+        s.dialect_reason
+            .contains("texture 'checkerboard' at test.xml:2:7"),
+        "{}",
+        s.dialect_reason
+    );
+    assert_eq!(s.lights, vec![]);
+    // Without it, a course file: the course's 0.5 grey environment.
+    let start = xml.find("<texture").unwrap();
+    let end = xml.find("</texture>").unwrap() + "</texture>".len();
+    let course = format!("{}{}", &xml[..start], &xml[end..])
+        .replace(r#"<ref name="reflectance" id="checks"/>"#, "");
+    let s = parse_ok(&course);
+    assert_eq!(
+        s.dialect,
+        torrey_parser::Dialect::Torrey,
+        "{}",
+        s.dialect_reason
+    );
     assert_eq!(
         s.lights,
         vec![Light::Constant {
