@@ -106,6 +106,7 @@ verdict_tests!(
     include_path_default_alias,
     instances_cube_direct,
     instances_two_level,
+    many_lights,
     mesh_attribute,
     mitsuba06_indoor,
     no_fov,
