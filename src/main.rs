@@ -283,12 +283,14 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let render_cpu = process_cpu_seconds().zip(cpu_before).map(|(a, b)| a - b);
     bar.finish_and_clear();
 
+    let write_start = Instant::now();
     let png = slicing::write_outputs(&output, &torrey_parts::Part::from_output(meta, &out))?;
+    let write_time = write_start.elapsed();
 
     let samples = out.image.width as u64 * out.image.height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles{}; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}",
+        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles{}; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}, write {:.2} s",
         scene_path.display(),
         scene.dialect,
         scene.dialect_reason,
@@ -312,6 +314,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         render_scene.accel().bvh_width(),
         torrey_renderer::Simd::detect().name(),
         render_cpu.map_or(String::new(), |s| format!(", render CPU {s:.2} s")),
+        write_time.as_secs_f64(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

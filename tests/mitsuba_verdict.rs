@@ -235,6 +235,7 @@ fn every_scene_has_a_reference() {
         "include_path_default_alias",
         "instances_cube_direct",
         "instances_two_level",
+        "many_lights",
         "mesh_attribute",
         "mitsuba06_indoor",
         "no_fov",
