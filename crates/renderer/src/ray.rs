@@ -10,6 +10,15 @@ pub struct Ray {
     pub tmax: f32,
 }
 
+/// The closest hit along a ray: distance, primitive index, triangle barycentrics.
+#[derive(Clone, Copy, Debug)]
+pub struct ClosestHit {
+    pub t: f32,
+    pub prim: u32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
 /// Moves a ray origin off a surface along the geometric normal, towards the side `dir` leaves
 /// by, with an offset proportional to the point's magnitude (pbrt's error-bound idea, simplified
 /// to a conservative relative epsilon), so that the new ray cannot re-hit its own surface.

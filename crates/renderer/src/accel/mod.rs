@@ -39,7 +39,6 @@ mod triangle4;
 pub(crate) mod x86_64;
 
 use crate::ray::Ray;
-use crate::shapes::object_rows::ObjectRows;
 use glam::Vec3A;
 use leaves::Leaves;
 use nodes4::Nodes4;
@@ -48,36 +47,8 @@ use std::mem::MaybeUninit;
 use std::sync::OnceLock;
 use traversal::{any_hit, closest_hit, ChildRef, InnerNodes, EMPTY, STACK_SIZE};
 
-/// Geometry of one BVH primitive, in world space.
-#[derive(Clone, Copy, Debug)]
-pub enum PrimGeom {
-    Triangle {
-        p0: Vec3A,
-        p1: Vec3A,
-        p2: Vec3A,
-    },
-    Sphere {
-        center: Vec3A,
-        radius: f32,
-    },
-    /// Mitsuba's disk: the unit disk at z = 0 of the object space `to_object` maps to.
-    Disk {
-        to_object: ObjectRows,
-    },
-    /// Mitsuba's cylinder: the open unit tube, 0 <= z <= 1, of that object space.
-    Cylinder {
-        to_object: ObjectRows,
-    },
-}
-
-/// The closest hit along a ray: distance, primitive index, triangle barycentrics.
-#[derive(Clone, Copy, Debug)]
-pub struct ClosestHit {
-    pub t: f32,
-    pub prim: u32,
-    pub b1: f32,
-    pub b2: f32,
-}
+pub use crate::ray::ClosestHit;
+pub use crate::shapes::PrimGeom;
 
 /// Which node width to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,8 +4,9 @@
 //! v = height), and uniform area sampling with Mitsuba's pdf for cylinders that emit.
 
 use super::object_rows::ObjectRows;
+use super::PrimGeom;
 use super::{PrimInfo, SurfaceHit};
-use crate::accel::{ClosestHit, PrimGeom};
+use crate::ray::ClosestHit;
 use crate::ray::Ray;
 use crate::sampling::Frame;
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec3A};

@@ -4,8 +4,9 @@
 //! its pdf for disks that emit.
 
 use super::object_rows::ObjectRows;
+use super::PrimGeom;
 use super::{PrimInfo, SurfaceHit};
-use crate::accel::{ClosestHit, PrimGeom};
+use crate::ray::ClosestHit;
 use crate::ray::Ray;
 use glam::{Affine3A, Mat4, Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI};

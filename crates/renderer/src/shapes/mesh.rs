@@ -2,8 +2,9 @@
 //! surface at a triangle hit, and uniform area sampling of an emitting mesh.
 
 use super::triangle::sample_triangle_uniform;
+use super::PrimGeom;
 use super::{PrimInfo, SurfaceHit};
-use crate::accel::{ClosestHit, PrimGeom};
+use crate::ray::ClosestHit;
 use crate::sampling::Frame;
 use glam::{Mat3, Mat4, Vec2, Vec3A};
 use torrey_light::AliasTable;

@@ -1,7 +1,7 @@
 //! The scene's shapes. Each file holds everything of its shape: construction from the parsed
 //! description, intersection, the surface at a hit (position, normals, uv and its derivatives),
 //! and area sampling with its pdf for shapes that emit. A new shape is a file, a [`ShapeKind`]
-//! variant with one-line arms below, its primitive in [`crate::accel::PrimGeom`] (or triangles),
+//! variant with one-line arms below, its primitive in [`PrimGeom`] (or triangles),
 //! the parser mapping and the docs.
 
 pub mod attributes;
@@ -10,10 +10,13 @@ pub mod disk;
 pub mod instance;
 pub mod mesh;
 pub mod object_rows;
+pub mod prim_geom;
 pub mod sphere;
 pub mod triangle;
 
-use crate::accel::ClosestHit;
+pub use prim_geom::PrimGeom;
+
+use crate::ray::ClosestHit;
 use crate::ray::Ray;
 use cylinder::Cylinder;
 use disk::Disk;

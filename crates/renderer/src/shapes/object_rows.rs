@@ -1,5 +1,5 @@
 //! A world-to-object affine transform stored as three rows of four floats: 48 bytes, so that the
-//! analytic shapes that need one ([`crate::accel::PrimGeom::Disk`], `Cylinder`) keep
+//! analytic shapes that need one ([`super::PrimGeom::Disk`], `Cylinder`) keep
 //! `PrimGeom` as small as a triangle (an `Affine3A` is 64 bytes).
 
 use glam::{Affine3A, Vec3A, Vec4};

@@ -2,8 +2,9 @@
 //! the surface at a hit, and sampling by the solid angle it subtends (with the matching pdf) for
 //! spheres that emit.
 
+use super::PrimGeom;
 use super::{PrimInfo, SurfaceHit};
-use crate::accel::{ClosestHit, PrimGeom};
+use crate::ray::ClosestHit;
 use crate::ray::Ray;
 use crate::sampling::Frame;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
