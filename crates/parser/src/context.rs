@@ -201,12 +201,21 @@ impl Ctx {
             })
     }
 
-    /// Resolves a file name given at `pos`: see [`Sources::resolve`] (the naming file's folder,
-    /// the `<path>` folders, the scene file's folder), and records it in [`Ctx::files`].
-    pub fn resolve(&self, name: &str, pos: Pos) -> PathBuf {
-        let resolved = self.sources.resolve(name, pos);
+    /// Resolves a plugin's file name given at `pos` as Mitsuba does ([`Sources::resolve`]: the
+    /// scene file's `<path>` folders, its folder, the working directory) and records it in
+    /// [`Ctx::files`]. `Err` says where it was looked for.
+    pub fn resolve(&self, name: &str, pos: Pos) -> std::result::Result<PathBuf, String> {
+        let resolved = self.sources.resolve(name, pos)?;
         self.files.borrow_mut().push(resolved.clone());
-        resolved
+        Ok(resolved)
+    }
+
+    /// [`Ctx::resolve`] for a `<spectrum filename>`, read with the resolver in effect where it
+    /// stands ([`Sources::resolve_spectrum`]).
+    pub fn resolve_spectrum(&self, name: &str, pos: Pos) -> std::result::Result<PathBuf, String> {
+        let resolved = self.sources.resolve_spectrum(name, pos)?;
+        self.files.borrow_mut().push(resolved.clone());
+        Ok(resolved)
     }
 }
 

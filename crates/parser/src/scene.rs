@@ -66,7 +66,7 @@ impl std::fmt::Display for Warning {
 
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// The scene file this was read from (relative paths inside were resolved against its folder).
+    /// The scene file this was read from (relative file names inside were found from its folder and its `<path>`s).
     pub path: PathBuf,
     pub dialect: Dialect,
     /// Why [`Scene::dialect`] was chosen (the version, the element that marks the torrey

@@ -30,7 +30,7 @@ fn uv_transform(ctx: &Ctx, props: &mut Props) -> Result<Affine2> {
 ///
 /// | name | type | default |
 /// | --- | --- | --- |
-/// | `filename` | string | required; relative to the scene file's folder |
+/// | `filename` | string | required; found with the scene file's resolver (`<path>` folders, then its folder) |
 /// | `uscale`, `vscale` | float | 1 |
 /// | `uvscale` | float | 1 (sets both scales) |
 /// | `uoffset`, `voffset` | float | 0 |
