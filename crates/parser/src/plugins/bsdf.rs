@@ -157,7 +157,7 @@ pub(crate) fn color_param(
     Ok(ColorParam::Constant(c))
 }
 
-pub(crate) fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
+pub(crate) fn texture_ref(ctx: &mut Ctx, e: &Element) -> Result<TextureId> {
     match ctx.lookup(e)? {
         IdTarget::Texture(t) => Ok(t),
         _ => Err(ctx.err(
@@ -183,8 +183,9 @@ fn normal_map_param(ctx: &mut Ctx, props: &mut Props, names: &[&str]) -> Result<
     let Some(e) = props.take_any(names) else {
         return Ok(None);
     };
+    // An inline texture with an id may be used elsewhere too (by a `<ref>`): shared.
     let (index, shared) = match e.tag.as_str() {
-        "texture" => (parse_texture(ctx, e)?, false),
+        "texture" => (parse_texture(ctx, e)?, e.attr("id").is_some()),
         "ref" => (texture_ref(ctx, e)?, true),
         _ => {
             return Err(ctx.err(
@@ -243,11 +244,27 @@ fn nested_bsdfs(ctx: &mut Ctx, props: &mut Props, elem: &Element, max: usize) ->
         .collect()
 }
 
-/// One nested `<bsdf>` or `<ref>` to a bsdf.
+/// A copy of the scene's bsdf `index` to nest in another; the textures it uses count as the
+/// outer bsdf's (for the `mesh_attribute` checks).
+fn nested_copy(ctx: &mut Ctx, index: BsdfId) -> Bsdf {
+    if let Some(uses) = ctx.bsdf_textures.get(&index).cloned() {
+        if let Some(outer) = ctx.texture_uses.last_mut() {
+            outer.extend(uses);
+        }
+    }
+    ctx.bsdfs[index].clone()
+}
+
+/// One nested `<bsdf>` or `<ref>` to a bsdf. A nested bsdf with an id is added to the scene's
+/// table and registered (Mitsuba registers ids at any depth: shapes may `<ref>` it).
 fn nested_bsdf_value(ctx: &mut Ctx, first: &Element) -> Result<Bsdf> {
+    if first.tag != "ref" && first.attr("id").is_some() {
+        let index = parse_bsdf(ctx, first)?;
+        return Ok(nested_copy(ctx, index));
+    }
     if first.tag == "ref" {
         match ctx.lookup(first)? {
-            IdTarget::Bsdf(b) => Ok(ctx.bsdfs[b].clone()),
+            IdTarget::Bsdf(b) => Ok(nested_copy(ctx, b)),
             _ => Err(ctx.err(
                 first.pos,
                 format!(
@@ -899,6 +916,10 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
 
 /// Parses a `<bsdf>`, adds it to the scene and registers its id.
 pub(crate) fn parse_bsdf(ctx: &mut Ctx, elem: &Element) -> Result<BsdfId> {
+    if let Some(IdTarget::Bsdf(b)) = ctx.already(elem) {
+        // A `<ref>` made us parse it before its place in the document.
+        return Ok(b);
+    }
     ctx.texture_uses.push(Vec::new());
     let bsdf = parse_bsdf_value(ctx, elem);
     let uses = ctx.texture_uses.pop().unwrap_or_default();

@@ -112,6 +112,10 @@ fn cube_mesh() -> TriangleMesh {
 /// | --- | --- | --- |
 /// | nested `<shape>`s | shape | none |
 fn parse_shapegroup(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
+    if ctx.already(elem).is_some() {
+        // A `<ref>` further up made us parse it already.
+        return Ok(Vec::new());
+    }
     let Some(id) = elem.attr("id").map(|a| a.value.clone()) else {
         return Err(ctx.err(elem.pos, "a shapegroup needs an 'id' to be instanced"));
     };
@@ -360,6 +364,20 @@ pub(crate) fn parse_area_emitter(
     };
     ep.finish(ctx);
     Ok(emission)
+}
+
+/// An `area` emitter declared with an id outside shapes (attached to the shapes that `<ref>` it,
+/// as Mitsuba allows): added to [`Ctx::area_emitters`] once, where it stands or when a `<ref>`
+/// first names it.
+pub(crate) fn define_area_emitter(ctx: &mut Ctx, elem: &Element) -> Result<IdTarget> {
+    if let Some(t) = ctx.already(elem) {
+        return Ok(t);
+    }
+    let emission = parse_area_emitter(ctx, elem)?;
+    ctx.area_emitters.push(emission);
+    let target = IdTarget::AreaEmitter(ctx.area_emitters.len() - 1);
+    ctx.register_id(elem, target)?;
+    Ok(target)
 }
 
 /// Every `mesh_attribute` texture that bsdf `bsdf` uses must name an attribute `geometry` has,

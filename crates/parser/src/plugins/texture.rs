@@ -132,6 +132,10 @@ pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard", "mesh_attribute"];
 /// | `name` | string | required; starts with `vertex_` or `face_` |
 /// | `scale` | float | 1 |
 pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> {
+    if let Some(IdTarget::Texture(t)) = ctx.already(elem) {
+        // A `<ref>` made us parse it before its place in the document.
+        return Ok(t);
+    }
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
         return Err(unknown_type(ctx, elem, "texture", KNOWN));
