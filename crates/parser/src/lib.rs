@@ -18,6 +18,7 @@ pub mod scene;
 mod spectrum;
 mod transform;
 mod values;
+pub mod vol;
 mod xml;
 
 pub use error::ParseError;
