@@ -61,6 +61,8 @@ pub(crate) struct Ctx<'a> {
     /// Triangles and vertices of the meshes loaded so far, against `limits`.
     pub triangles: u64,
     pub vertices: u64,
+    /// Values of the grid volumes loaded so far, against `limits.volume_values`.
+    pub volume_values: u64,
     /// Textures used by the bsdf being parsed (and those nested in it), innermost last, each
     /// with whether a float parameter reads it.
     pub texture_uses: Vec<Vec<(crate::scene::TextureId, bool)>>,
@@ -108,6 +110,7 @@ impl<'a> Ctx<'a> {
             limits: limits.clone(),
             triangles: 0,
             vertices: 0,
+            volume_values: 0,
         }
     }
 

@@ -127,6 +127,42 @@ pub(crate) fn color_param(
     names: &[&str],
     default: Vec3,
 ) -> Result<ColorParam> {
+    texture_param(ctx, props, names, default, false)
+}
+
+/// A `rawconstant` texture `t` named by `e`, read as a parameter: its value, put in place (no
+/// colour conversion and no range check, as Mitsuba's); a float parameter (`float`) needs one
+/// channel (Mitsuba: "eval_1() is not defined for 3D-valued textures"). None for other
+/// textures.
+fn raw_constant(
+    ctx: &Ctx,
+    t: TextureId,
+    e: &Element,
+    float: bool,
+    owner: &str,
+) -> Result<Option<Vec3>> {
+    match ctx.textures[t].kind {
+        TextureKind::RawConstant { channels: 3, .. } if float => Err(ctx.err(
+            e.pos,
+            format!(
+                "{} of {owner} is a float parameter, but this rawconstant texture has three channels (Mitsuba: eval_1() is not defined for 3D-valued textures)",
+                e.attr_value("name").map_or("the parameter".to_string(), |n| format!("'{n}'"))
+            ),
+        )),
+        TextureKind::RawConstant { value, .. } => Ok(Some(value)),
+        _ => Ok(None),
+    }
+}
+
+/// [`color_param`], or a float parameter (`float`: a rawconstant texture must have one
+/// channel).
+fn texture_param(
+    ctx: &mut Ctx,
+    props: &mut Props,
+    names: &[&str],
+    default: Vec3,
+    float: bool,
+) -> Result<ColorParam> {
     let Some(e) = props.take_any(names) else {
         return Ok(ColorParam::Constant(default));
     };
@@ -136,6 +172,9 @@ pub(crate) fn color_param(
         _ => None,
     };
     if let Some(t) = texture {
+        if let Some(value) = raw_constant(ctx, t, e, float, &props.owner)? {
+            return Ok(ColorParam::Constant(value));
+        }
         if let Some(uses) = ctx.texture_uses.last_mut() {
             uses.push((t, false));
         }
@@ -331,7 +370,7 @@ fn float_param(
     names: &[&str],
     default: f32,
 ) -> Result<ColorParam> {
-    let p = color_param(ctx, props, names, Vec3::splat(default))?;
+    let p = texture_param(ctx, props, names, Vec3::splat(default), true)?;
     if let (ColorParam::Texture(t), Some(uses)) = (&p, ctx.texture_uses.last_mut()) {
         if let Some(last) = uses.iter_mut().rev().find(|(u, _)| u == t) {
             last.1 = true;
@@ -346,11 +385,15 @@ fn float_texture(ctx: &mut Ctx, props: &mut Props, name: &str, default: f32) -> 
     let Some(e) = props.take_any(&[name]) else {
         return Ok(ColorParam::Constant(Vec3::splat(default)));
     };
-    match e.tag.as_str() {
-        "texture" => Ok(ColorParam::Texture(parse_texture(ctx, e)?)),
-        "ref" => texture_ref(ctx, e).map(ColorParam::Texture),
-        _ => Ok(ColorParam::Constant(props.color_of(ctx, e)?)),
-    }
+    let t = match e.tag.as_str() {
+        "texture" => parse_texture(ctx, e)?,
+        "ref" => texture_ref(ctx, e)?,
+        _ => return Ok(ColorParam::Constant(props.color_of(ctx, e)?)),
+    };
+    Ok(match raw_constant(ctx, t, e, true, &props.owner)? {
+        Some(value) => ColorParam::Constant(value),
+        None => ColorParam::Texture(t),
+    })
 }
 
 /// Whether a lobe parameter is switched on, as Mitsuba's `get_flag`: given, and not a constant 0.
