@@ -226,26 +226,26 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         eprintln!("warning: {w}");
     }
     let build_time = build_start.elapsed();
-    let settings = torrey_renderer::RenderSettings {
-        spp: args.spp.unwrap_or(scene.sampler.sample_count).max(1),
-        max_depth: args.max_depth.unwrap_or(scene.integrator.max_depth),
-        rr_depth: scene.integrator.rr_depth,
-        seed: args.seed.unwrap_or(scene.sampler.seed),
-        filter: scene.film.filter,
-        tile_size: 16,
-        env_strategy: Default::default(),
-        sampler: match args.sampler {
-            SamplerArg::Sobol => torrey_renderer::SamplerKind::Sobol,
-            SamplerArg::Independent => torrey_renderer::SamplerKind::Independent,
+    let settings = torrey_renderer::RenderSettings::new(
+        &scene,
+        &torrey_renderer::Overrides {
+            spp: args.spp,
+            max_depth: args.max_depth,
+            seed: args.seed,
+            sampler: Some(match args.sampler {
+                SamplerArg::Sobol => torrey_renderer::SamplerKind::Sobol,
+                SamplerArg::Independent => torrey_renderer::SamplerKind::Independent,
+            }),
+            mipmapping: Some(!args.no_mipmap),
+            packets: Some(!args.no_packets),
+            path_loop: Some(match args.integrator_loop {
+                PathLoopArg::Auto => torrey_renderer::PathLoop::Auto,
+                PathLoopArg::Scalar => torrey_renderer::PathLoop::Scalar,
+                PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
+            }),
+            tile_size: None,
         },
-        mipmapping: !args.no_mipmap,
-        packets: !args.no_packets,
-        path_loop: match args.integrator_loop {
-            PathLoopArg::Auto => torrey_renderer::PathLoop::Auto,
-            PathLoopArg::Scalar => torrey_renderer::PathLoop::Scalar,
-            PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
-        },
-    };
+    );
     let output = output_path(
         args.output.as_deref(),
         scene_path,
@@ -284,19 +284,21 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     let render_cpu = process_cpu_seconds().zip(cpu_before).map(|(a, b)| a - b);
     bar.finish_and_clear();
 
+    let write_start = Instant::now();
     let png = slicing::write_outputs(&output, &torrey_parts::Part::from_output(meta, &out))?;
+    let write_time = write_start.elapsed();
 
     let samples = out.image.width as u64 * out.image.height as u64 * out.spp as u64;
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles{}; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}",
+        "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles{}; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}, write {:.2} s",
         scene_path.display(),
         scene.dialect,
         scene.dialect_reason,
         out.image.width,
         out.image.height,
         out.spp,
-        settings.max_depth,
+        settings.integrator.max_depth(),
         render_scene.triangle_count(),
         match render_scene.instance_count() {
             0 => String::new(),
@@ -313,6 +315,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         render_scene.accel().bvh_width(),
         torrey_renderer::Simd::detect().name(),
         render_cpu.map_or(String::new(), |s| format!(", render CPU {s:.2} s")),
+        write_time.as_secs_f64(),
     );
     if out.nonfinite_samples > 0 {
         eprintln!(

@@ -84,9 +84,33 @@ fn good_scene_writes_exr_and_png_and_reports_speed() {
         stderr.contains("24x16 px, 4 spp") && stderr.contains("samples/s"),
         "{stderr}"
     );
+    // Only plugins the torrey course's renderer reads (sensor, bsdf, shape): the course's rules.
     assert!(
-        stderr
-            .contains("torrey dialect (scene version 0.6.0 with the torrey course's <background>"),
+        stderr.contains(
+            "torrey dialect (scene version 0.6.0, every plugin (3) one the torrey course's renderer reads)"
+        ),
+        "{stderr}"
+    );
+    // One it does not read makes a Mitsuba 0.6 file, and the summary names it with its place.
+    let metal = dir.join("metal.xml");
+    std::fs::write(
+        &metal,
+        GOOD.replace(r#"<bsdf type="diffuse""#, r#"<bsdf type="conductor""#),
+    )
+    .unwrap();
+    let result = torrey()
+        .arg(&metal)
+        .args(["--quiet", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        result.status.success()
+            && stderr.contains(&format!(
+                "mitsuba dialect (scene version 0.6.0 with bsdf 'conductor' at {}:7:3, which the torrey course's renderer does not read: Mitsuba's rules)",
+                metal.display()
+            )),
         "{stderr}"
     );
     // --dialect overrides the detection, and the summary says so.

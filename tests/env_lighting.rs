@@ -25,17 +25,16 @@ fn render(
     let desc = torrey_parser::load_scene(path, &[]).unwrap_or_else(|e| panic!("{e}"));
     let rs = torrey_renderer::RenderScene::build(&desc, w, h).unwrap_or_else(|e| panic!("{e}"));
     let settings = torrey_renderer::RenderSettings {
-        spp,
-        max_depth: desc.integrator.max_depth,
-        rr_depth: desc.integrator.rr_depth,
-        seed,
-        filter: desc.film.filter,
-        tile_size: 16,
-        mipmapping: true,
         env_strategy: strategy,
-        sampler: torrey_renderer::SamplerKind::Independent,
-        packets: true,
-        path_loop: Default::default(),
+        ..torrey_renderer::RenderSettings::new(
+            &desc,
+            &torrey_renderer::Overrides {
+                spp: Some(spp),
+                seed: Some(seed),
+                sampler: Some(torrey_renderer::SamplerKind::Independent),
+                ..Default::default()
+            },
+        )
     };
     let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
     assert_eq!(out.nonfinite_samples, 0);

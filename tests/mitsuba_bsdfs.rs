@@ -32,29 +32,6 @@ fn to_xyz(c: Vec3) -> DVec3 {
     )
 }
 
-/// The complementary error function (Numerical Recipes' Chebyshev fit, relative error below
-/// 1.2e-7 everywhere: enough for p-values near α ≈ 4e-6).
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
-
 /// The verdict's outcome for one render.
 struct Verdict {
     pixels: usize,
@@ -87,7 +64,7 @@ fn verdict(image: &[Vec3], reference: &[Vec3], variance: &[Vec3], spp: u32) -> V
         for c in 0..3 {
             let z = (a[c] - b[c]).abs() * (spp as f64 / v[c]).sqrt();
             // p = 2 (1 − Φ(z)) = erfc(z / √2).
-            let p = erfc(z / std::f64::consts::SQRT_2);
+            let p = common::verdict::erfc(z / std::f64::consts::SQRT_2);
             if p > alpha {
                 count += 1;
             }
@@ -236,7 +213,7 @@ fn verdict_rejects_a_biased_image() {
     let biased: Vec<Vec3> = reference.iter().map(|c| *c * 1.03).collect();
     assert!(!verdict(&biased, &reference, &variance, 868).passed());
     // erfc against known values.
-    assert!((erfc(0.0) - 1.0).abs() < 1e-7);
-    assert!((erfc(1.0) - 0.157_299_207).abs() < 1e-7);
-    assert!((erfc(3.0) / 2.209_049_7e-5 - 1.0).abs() < 1e-6);
+    assert!((common::verdict::erfc(0.0) - 1.0).abs() < 1e-7);
+    assert!((common::verdict::erfc(1.0) - 0.157_299_207).abs() < 1e-7);
+    assert!((common::verdict::erfc(3.0) / 2.209_049_7e-5 - 1.0).abs() < 1e-6);
 }

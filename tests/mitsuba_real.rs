@@ -229,21 +229,18 @@ fn render(case: &Case) -> Option<Rendered> {
     let desc = torrey_parser::load_scene(&base.join(xml), &[]).unwrap_or_else(|e| panic!("{e}"));
     let (fw, fh) = (desc.film.width, desc.film.height);
     let rs = torrey_renderer::RenderScene::build(&desc, fw, fh).unwrap_or_else(|e| panic!("{e}"));
-    let settings = torrey_renderer::RenderSettings {
-        spp: case.spp,
-        max_depth: desc.integrator.max_depth,
-        rr_depth: desc.integrator.rr_depth,
-        seed: 34,
-        filter: desc.film.filter,
-        tile_size: 16,
-        env_strategy: Default::default(),
-        // Independent samples: the per-pixel variance then estimates the error.
-        sampler: torrey_renderer::SamplerKind::Independent,
-        // Mitsuba looks textures up bilinearly at full resolution.
-        mipmapping: false,
-        packets: true,
-        path_loop: Default::default(),
-    };
+    let settings = torrey_renderer::RenderSettings::new(
+        &desc,
+        &torrey_renderer::Overrides {
+            spp: Some(case.spp),
+            seed: Some(34),
+            // Independent samples: the per-pixel variance then estimates the error.
+            sampler: Some(torrey_renderer::SamplerKind::Independent),
+            // Mitsuba looks textures up bilinearly at full resolution.
+            mipmapping: Some(false),
+            ..Default::default()
+        },
+    );
     let rect = case.crop.unwrap_or((0, 0, fw, fh));
     let slice = torrey_renderer::RenderSlice {
         crop: rect,

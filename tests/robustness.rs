@@ -742,7 +742,9 @@ fn silent_oddities_now_speak() {
         "{stderr}"
     );
     assert!(
-        stderr.contains("warning: reflectance 10 10 10 of bsdf 'diffuse' is above 1"),
+        stderr.contains(
+            "warning: parameter 'reflectance' of bsdf 'diffuse' is 10 10 10, above 1: the surface scatters more light than it receives"
+        ),
         "{stderr}"
     );
     // Once per scene: a thousand such bsdfs give one line with a count.
@@ -754,7 +756,7 @@ fn silent_oddities_now_speak() {
     assert_eq!(warnings.len(), 1, "{stderr}");
     assert!(
         warnings[0].ends_with(
-            "reflects more light than it receives (999 more like it in this scene; not listed)"
+            "scatters more light than it receives (999 more like it in this scene; not listed)"
         ),
         "{stderr}"
     );

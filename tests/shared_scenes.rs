@@ -59,20 +59,17 @@ fn every_shared_torrey_scene_renders() {
         let scene = result.unwrap_or_else(|e| panic!("{e}"));
         let rs =
             torrey_renderer::RenderScene::build(&scene, 24, 16).unwrap_or_else(|e| panic!("{e}"));
-        let settings = torrey_renderer::RenderSettings {
-            spp: 1,
-            max_depth: scene.integrator.max_depth.min(4),
-            rr_depth: scene.integrator.rr_depth,
-            seed: 0,
-            filter: scene.film.filter,
-            tile_size: 16,
-            env_strategy: Default::default(),
-            // Independent samples: the per-pixel variance then estimates the error exactly.
-            sampler: torrey_renderer::SamplerKind::Independent,
-            mipmapping: true,
-            packets: true,
-            path_loop: Default::default(),
-        };
+        let settings = torrey_renderer::RenderSettings::new(
+            &scene,
+            &torrey_renderer::Overrides {
+                spp: Some(1),
+                max_depth: Some(scene.integrator.max_depth().min(4)),
+                seed: Some(0),
+                // Independent samples: the per-pixel variance then estimates the error exactly.
+                sampler: Some(torrey_renderer::SamplerKind::Independent),
+                ..Default::default()
+            },
+        );
         let out = torrey_renderer::render(&rs, &settings, &|_, _| {});
         assert_eq!(out.nonfinite_samples, 0, "{name}: NaN or infinite samples");
         assert!(
@@ -121,12 +118,10 @@ fn shared_scenes_match_mitsuba() {
         // Mitsuba does not mip-map: compare like with like here; what mip-mapping changes is
         // measured separately (docs/validation.md).
         // tests/mitsuba/torrey_to_mitsuba.py converts with the torrey course's rules (two-sided
-        // surfaces, the implicit grey sky), so torrey reads these course scenes in that dialect
-        // even where nothing in the file marks it.
-        let options = torrey_parser::LoadOptions {
-            dialect: Some(torrey_parser::Dialect::Torrey),
-            ..Default::default()
-        };
+        // surfaces, the implicit grey sky); torrey detects them (every plugin in these scenes is
+        // one the course's renderer reads), so the scenes are loaded as the command line loads
+        // them.
+        let options = torrey_parser::LoadOptions::default();
         let r = common::render_scene_with(&source, &options, (w, h), spp, depth, 3, false);
         let name = json.file_stem().unwrap().to_string_lossy().into_owned();
         let v = common::compare_to_reference(

@@ -179,27 +179,27 @@ impl Harness {
                 };
                 let built = torrey_renderer::RenderScene::build_with_width(&scene, 8, 6, width)
                     .map_err(|e| e.to_string())?;
-                let settings = torrey_renderer::RenderSettings {
-                    spp: 1 + (variant % 2) as u32,
-                    max_depth: scene.integrator.max_depth.clamp(-1, 6),
-                    rr_depth: scene.integrator.rr_depth,
-                    seed: variant,
-                    filter: scene.film.filter,
-                    tile_size: 4,
-                    env_strategy: Default::default(),
-                    sampler: if variant.is_multiple_of(2) {
-                        torrey_renderer::SamplerKind::Sobol
-                    } else {
-                        torrey_renderer::SamplerKind::Independent
+                let settings = torrey_renderer::RenderSettings::new(
+                    &scene,
+                    &torrey_renderer::Overrides {
+                        spp: Some(1 + (variant % 2) as u32),
+                        max_depth: Some(scene.integrator.max_depth().clamp(-1, 6)),
+                        seed: Some(variant),
+                        sampler: Some(if variant.is_multiple_of(2) {
+                            torrey_renderer::SamplerKind::Sobol
+                        } else {
+                            torrey_renderer::SamplerKind::Independent
+                        }),
+                        mipmapping: Some(variant % 4 != 1),
+                        packets: Some(variant % 5 != 2),
+                        path_loop: Some(if variant % 3 == 1 {
+                            torrey_renderer::PathLoop::Wavefront
+                        } else {
+                            torrey_renderer::PathLoop::Scalar
+                        }),
+                        tile_size: Some(4),
                     },
-                    mipmapping: variant % 4 != 1,
-                    packets: variant % 5 != 2,
-                    path_loop: if variant % 3 == 1 {
-                        torrey_renderer::PathLoop::Wavefront
-                    } else {
-                        torrey_renderer::PathLoop::Scalar
-                    },
-                };
+                );
                 let out = torrey_renderer::render(&built, &settings, &|_, _| {});
                 if out.image.pixels.iter().any(|p| !p.is_finite()) {
                     panic!("render produced a NaN or infinite pixel");

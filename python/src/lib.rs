@@ -11,7 +11,7 @@ use pyo3::types::{PyBytes, PyDict};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use torrey_parts::{Part, PartMeta};
-use torrey_renderer::{RenderScene, RenderSettings, RenderSlice, SamplerKind};
+use torrey_renderer::{Overrides, RenderScene, RenderSettings, RenderSlice, SamplerKind};
 
 // Registered as `torrey.SceneError` (the package re-exports it), so it pickles by reference: a
 // Ray task's scene error reaches the driver as itself.
@@ -109,7 +109,7 @@ impl Scene {
     /// The scene's maximum path depth (Mitsuba's convention).
     #[getter]
     fn max_depth(&self) -> i32 {
-        self.desc.integrator.max_depth
+        self.desc.integrator.max_depth()
     }
     /// Warnings about harmless oddities, as `file:line:column: warning: ...` lines.
     #[getter]
@@ -285,19 +285,16 @@ fn render(
         }
     };
     // The command line's settings (src/main.rs), so the same arguments give the same pixels.
-    let settings = RenderSettings {
-        spp: spp.unwrap_or(desc.sampler.sample_count).max(1),
-        max_depth: max_depth.unwrap_or(desc.integrator.max_depth),
-        rr_depth: desc.integrator.rr_depth,
-        seed: seed.unwrap_or(desc.sampler.seed),
-        filter: desc.film.filter,
-        tile_size: 16,
-        env_strategy: Default::default(),
-        sampler,
-        mipmapping: true,
-        packets: true,
-        path_loop: Default::default(),
-    };
+    let settings = RenderSettings::new(
+        desc,
+        &Overrides {
+            spp,
+            max_depth,
+            seed,
+            sampler: Some(sampler),
+            ..Overrides::default()
+        },
+    );
     // The film's crop parameters apply to the film they were written for.
     let film_crop = desc.film.crop.filter(|_| size.is_none()).map(|c| c.rect());
     let slice = RenderSlice {

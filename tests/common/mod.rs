@@ -82,20 +82,18 @@ pub fn render_scene_with(
     };
     let rs = torrey_renderer::RenderScene::build(&desc, film_width, film_height)
         .unwrap_or_else(|e| panic!("{e}"));
-    let settings = torrey_renderer::RenderSettings {
-        spp,
-        max_depth: max_depth.unwrap_or(desc.integrator.max_depth),
-        rr_depth: desc.integrator.rr_depth,
-        seed,
-        filter: desc.film.filter,
-        tile_size: 16,
-        env_strategy: Default::default(),
-        // Independent samples: the per-pixel variance then estimates the error exactly.
-        sampler: torrey_renderer::SamplerKind::Independent,
-        mipmapping,
-        packets: true,
-        path_loop: Default::default(),
-    };
+    let settings = torrey_renderer::RenderSettings::new(
+        &desc,
+        &torrey_renderer::Overrides {
+            spp: Some(spp),
+            max_depth,
+            seed: Some(seed),
+            // Independent samples: the per-pixel variance then estimates the error exactly.
+            sampler: Some(torrey_renderer::SamplerKind::Independent),
+            mipmapping: Some(mipmapping),
+            ..Default::default()
+        },
+    );
     let out = match crop {
         Some(c) => {
             let slice = torrey_renderer::RenderSlice {

@@ -41,7 +41,7 @@ pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
         ("film", plugins::sensor::FILMS),
         ("rfilter", plugins::sensor::RFILTERS),
         ("sampler", plugins::sensor::SAMPLERS),
-        ("integrator", plugins::sensor::INTEGRATORS),
+        ("integrator", plugins::integrator::INTEGRATORS),
     ]
 }
 

@@ -440,14 +440,25 @@ impl<'a> Props<'a> {
         what: &str,
         ok: impl Fn(f32) -> bool,
     ) -> Result<f32> {
+        // The name the file gives (`alpha` for `exponent`, say), found as `take_any` finds it.
+        let name = names
+            .iter()
+            .find_map(|n| {
+                self.items
+                    .iter()
+                    .find(|i| !i.used && i.name.as_deref() == Some(*n))
+            })
+            .and_then(|i| i.elem.attr_value("name"))
+            .unwrap_or(names[0])
+            .to_string();
         match self.opt_float_pos(ctx, names)? {
             None => Ok(default),
             Some((v, _)) if ok(v) => Ok(v),
             Some((v, pos)) => Err(ctx.err(
                 pos,
                 format!(
-                    "parameter '{}' of {} must be {what}, found {v}",
-                    names[0], self.owner
+                    "parameter '{name}' of {} must be {what}, found {v}",
+                    self.owner
                 ),
             )),
         }
@@ -482,6 +493,53 @@ impl<'a> Props<'a> {
     }
 
     /// Marks parameters as accepted without effect (e.g. `focus_distance`).
+    /// An integer parameter in 1..=`max` (`default` when absent); `limit` names the `--limit`
+    /// that raises `max`, if any.
+    pub fn positive(
+        &mut self,
+        ctx: &Ctx,
+        name: &str,
+        default: i64,
+        max: u64,
+        limit: Option<&str>,
+    ) -> Result<u32> {
+        let max = max.min(u32::MAX as u64) as i64;
+        match self.opt_int_pos(ctx, &[name])? {
+            None => Ok(default as u32),
+            Some((v, pos)) if v <= 0 => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{name}' of {} must be positive, found {v}",
+                    self.owner
+                ),
+            )),
+            Some((v, pos)) if v > max => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{name}' of {} must be at most {max}, found {v}{}",
+                    self.owner,
+                    limit.map_or(String::new(), |l| format!(" (raise with --limit {l}=N)"))
+                ),
+            )),
+            Some((v, _)) => Ok(v as u32),
+        }
+    }
+
+    /// An optional integer parameter that must not be negative.
+    pub fn non_negative(&mut self, ctx: &Ctx, name: &str) -> Result<Option<u32>> {
+        match self.opt_int_pos(ctx, &[name])? {
+            None => Ok(None),
+            Some((v, pos)) if v < 0 || v > u32::MAX as i64 => Err(ctx.err(
+                pos,
+                format!(
+                    "parameter '{name}' of {} must not be negative, found {v}",
+                    self.owner
+                ),
+            )),
+            Some((v, _)) => Ok(Some(v as u32)),
+        }
+    }
+
     pub fn ignore(&mut self, names: &[&str]) {
         for n in names {
             while self.take(n).is_some() {}

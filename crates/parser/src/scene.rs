@@ -15,8 +15,8 @@ pub type BsdfId = usize;
 pub type TextureId = usize;
 
 /// Which rules a scene is read with. Version 2.0 and up is Mitsuba 3; 1.x is the torrey
-/// course's; 0.5/0.6 files are the torrey dialect only when they contain something only the
-/// course has (`<background>`, its phong/blinn/blinn_microfacet/mirror), otherwise Mitsuba's.
+/// course's; 0.5/0.6 files are the torrey dialect when every plugin in them is one the course's
+/// renderer reads, otherwise Mitsuba's (`plugins/dialect.rs`).
 /// [`crate::LoadOptions::dialect`] overrides the detection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dialect {
@@ -69,8 +69,8 @@ pub struct Scene {
     /// The scene file this was read from (relative file names inside were found from its folder and its `<path>`s).
     pub path: PathBuf,
     pub dialect: Dialect,
-    /// Why [`Scene::dialect`] was chosen (the version, the element that marks the torrey
-    /// dialect, or an override), for the command line's summary.
+    /// Why [`Scene::dialect`] was chosen (the version, the first plugin the torrey course does
+    /// not read with its file:line:column, or an override), for the command line's summary.
     pub dialect_reason: String,
     pub camera: Camera,
     pub film: Film,
@@ -183,21 +183,69 @@ pub struct Sampler {
     pub kind: String,
 }
 
+/// The integrator: which one, with its parameters (one parser file per plugin:
+/// plugins/integrator/).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Integrator {
-    /// Mitsuba's `max_depth`: path segments; 1 = emitters seen directly, 2 = direct light, -1 = unbounded.
+    /// The plugin's type as written (`path`, `direct`, `volpath`, ...; a wrapper's inner one),
+    /// for messages.
+    pub type_name: String,
+    pub kind: IntegratorKind,
+}
+
+/// The integrators torrey renders.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IntegratorKind {
+    /// Mitsuba's `path`, and the types rendered by the path tracer.
+    Path(PathParams),
+    /// Mitsuba's `direct`.
+    Direct(DirectParams),
+}
+
+/// The path tracer's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathParams {
+    /// Mitsuba's `max_depth`: path segments; 1 = emitters seen directly, 2 = direct light,
+    /// -1 = unbounded.
     pub max_depth: i32,
     /// Russian roulette starts at this depth (Mitsuba's `rr_depth`, default 5).
     pub rr_depth: i32,
-    /// The integrator's type name (`path`, `direct`, ...), kept for information; wrappers
-    /// (`moment`, `aov`) are read through to the integrator inside them.
-    pub kind: String,
     /// Mitsuba's `hide_emitters`: emitters seen directly by the camera are black.
     pub hide_emitters: bool,
-    /// `direct` only: emitter and bsdf samples per shading point (Mitsuba's `emitter_samples`,
-    /// `bsdf_samples`, both defaulting to `shading_samples`, 1). 1 and 1 otherwise.
+}
+
+/// `direct`'s parameters: emitter and BSDF samples per shading point (Mitsuba's
+/// `emitter_samples`, `bsdf_samples`, both defaulting to `shading_samples`, 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectParams {
     pub emitter_samples: u32,
     pub bsdf_samples: u32,
+    pub hide_emitters: bool,
+}
+
+impl Integrator {
+    /// Path segments followed: `direct` follows two (the camera ray and one bounce).
+    pub fn max_depth(&self) -> i32 {
+        match self.kind {
+            IntegratorKind::Path(p) => p.max_depth,
+            IntegratorKind::Direct(_) => 2,
+        }
+    }
+
+    /// Where Russian roulette starts (`direct` never reaches it).
+    pub fn rr_depth(&self) -> i32 {
+        match self.kind {
+            IntegratorKind::Path(p) => p.rr_depth,
+            IntegratorKind::Direct(_) => 5,
+        }
+    }
+
+    pub fn hide_emitters(&self) -> bool {
+        match self.kind {
+            IntegratorKind::Path(p) => p.hide_emitters,
+            IntegratorKind::Direct(d) => d.hide_emitters,
+        }
+    }
 }
 
 /// A colour that may be a constant or come from a texture.

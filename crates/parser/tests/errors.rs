@@ -305,3 +305,83 @@ fn bumpmap_needs_one_height_texture_and_one_bsdf() {
         pos_of(xml, "<bsdf type=\"bumpmap\""),
     );
 }
+
+/// Range warnings and errors name the parameter they test, as the file spells it, at its value.
+/// (Issue 34: a roughconductor's eta warned "reflectance ... is above 1".)
+#[test]
+fn range_messages_name_the_parameter_they_test() {
+    // A conductor's eta and k are indices of refraction: values above 1 are normal (gold here).
+    // Nor is a roughness above 1 an albedo. None of them is warned about.
+    let xml = r#"<scene version="3.0.0">
+  <bsdf type="roughconductor"><rgb name="eta" value="0.2004, 0.9240, 1.1022"/><rgb name="k" value="3.9129, 2.4528, 2.1421"/><float name="alpha" value="1.5"/></bsdf>
+  <bsdf type="conductor"><rgb name="eta" value="0.2004, 0.9240, 1.1022"/><rgb name="k" value="3.9129, 2.4528, 2.1421"/></bsdf>
+  <bsdf type="roughconductor"><float name="alpha_u" value="2"/><float name="alpha_v" value="3"/></bsdf>
+</scene>"#;
+    let s = parse_ok(xml);
+    assert_eq!(s.warnings, vec![], "no range warning for eta, k or alpha");
+
+    // Albedos above 1: the warning names the parameter (its spelling in the file) and its owner.
+    for (bsdf, name) in [
+        (
+            r#"<bsdf type="diffuse"><rgb name="reflectance" value="1.2"/></bsdf>"#,
+            "reflectance",
+        ),
+        (
+            r#"<bsdf type="dielectric"><rgb name="specular_transmittance" value="1.2"/></bsdf>"#,
+            "specular_transmittance",
+        ),
+        (
+            r#"<bsdf type="plastic"><rgb name="diffuseReflectance" value="1.2"/></bsdf>"#,
+            "diffuseReflectance",
+        ),
+        (
+            r#"<bsdf type="principled"><rgb name="base_color" value="1.2"/></bsdf>"#,
+            "base_color",
+        ),
+    ] {
+        let xml = format!("<scene version=\"3.0.0\">\n  {bsdf}\n</scene>");
+        let s = parse_ok(&xml);
+        let ty = bsdf.split('"').nth(1).unwrap();
+        assert_eq!(s.warnings.len(), 1, "{bsdf}: {:?}", s.warnings);
+        let w = &s.warnings[0];
+        assert_eq!(
+            w.message,
+            format!("parameter '{name}' of bsdf '{ty}' is 1.2 1.2 1.2, above 1: the surface scatters more light than it receives"),
+            "{bsdf}"
+        );
+        assert_eq!((w.location.line, w.location.column), pos_of(&xml, "1.2"));
+    }
+
+    // Mitsuba clamps blendbsdf's weight and mask's opacity to [0, 1]: named, and read as 1.
+    let xml = r#"<scene version="3.0.0">
+  <bsdf type="blendbsdf"><float name="weight" value="1.5"/><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>
+  <bsdf type="mask"><float name="opacity" value="2"/><bsdf type="diffuse"/></bsdf>
+</scene>"#;
+    let s = parse_ok(xml);
+    let messages: Vec<&str> = s.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(
+        messages,
+        [
+            "parameter 'weight' of bsdf 'blendbsdf' is 1.5, above 1: read as 1 (Mitsuba clamps it to [0, 1])",
+            "parameter 'opacity' of bsdf 'mask' is 2, above 1: read as 1 (Mitsuba clamps it to [0, 1])",
+        ]
+    );
+    assert_eq!(
+        (s.warnings[1].location.line, s.warnings[1].location.column),
+        pos_of(xml, "2\"/>")
+    );
+
+    // An error names the alias the file used: phong's exponent given as alpha.
+    let xml = "<scene version=\"0.6.0\">\n  <bsdf type=\"phong\"><float name=\"alpha\" value=\"-1\"/></bsdf>\n</scene>";
+    assert_err(
+        &parse(xml).unwrap_err(),
+        "parameter 'alpha' of bsdf 'phong' must be at least 0, found -1",
+        pos_of(xml, "-1"),
+    );
+    let xml = "<scene version=\"0.6.0\">\n  <bsdf type=\"phong\"><float name=\"exponent\" value=\"-2\"/></bsdf>\n</scene>";
+    assert_err(
+        &parse(xml).unwrap_err(),
+        "parameter 'exponent' of bsdf 'phong' must be at least 0, found -2",
+        pos_of(xml, "-2"),
+    );
+}

@@ -48,12 +48,12 @@ fn lookat_frame_matches_mitsuba() {
     assert_eq!(
         s.integrator,
         Integrator {
-            max_depth: -1,
-            rr_depth: 5,
-            kind: "path".into(),
-            hide_emitters: false,
-            emitter_samples: 1,
-            bsdf_samples: 1,
+            type_name: "path".into(),
+            kind: IntegratorKind::Path(PathParams {
+                max_depth: -1,
+                rr_depth: 5,
+                hide_emitters: false,
+            }),
         }
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
@@ -178,7 +178,28 @@ fn colours_and_refs() {
     };
     assert_eq!((color0, color1), (Vec3::splat(0.1), Vec3::splat(0.2)));
     assert!((to_uv.transform_point2(Vec2::new(0.5, 0.5)) - Vec2::new(4.5, 2.0)).length() < 1e-6);
-    // Torrey dialect without background: the implicit 0.5 grey environment.
+    // The checkerboard is not a texture the course's renderer reads: a Mitsuba 0.6 file (the
+    // course's mirror and phong notwithstanding), so no implicit grey environment.
+    assert_eq!(s.dialect, torrey_parser::Dialect::Mitsuba3);
+    assert!(
+        s.dialect_reason
+            .contains("texture 'checkerboard' at test.xml:2:7"),
+        "{}",
+        s.dialect_reason
+    );
+    assert_eq!(s.lights, vec![]);
+    // Without it, a course file: the course's 0.5 grey environment.
+    let start = xml.find("<texture").unwrap();
+    let end = xml.find("</texture>").unwrap() + "</texture>".len();
+    let course = format!("{}{}", &xml[..start], &xml[end..])
+        .replace(r#"<ref name="reflectance" id="checks"/>"#, "");
+    let s = parse_ok(&course);
+    assert_eq!(
+        s.dialect,
+        torrey_parser::Dialect::Torrey,
+        "{}",
+        s.dialect_reason
+    );
     assert_eq!(
         s.lights,
         vec![Light::Constant {
@@ -347,13 +368,13 @@ fn unknown_parameters_warn_with_position() {
 fn integrators() {
     let s = parse_ok(r#"<scene version="0.5.0"><integrator type="direct"/></scene>"#);
     assert_eq!(
-        (s.integrator.max_depth, s.integrator.kind.as_str()),
+        (s.integrator.max_depth(), s.integrator.type_name.as_str()),
         (2, "direct")
     );
     let s = parse_ok(
         r#"<scene version="0.5.0"><integrator type="path"><integer name="maxDepth" value="7"/><integer name="rrDepth" value="3"/></integrator></scene>"#,
     );
-    assert_eq!((s.integrator.max_depth, s.integrator.rr_depth), (7, 3));
+    assert_eq!((s.integrator.max_depth(), s.integrator.rr_depth()), (7, 3));
 }
 
 const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.5\nvt 0 0\nvt 1 0.25\nvt 0 1\nvt 1 1\nf 1/1 2/2 3/3\nf 2/2 4/4 3/3\n";

@@ -7,8 +7,8 @@ mod common;
 use common::{assert_err, parse_in, parse_ok, pos_of, temp_dir};
 use glam::{Mat4, Vec3, Vec4};
 use torrey_parser::{
-    parse_scene_str_with, BsdfKind, CameraKind, ColorParam, Dialect, FovAxis, Light, LoadOptions,
-    PixelFilter,
+    parse_scene_str_with, BsdfKind, CameraKind, ColorParam, Dialect, FovAxis, IntegratorKind,
+    Light, LoadOptions, PixelFilter,
 };
 
 fn write(dir: &std::path::Path, name: &str, text: &str) {
@@ -145,39 +145,111 @@ fn errors_in_included_files_name_the_file_and_the_chain() {
 
 #[test]
 fn dialect_detection_and_override() {
+    // A 0.6 file with only plugins the course's renderer reads is a course file: both sides
+    // shaded and the course's 0.5 grey sky, although nothing in it is the course's alone.
     let plain06 = r#"<scene version="0.6.0"><shape type="sphere"/></scene>"#;
     let s = parse_ok(plain06);
-    assert_eq!(s.dialect, Dialect::Mitsuba3, "{}", s.dialect_reason);
-    assert!(s.lights.is_empty(), "no grey sky in a Mitsuba 0.6 scene");
-    let course = r#"<scene version="0.6.0">
-  <shape type="sphere"><bsdf type="phong"/></shape>
-</scene>"#;
-    let s = parse_ok(course);
-    assert_eq!(s.dialect, Dialect::Torrey);
-    assert!(
-        s.dialect_reason.contains("bsdf 'phong'"),
-        "{}",
-        s.dialect_reason
+    assert_eq!(s.dialect, Dialect::Torrey, "{}", s.dialect_reason);
+    assert_eq!(
+        s.dialect_reason,
+        "scene version 0.6.0, every plugin (1) one the torrey course's renderer reads"
     );
-    assert_eq!(s.lights.len(), 1, "the course's 0.5 grey sky");
-    let s = parse_ok(r#"<scene version="0.5.0"><background/><shape type="sphere"/></scene>"#);
-    assert_eq!(s.dialect, Dialect::Torrey);
+    assert_eq!(
+        s.lights,
+        vec![Light::Constant {
+            radiance: Vec3::splat(0.5)
+        }],
+        "the course's 0.5 grey sky"
+    );
+    // One plugin the course does not read makes it a Mitsuba 0.6 file, whatever else it has
+    // (here the course's own phong): no grey sky. The reason names the plugin and its position.
+    let mixed = r#"<scene version="0.6.0">
+  <shape type="sphere"><bsdf type="phong"/></shape>
+  <shape type="sphere"><bsdf type="roughconductor"/></shape>
+</scene>"#;
+    let s = parse_ok(mixed);
+    assert_eq!(s.dialect, Dialect::Mitsuba3);
+    let (line, column) = pos_of(mixed, "<bsdf type=\"roughconductor");
+    assert_eq!(
+        s.dialect_reason,
+        format!("scene version 0.6.0 with bsdf 'roughconductor' at test.xml:{line}:{column}, which the torrey course's renderer does not read: Mitsuba's rules")
+    );
+    assert!(s.lights.is_empty(), "no grey sky in a Mitsuba 0.6 scene");
+    // What the course's parser skips does not decide: an integrator, a filter, media.
+    let skipped = r#"<scene version="0.5.0">
+  <integrator type="volpath"/>
+  <medium type="homogeneous" id="m"/>
+  <sensor type="perspective"><film type="hdrfilm"><rfilter type="gaussian"/></film></sensor>
+  <shape type="sphere"><ref name="interior" id="m"/></shape>
+</scene>"#;
+    assert_eq!(parse_ok(skipped).dialect, Dialect::Torrey);
+    // Version 2 and up is Mitsuba 3 whatever its plugins.
     let s = parse_ok(
         r#"<scene version="3.0.0"><shape type="sphere"><bsdf type="mirror"/></shape></scene>"#,
     );
     assert_eq!(s.dialect, Dialect::Mitsuba3);
-    let forced = parse_scene_str_with(
-        plain06,
-        std::path::Path::new("t.xml"),
-        &LoadOptions {
-            dialect: Some(Dialect::Torrey),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    // --dialect overrides, both ways, and says what it overrode.
+    let force = |xml: &str, d: Dialect| {
+        parse_scene_str_with(
+            xml,
+            std::path::Path::new("t.xml"),
+            &LoadOptions {
+                dialect: Some(d),
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    let forced = force(plain06, Dialect::Mitsuba3);
+    assert_eq!(forced.dialect, Dialect::Mitsuba3);
+    assert!(
+        forced
+            .dialect_reason
+            .starts_with("forced (detected scene version 0.6.0, every plugin"),
+        "{}",
+        forced.dialect_reason
+    );
+    assert!(forced.lights.is_empty());
+    let forced = force(mixed, Dialect::Torrey);
     assert_eq!(forced.dialect, Dialect::Torrey);
-    assert!(forced.dialect_reason.starts_with("forced"));
+    assert!(
+        forced
+            .dialect_reason
+            .starts_with("forced (detected scene version 0.6.0 with bsdf 'roughconductor'"),
+        "{}",
+        forced.dialect_reason
+    );
     assert_eq!(forced.lights.len(), 1);
+}
+
+#[test]
+fn dialect_decided_in_an_included_file_names_that_file() {
+    let dir = temp_dir("dialect-include");
+    write(
+        &dir,
+        "parts/metal.xml",
+        "<scene version=\"0.6.0\">\n  <bsdf type=\"conductor\" id=\"metal\"/>\n</scene>\n",
+    );
+    let xml = r#"<scene version="0.6.0">
+  <include filename="parts/metal.xml"/>
+  <shape type="sphere"><ref id="metal"/></shape>
+</scene>"#;
+    let s = parse_in(&dir, xml).unwrap();
+    assert_eq!(s.dialect, Dialect::Mitsuba3);
+    let metal = dir.join("parts/metal.xml");
+    assert!(
+        s.dialect_reason
+            .contains(&format!("bsdf 'conductor' at {}:2:3,", metal.display())),
+        "{}",
+        s.dialect_reason
+    );
+    // The same file with a course bsdf included: a course file.
+    write(
+        &dir,
+        "parts/metal.xml",
+        "<scene version=\"0.6.0\"><bsdf type=\"mirror\" id=\"metal\"/></scene>",
+    );
+    assert_eq!(parse_in(&dir, xml).unwrap().dialect, Dialect::Torrey);
 }
 
 #[test]
@@ -289,10 +361,10 @@ fn integrators_and_samplers() {
 </scene>"#,
     );
     assert_eq!(
-        (s.integrator.kind.as_str(), s.integrator.max_depth),
+        (s.integrator.type_name.as_str(), s.integrator.max_depth()),
         ("path", 7)
     );
-    assert!(s.integrator.hide_emitters);
+    assert!(s.integrator.hide_emitters());
     assert_eq!((s.sampler.sample_count, s.sampler.seed), (16, 3));
     assert_eq!(s.sampler.kind, "stratified");
     assert_eq!(
@@ -307,17 +379,17 @@ fn integrators_and_samplers() {
   <sensor type="perspective"><sampler type="orthogonal"><integer name="sample_count" value="10"/></sampler></sensor>
 </scene>"#,
     );
-    assert_eq!(s.integrator.kind, "direct");
-    assert_eq!(
-        (s.integrator.emitter_samples, s.integrator.bsdf_samples),
-        (4, 1)
-    );
+    assert_eq!(s.integrator.type_name, "direct");
+    let IntegratorKind::Direct(direct) = s.integrator.kind else {
+        panic!("{:?}", s.integrator)
+    };
+    assert_eq!((direct.emitter_samples, direct.bsdf_samples), (4, 1));
     assert_eq!(s.sampler.sample_count, 25);
     for ty in ["ptracer", "volpath"] {
         let s = parse_ok(&format!(
             r#"<scene version="3.0.0"><integrator type="{ty}"><integer name="max_depth" value="3"/></integrator></scene>"#
         ));
-        assert_eq!(s.integrator.max_depth, 3);
+        assert_eq!(s.integrator.max_depth(), 3);
         assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     }
 }

@@ -48,23 +48,20 @@ fn every_torrey_scene_loads() {
             continue;
         }
         let scene = result.unwrap_or_else(|e| panic!("{e}"));
-        // Course scenes with a <background> or the course's bsdfs are read in the torrey
-        // dialect; the others are indistinguishable from Mitsuba 0.6 files and get its rules.
-        let text = std::fs::read_to_string(f).unwrap();
-        let course_only = text.contains("<background")
-            || ["mirror", "phong", "blinn", "blinn_microfacet"]
-                .iter()
-                .any(|t| text.contains(&format!("bsdf type=\"{t}\"")));
-        let expected = if course_only {
-            Dialect::Torrey
-        } else {
-            Dialect::Mitsuba3
-        };
+        // Every course scene uses only plugins the course's renderer reads: all are read
+        // with the course's rules (both sides shaded, the 0.5 grey sky without <background>).
         assert_eq!(
             scene.dialect,
-            expected,
+            Dialect::Torrey,
             "{}: {}",
             f.display(),
+            scene.dialect_reason
+        );
+        assert!(
+            scene
+                .dialect_reason
+                .contains("one the torrey course's renderer reads"),
+            "{}",
             scene.dialect_reason
         );
         assert!(!scene.shapes.is_empty(), "{}", f.display());
@@ -82,23 +79,24 @@ fn torrey_scene_details() {
         &[],
     )
     .unwrap();
-    // Nothing only the torrey course has: Mitsuba's rules, no implicit grey sky...
-    assert_eq!(s.dialect, Dialect::Mitsuba3, "{}", s.dialect_reason);
-    assert_eq!(s.lights.len(), 1);
-    // ... unless the torrey dialect is asked for: its 0.5 grey environment follows the light.
+    // Nothing only the torrey course has, but only plugins the course reads: the course's
+    // rules, so its 0.5 grey environment follows the point light...
+    assert_eq!(s.dialect, Dialect::Torrey, "{}", s.dialect_reason);
+    assert_eq!(s.lights.len(), 2);
+    assert!(
+        matches!(s.lights[1], Light::Constant { radiance } if radiance == glam::Vec3::splat(0.5))
+    );
+    // ... unless Mitsuba's rules are asked for: then no grey sky.
     let forced = torrey_parser::load_scene_with(
         &shared.join("scenes/torrey/texture_test/texture_scaled.xml"),
         &torrey_parser::LoadOptions {
-            dialect: Some(Dialect::Torrey),
+            dialect: Some(Dialect::Mitsuba3),
             ..Default::default()
         },
     )
     .unwrap();
     assert!(forced.dialect_reason.starts_with("forced"));
-    assert_eq!(forced.lights.len(), 2);
-    assert!(
-        matches!(forced.lights[1], Light::Constant { radiance } if radiance == glam::Vec3::splat(0.5))
-    );
+    assert_eq!(forced.lights.len(), 1);
     let torrey_parser::TextureKind::Bitmap(b) = &s.textures[0].kind else {
         panic!()
     };
@@ -111,8 +109,8 @@ fn torrey_scene_details() {
         &[],
     )
     .unwrap();
-    assert_eq!(room.integrator.max_depth, 2);
-    assert_eq!(room.integrator.kind, "direct");
+    assert_eq!(room.integrator.max_depth(), 2);
+    assert_eq!(room.integrator.type_name, "direct");
     assert!(room
         .bsdfs
         .iter()

@@ -36,7 +36,13 @@ pub fn settings_text(s: &RenderSettings) -> String {
     };
     format!(
         "seed={} max_depth={} rr_depth={} sampler={} filter={:?} mipmap={} env={:?}",
-        s.seed, s.max_depth, s.rr_depth, sampler, s.filter, s.mipmapping, s.env_strategy
+        s.seed,
+        s.integrator.max_depth(),
+        s.integrator.rr_depth(),
+        sampler,
+        s.filter,
+        s.mipmapping,
+        s.env_strategy
     )
 }
 

@@ -65,10 +65,14 @@ fn main() {
     if living.exists() {
         scenes.push(living);
     }
-    let filters: Vec<String> = std::env::args()
+    // Arguments ending in `.xml` are scenes to add (a real scene, say); the others filter.
+    let (extra, filters): (Vec<String>, Vec<String>) = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
-        .collect();
+        .partition(|a| a.ends_with(".xml"));
+    if !extra.is_empty() {
+        scenes = extra.iter().map(std::path::PathBuf::from).collect();
+    }
     scenes.retain(|p| {
         let name = p.file_name().unwrap().to_string_lossy();
         filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()))

@@ -29,8 +29,8 @@ mod textures;
 
 pub use accel::{Accel, BvhWidth, ClosestHit, PrimGeom, Simd};
 pub use cameras::{Camera, CameraSample};
-pub use integrator::{EnvStrategy, PathLoop};
+pub use integrator::{DirectIntegrator, EnvStrategy, Integrator, PathIntegrator, PathLoop};
 pub use ray::{offset_origin, Ray};
-pub use render::{render, render_slice, RenderOutput, RenderSettings, RenderSlice};
+pub use render::{render, render_slice, Overrides, RenderOutput, RenderSettings, RenderSlice};
 pub use sampler::SamplerKind;
 pub use scene::{BuildError, RenderScene};

@@ -119,15 +119,40 @@ const IOR_TABLE: &[(&str, f32)] = &[
     ("diamond", 2.419),
 ];
 
+/// What a constant parameter's value may be beyond "not negative" (which every colour must be).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Bound {
+    /// A reflectance or transmittance (an albedo): above 1 the surface scatters more light than
+    /// it receives, which renders but adds energy, so it is warned about.
+    Albedo,
+    /// A float in [0, 1] that Mitsuba clamps (blendbsdf's `weight`, mask's `opacity`): above 1
+    /// is warned about and read as 1.
+    Fraction,
+    /// No upper bound (a conductor's `eta` and `k`, roughness `alpha`).
+    None,
+}
+
 /// A colour parameter that may be a constant (`rgb`, `srgb`, `spectrum`, `float`), an inline
-/// `<texture>` or a `<ref>` to a texture.
+/// `<texture>` or a `<ref>` to a texture; a reflectance or transmittance (see [`Bound::Albedo`]).
 pub(crate) fn color_param(
     ctx: &mut Ctx,
     props: &mut Props,
     names: &[&str],
     default: Vec3,
 ) -> Result<ColorParam> {
-    texture_param(ctx, props, names, default, false)
+    color_param_within(ctx, props, names, default, Bound::Albedo)
+}
+
+/// As [`color_param`], with the given bound on a constant value; warnings name the parameter as
+/// the file spells it.
+pub(crate) fn color_param_within(
+    ctx: &mut Ctx,
+    props: &mut Props,
+    names: &[&str],
+    default: Vec3,
+    bound: Bound,
+) -> Result<ColorParam> {
+    texture_param(ctx, props, names, default, bound, false)
 }
 
 /// A `rawconstant` texture `t` named by `e`, read as a parameter: its value, put in place (no
@@ -154,13 +179,14 @@ fn raw_constant(
     }
 }
 
-/// [`color_param`], or a float parameter (`float`: a rawconstant texture must have one
+/// [`color_param_within`], or a float parameter (`float`: a rawconstant texture must have one
 /// channel).
 fn texture_param(
     ctx: &mut Ctx,
     props: &mut Props,
     names: &[&str],
     default: Vec3,
+    bound: Bound,
     float: bool,
 ) -> Result<ColorParam> {
     let Some(e) = props.take_any(names) else {
@@ -181,17 +207,27 @@ fn texture_param(
         return Ok(ColorParam::Texture(t));
     }
     let c = props.color_of(ctx, e)?;
-    if c.max_element() > 1.0 {
-        // Renderable, but a surface reflecting more than it receives adds energy.
-        let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
-        ctx.warn_once(
-            "reflectance above 1",
+    let name = e.attr_value("name").unwrap_or(names[0]);
+    let pos = e.attr("value").map_or(e.pos, |a| a.value_pos);
+    match bound {
+        // Renderable, but a surface scattering more than it receives adds energy.
+        Bound::Albedo if c.max_element() > 1.0 => ctx.warn_once(
+            "albedo above 1",
             pos,
             format!(
-                "reflectance {} {} {} of {} is above 1: the surface reflects more light than it receives",
-                c.x, c.y, c.z, props.owner
+                "parameter '{name}' of {} is {} {} {}, above 1: the surface scatters more light than it receives",
+                props.owner, c.x, c.y, c.z
             ),
-        );
+        ),
+        // Float parameters read the first channel (Mitsuba's float textures).
+        Bound::Fraction if c.x > 1.0 => ctx.warn(
+            pos,
+            format!(
+                "parameter '{name}' of {} is {}, above 1: read as 1 (Mitsuba clamps it to [0, 1])",
+                props.owner, c.x
+            ),
+        ),
+        _ => {}
     }
     Ok(ColorParam::Constant(c))
 }
@@ -363,14 +399,15 @@ fn glossy(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, f32)> {
 }
 
 /// A float parameter that may be textured (Mitsuba's float textures: the first channel is
-/// read), as a [`ColorParam`].
+/// read), as a [`ColorParam`]; `bound` says what a constant may be.
 fn float_param(
     ctx: &mut Ctx,
     props: &mut Props,
     names: &[&str],
     default: f32,
+    bound: Bound,
 ) -> Result<ColorParam> {
-    let p = texture_param(ctx, props, names, Vec3::splat(default), true)?;
+    let p = texture_param(ctx, props, names, Vec3::splat(default), bound, true)?;
     if let (ColorParam::Texture(t), Some(uses)) = (&p, ctx.texture_uses.last_mut()) {
         if let Some(last) = uses.iter_mut().rev().find(|(u, _)| u == t) {
             last.1 = true;
@@ -543,11 +580,11 @@ fn roughness(
                 ),
             ));
         }
-        let u = float_param(ctx, props, &["alpha_u"], 0.1)?;
-        let v = float_param(ctx, props, &["alpha_v"], 0.1)?;
+        let u = float_param(ctx, props, &["alpha_u"], 0.1, Bound::None)?;
+        let v = float_param(ctx, props, &["alpha_v"], 0.1, Bound::None)?;
         return Ok((distribution, u, v, sample_visible));
     }
-    let a = float_param(ctx, props, &["alpha"], 0.1)?;
+    let a = float_param(ctx, props, &["alpha"], 0.1, Bound::None)?;
     Ok((distribution, a.clone(), a, sample_visible))
 }
 
@@ -583,8 +620,9 @@ fn conductor_ior(ctx: &mut Ctx, props: &mut Props) -> Result<(ColorParam, ColorP
             ));
         }
     }
-    let eta = color_param(ctx, props, &["eta"], Vec3::ZERO)?;
-    let k = color_param(ctx, props, &["k"], Vec3::ONE)?;
+    // Indices of refraction, not reflectances: no upper bound.
+    let eta = color_param_within(ctx, props, &["eta"], Vec3::ZERO, Bound::None)?;
+    let k = color_param_within(ctx, props, &["k"], Vec3::ONE, Bound::None)?;
     Ok((eta, k))
 }
 
@@ -798,7 +836,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
                     "bsdf 'blendbsdf' needs a weight (float or texture)",
                 ));
             }
-            let weight = float_param(ctx, &mut props, &["weight"], 0.5)?;
+            let weight = float_param(ctx, &mut props, &["weight"], 0.5, Bound::Fraction)?;
             let mut nested = nested_bsdfs(ctx, &mut props, elem, 2)?;
             if nested.len() != 2 {
                 return Err(ctx.err(elem.pos, "bsdf 'blendbsdf' needs two nested bsdfs"));
@@ -819,7 +857,7 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
             ctx, &mut props,
         )?))),
         "mask" => {
-            let opacity = float_param(ctx, &mut props, &["opacity"], 0.5)?;
+            let opacity = float_param(ctx, &mut props, &["opacity"], 0.5, Bound::Fraction)?;
             let mut nested = nested_bsdfs(ctx, &mut props, elem, 1)?;
             plain(BsdfKind::Mask {
                 opacity,

@@ -1,97 +1,21 @@
 //! Plugin parsers (one module per kind, as in Mitsuba) and the scene assembly.
 
 pub(crate) mod bsdf;
+pub(crate) mod dialect;
 pub(crate) mod emitter;
+pub(crate) mod integrator;
 pub(crate) mod sensor;
 pub(crate) mod shape;
 pub(crate) mod texture;
 
 use crate::context::{Ctx, IdTarget};
 use crate::error::{ParseError, Result};
-use crate::include::{self, Sources};
+use crate::include;
 use crate::props::SKIPPED_TAGS;
 use crate::scene::{Dialect, Light, Scene};
 use crate::xml::{location, Element};
 use glam::Vec3;
 use std::path::Path;
-
-/// bsdf types only the torrey course has (its own phong, blinn, blinn_microfacet and mirror).
-const TORREY_BSDFS: &[&str] = &[
-    "mirror",
-    "phong",
-    "blinn",
-    "blinnphong",
-    "blinn_microfacet",
-    "blinnphong_microfacet",
-];
-
-/// The first element (depth first, document order) that only the torrey course dialect has.
-fn torrey_marker(elem: &Element) -> Option<&Element> {
-    for c in &elem.children {
-        if c.tag == "background"
-            || (c.tag == "bsdf"
-                && c.attr_value("type")
-                    .is_some_and(|t| TORREY_BSDFS.contains(&t)))
-        {
-            return Some(c);
-        }
-        if let Some(m) = torrey_marker(c) {
-            return Some(m);
-        }
-    }
-    None
-}
-
-/// Decides the dialect: `<scene version>` 2.0 and up is Mitsuba 3; 1.x exists only in the torrey
-/// course; 0.x (Mitsuba 0.5/0.6 and the course's older files) is the torrey dialect only when the
-/// file has something only the course has (a `<background>`, the course's bsdfs). Returns the
-/// dialect and why, for the summary line.
-fn dialect(root: &Element, sources: &Sources) -> Result<(Dialect, String)> {
-    let Some(v) = root.attr("version") else {
-        return Err(sources.err(root.pos, "missing required attribute 'version' on <scene>"));
-    };
-    let major = v
-        .value
-        .split('.')
-        .next()
-        .and_then(|m| m.trim().parse::<u32>().ok())
-        .ok_or_else(|| {
-            sources.err(
-                v.value_pos,
-                format!("cannot parse scene version '{}'", v.value),
-            )
-        })?;
-    Ok(match major {
-        2.. => (Dialect::Mitsuba3, format!("scene version {}", v.value)),
-        1 => (
-            Dialect::Torrey,
-            format!("scene version {} (the torrey course's)", v.value),
-        ),
-        0 => match torrey_marker(root) {
-            Some(m) => {
-                let what = match m.attr_value("type") {
-                    Some(t) if m.tag == "bsdf" => format!("bsdf '{t}'"),
-                    _ => format!("<{}>", m.tag),
-                };
-                (
-                    Dialect::Torrey,
-                    format!(
-                        "scene version {} with the torrey course's {what} at {}",
-                        v.value,
-                        sources.location(m.pos)
-                    ),
-                )
-            }
-            None => (
-                Dialect::Mitsuba3,
-                format!(
-                    "scene version {} without torrey course elements: Mitsuba's semantics",
-                    v.value
-                ),
-            ),
-        },
-    })
-}
 
 /// Builds a [`Scene`] from the parsed document; `dialect` overrides the detected dialect.
 pub(crate) fn parse_scene(
@@ -109,7 +33,7 @@ pub(crate) fn parse_scene(
     }
     let expanded = include::expand(root, path, overrides, limits)?;
     let root = expanded.root;
-    let (detected, reason) = dialect(&root, &expanded.sources)?;
+    let (detected, reason) = dialect::detect(&root, &expanded.sources)?;
     let (dialect, dialect_reason) = match forced {
         Some(d) if d != detected => (d, format!("forced (detected {reason})")),
         Some(d) => (d, format!("forced, as detected ({reason})")),
@@ -138,7 +62,7 @@ pub(crate) fn parse_scene(
                 }
             }
             "integrator" => {
-                let i = sensor::parse_integrator(&mut ctx, child)?;
+                let i = integrator::parse_integrator(&mut ctx, child)?;
                 if integrator.is_some() {
                     ctx.warn(
                         child.pos,
@@ -204,7 +128,7 @@ pub(crate) fn parse_scene(
         camera,
         film,
         sampler,
-        integrator: integrator.unwrap_or_else(sensor::default_integrator),
+        integrator: integrator.unwrap_or_else(integrator::default_integrator),
         textures: ctx.textures,
         bsdfs: ctx.bsdfs,
         shapes,

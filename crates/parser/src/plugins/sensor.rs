@@ -1,12 +1,10 @@
 //! The camera side: sensors `perspective`, `thinlens`, `orthographic`; film `hdrfilm`
-//! (`ldrfilm` alike); rfilters; samplers; integrators.
+//! (`ldrfilm` alike); rfilters; samplers.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::props::Props;
-use crate::scene::{
-    Camera, CameraKind, CropWindow, Dialect, Film, FovAxis, Integrator, PixelFilter, Sampler,
-};
+use crate::scene::{Camera, CameraKind, CropWindow, Dialect, Film, FovAxis, PixelFilter, Sampler};
 use crate::transform::frame_problem;
 use crate::xml::{Attr, Element, Pos};
 use glam::{Mat4, Vec2};
@@ -32,20 +30,6 @@ pub(crate) const SAMPLERS: &[&str] = &[
     "orthogonal",
     "ldsampler",
 ];
-/// Integrator types read: `path`, `direct`, the wrappers `moment` and `aov` (read through), and
-/// those rendered by the path tracer with a warning.
-pub(crate) const INTEGRATORS: &[&str] = &[
-    "path",
-    "direct",
-    "moment",
-    "aov",
-    "ptracer",
-    "volpath",
-    "volpathmis",
-    "prb",
-    "prb_basic",
-];
-
 /// Diagonal of 35 mm film (36 x 24 mm), along which Mitsuba measures `focal_length`.
 const FILM_DIAGONAL_MM: f32 = 43.266_617;
 
@@ -145,62 +129,6 @@ pub(crate) fn default_sampler() -> Sampler {
     }
 }
 
-pub(crate) fn default_integrator() -> Integrator {
-    Integrator {
-        max_depth: -1,
-        rr_depth: 5,
-        kind: "path".into(),
-        hide_emitters: false,
-        emitter_samples: 1,
-        bsdf_samples: 1,
-    }
-}
-
-/// An integer parameter in 1..=`max`; `limit` names the `--limit` that raises `max`, if any.
-fn positive(
-    ctx: &Ctx,
-    props: &mut Props,
-    name: &str,
-    default: i64,
-    max: u64,
-    limit: Option<&str>,
-) -> Result<u32> {
-    let max = max.min(u32::MAX as u64) as i64;
-    match props.opt_int_pos(ctx, &[name])? {
-        None => Ok(default as u32),
-        Some((v, pos)) if v <= 0 => Err(ctx.err(
-            pos,
-            format!(
-                "parameter '{name}' of {} must be positive, found {v}",
-                props.owner
-            ),
-        )),
-        Some((v, pos)) if v > max => Err(ctx.err(
-            pos,
-            format!(
-                "parameter '{name}' of {} must be at most {max}, found {v}{}",
-                props.owner,
-                limit.map_or(String::new(), |l| format!(" (raise with --limit {l}=N)"))
-            ),
-        )),
-        Some((v, _)) => Ok(v as u32),
-    }
-}
-
-fn non_negative(ctx: &Ctx, props: &mut Props, name: &str) -> Result<Option<u32>> {
-    match props.opt_int_pos(ctx, &[name])? {
-        None => Ok(None),
-        Some((v, pos)) if v < 0 || v > u32::MAX as i64 => Err(ctx.err(
-            pos,
-            format!(
-                "parameter '{name}' of {} must not be negative, found {v}",
-                props.owner
-            ),
-        )),
-        Some((v, _)) => Ok(Some(v as u32)),
-    }
-}
-
 /// Reconstruction filters, with Mitsuba's parameters and radii:
 ///
 /// | type | name | type | default | radius |
@@ -231,7 +159,7 @@ fn parse_rfilter(ctx: &mut Ctx, f: &Element) -> Result<PixelFilter> {
         },
         "catmullrom" => PixelFilter::CatmullRom,
         _ => PixelFilter::Lanczos {
-            lobes: positive(ctx, &mut fp, "lobes", 3, 64, None)?,
+            lobes: fp.positive(ctx, "lobes", 3, 64, None)?,
         },
     };
     fp.finish(ctx);
@@ -256,8 +184,8 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
     let mut film = default_film(ctx.dialect);
     let max = ctx.limits.film_pixels;
     let pixels = Some("film_pixels");
-    film.width = positive(ctx, &mut props, "width", 768, max, pixels)?;
-    film.height = positive(ctx, &mut props, "height", 576, max, pixels)?;
+    film.width = props.positive(ctx, "width", 768, max, pixels)?;
+    film.height = props.positive(ctx, "height", 576, max, pixels)?;
     if film.width as u64 * film.height as u64 > max {
         return Err(ctx.err(
             elem.pos,
@@ -268,10 +196,10 @@ fn parse_film(ctx: &mut Ctx, elem: &Element) -> Result<Film> {
         ));
     }
     film.filename = props.string(ctx, &["filename"])?.map(|a| a.value.clone());
-    let cx = non_negative(ctx, &mut props, "crop_offset_x")?;
-    let cy = non_negative(ctx, &mut props, "crop_offset_y")?;
-    let cw = non_negative(ctx, &mut props, "crop_width")?;
-    let ch = non_negative(ctx, &mut props, "crop_height")?;
+    let cx = props.non_negative(ctx, "crop_offset_x")?;
+    let cy = props.non_negative(ctx, "crop_offset_y")?;
+    let cw = props.non_negative(ctx, "crop_width")?;
+    let ch = props.non_negative(ctx, "crop_height")?;
     if cx.is_some() || cy.is_some() || cw.is_some() || ch.is_some() {
         let (x, y) = (cx.unwrap_or(0), cy.unwrap_or(0));
         let crop = CropWindow {
@@ -356,7 +284,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
         );
     }
     let mut props = Props::new(ctx, elem, format!("sampler '{ty}'"))?;
-    let mut sample_count = positive(ctx, &mut props, "sample_count", 4, u32::MAX as u64, None)?;
+    let mut sample_count = props.positive(ctx, "sample_count", 4, u32::MAX as u64, None)?;
     let root = |n: u32| (n as f64).sqrt().ceil() as u32;
     sample_count = match ty {
         "stratified" | "multijitter" => root(sample_count).pow(2),
@@ -497,94 +425,4 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
     props.ignore(&["srf", "shutter_open", "shutter_close", "shutter_open_time"]);
     props.finish(ctx);
     Ok((camera, film, sampler))
-}
-
-/// Integrators: `path` and `direct`; the wrappers `moment` and `aov` are read through to the
-/// integrator inside; `ptracer`, `volpath`, `volpathmis`, `prb` and `prb_basic` are rendered by
-/// the path tracer (one warning; the same expected image without media).
-///
-/// | types | name | type | default |
-/// | --- | --- | --- | --- |
-/// | path and the read-as-path ones | `max_depth` (`maxDepth`) | integer | -1 (unbounded) |
-/// | same | `rr_depth` (`rrDepth`) | integer | 5 |
-/// | path, direct, ptracer, volpath | `hide_emitters` (`hideEmitters`) | boolean | false |
-/// | direct | `shading_samples`, `emitter_samples`, `bsdf_samples` | integer | 1, shading_samples, shading_samples (max_depth is 2) |
-/// | moment | nested `<integrator>`s | | the first is read |
-/// | aov | `aovs` + nested `<integrator>` | string | the integrator is read; AOVs are not written (warning) |
-pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrator> {
-    let ty = plugin_type(ctx, elem)?;
-    if !INTEGRATORS.contains(&ty) {
-        return Err(unknown_type(ctx, elem, "integrator", INTEGRATORS));
-    }
-    let mut props = Props::new(ctx, elem, format!("integrator '{ty}'"))?;
-    if ty == "moment" || ty == "aov" {
-        if ty == "aov" {
-            ctx.warn(
-                elem.pos,
-                "integrator 'aov': its AOV images are not written; the integrator inside it renders the image",
-            );
-            props.ignore(&["aovs"]);
-        }
-        let inner = props.take_tag("integrator");
-        let result = match inner.first() {
-            Some(i) => parse_integrator(ctx, i)?,
-            None if ty == "aov" => default_integrator(),
-            None => {
-                return Err(ctx.err(elem.pos, "integrator 'moment' needs a nested <integrator>"))
-            }
-        };
-        for extra in inner.iter().skip(1) {
-            ctx.warn(
-                extra.pos,
-                format!("integrator '{ty}': only the first nested integrator is read"),
-            );
-        }
-        props.finish(ctx);
-        return Ok(result);
-    }
-    if !["path", "direct"].contains(&ty) {
-        ctx.warn(
-            elem.pos,
-            format!(
-                "integrator '{ty}' is rendered by the path tracer (the same image without media)"
-            ),
-        );
-    }
-    let mut integrator = default_integrator();
-    integrator.kind = ty.to_string();
-    if ty == "direct" {
-        integrator.max_depth = 2;
-        let shading = positive(ctx, &mut props, "shading_samples", 1, u32::MAX as u64, None)?;
-        integrator.emitter_samples =
-            non_negative(ctx, &mut props, "emitter_samples")?.unwrap_or(shading);
-        integrator.bsdf_samples = non_negative(ctx, &mut props, "bsdf_samples")?.unwrap_or(shading);
-        if integrator.emitter_samples + integrator.bsdf_samples == 0 {
-            return Err(ctx.err(
-                elem.pos,
-                "integrator 'direct' needs emitter_samples or bsdf_samples above 0",
-            ));
-        }
-    } else {
-        integrator.max_depth = match props.opt_int_pos(ctx, &["max_depth"])? {
-            None => -1,
-            Some((d, pos)) if d < -1 || d > i32::MAX as i64 => {
-                return Err(ctx.err(
-                    pos,
-                    format!("max_depth must be -1 (unbounded) or at least 0, found {d}"),
-                ))
-            }
-            Some((d, _)) => d as i32,
-        };
-        integrator.rr_depth = match props.opt_int_pos(ctx, &["rr_depth"])? {
-            None => 5,
-            Some((d, pos)) if d <= 0 || d > i32::MAX as i64 => {
-                return Err(ctx.err(pos, format!("rr_depth must be positive, found {d}")))
-            }
-            Some((d, _)) => d as i32,
-        };
-        props.ignore(&["samples_per_pass", "timeout"]);
-    }
-    integrator.hide_emitters = props.boolean(ctx, &["hide_emitters"], false)?;
-    props.finish(ctx);
-    Ok(integrator)
 }

@@ -592,8 +592,11 @@ mod tests {
         let scene = RenderScene::build(&desc, 24, 24).unwrap();
         let settings = crate::render::RenderSettings {
             spp: 4,
-            max_depth: 3,
-            rr_depth: 5,
+            integrator: crate::integrator::Integrator::Path(crate::integrator::PathIntegrator {
+                max_depth: 3,
+                rr_depth: 5,
+                hide_emitters: false,
+            }),
             seed: 1,
             filter: desc::PixelFilter::Box,
             tile_size: 8,

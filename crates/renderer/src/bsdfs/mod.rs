@@ -64,7 +64,7 @@ pub use dielectric::{Dielectric, DielectricParams, ThinDielectric, ThinDielectri
 pub use diffuse::{Diffuse, DiffuseParams};
 pub use flags::BsdfFlags;
 pub use microfacet::MicrofacetKind;
-pub use mirror::{mirror_sample_select, Mirror, MirrorParams};
+pub use mirror::{Mirror, MirrorParams};
 pub use null::Null;
 pub use perturbed::Perturbation;
 pub use phong::{Phong, PhongParams};
@@ -570,19 +570,33 @@ impl BsdfParams {
             (FloatSource::Constant(a), FloatSource::Constant(b)) => a != b,
             _ => true,
         };
+        // Exhaustive: a new model must say whether it reads the tangent.
         match self {
             BsdfParams::RoughConductor(p) => differ(&p.alpha_u, &p.alpha_v),
             BsdfParams::RoughDielectric(p) => differ(&p.alpha_u, &p.alpha_v),
             BsdfParams::Blend(p) => p.children.iter().any(|c| c.anisotropic()),
             BsdfParams::Principled(p) => p.anisotropic(),
             BsdfParams::PrincipledThin(p) => p.anisotropic(),
-            _ => false,
+            BsdfParams::Diffuse(_)
+            | BsdfParams::Mirror(_)
+            | BsdfParams::Plastic(_)
+            | BsdfParams::Phong(_)
+            | BsdfParams::Blinn(_)
+            | BsdfParams::BlinnMicrofacet(_)
+            | BsdfParams::Dielectric(_)
+            | BsdfParams::ThinDielectric(_)
+            | BsdfParams::Conductor(_)
+            | BsdfParams::SmoothPlastic(_)
+            | BsdfParams::RoughPlastic(_)
+            | BsdfParams::Null => false,
         }
     }
 
     /// Whether the model transmits light: it then handles both sides itself and a two-sided
     /// material does not mirror its back (a torrey-dialect glass must refract on the way out).
     pub fn transmits(&self) -> bool {
+        // Exhaustive: a new model must say whether it transmits. (`null` passes light straight
+        // through as a delta lobe but needs no back of its own: mirroring it changes nothing.)
         match self {
             BsdfParams::Dielectric(_)
             | BsdfParams::ThinDielectric(_)
@@ -590,7 +604,17 @@ impl BsdfParams {
             BsdfParams::Blend(p) => p.children.iter().any(|c| c.transmits()),
             BsdfParams::Principled(p) => p.transmits(),
             BsdfParams::PrincipledThin(_) => true,
-            _ => false,
+            BsdfParams::Diffuse(_)
+            | BsdfParams::Mirror(_)
+            | BsdfParams::Plastic(_)
+            | BsdfParams::Phong(_)
+            | BsdfParams::Blinn(_)
+            | BsdfParams::BlinnMicrofacet(_)
+            | BsdfParams::Conductor(_)
+            | BsdfParams::RoughConductor(_)
+            | BsdfParams::SmoothPlastic(_)
+            | BsdfParams::RoughPlastic(_)
+            | BsdfParams::Null => false,
         }
     }
 }

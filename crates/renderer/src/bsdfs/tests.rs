@@ -458,10 +458,15 @@ fn closed_form_values() {
 
 fn erf(x: f64) -> f64 {
     let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
-    let poly = t
-        * (0.254_829_592
-            + t * (-0.284_496_736
-                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    // Horner's rule as a fold, highest power first (nested, it made rustfmt slow).
+    let c = [
+        1.061_405_429,
+        -1.453_152_027,
+        1.421_413_741,
+        -0.284_496_736,
+        0.254_829_592,
+    ];
+    let poly = t * c.iter().fold(0.0, |acc, c| acc * t + c);
     let y = 1.0 - poly * (-x * x).exp();
     if x >= 0.0 {
         y

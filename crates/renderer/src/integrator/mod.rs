@@ -1,22 +1,100 @@
-//! Integrators: from a camera ray to the radiance arriving along it. One file per integrator:
-//! Mitsuba's `path` ([`path::radiance`]), run one path at a time or as a wavefront of paths
-//! ([`wavefront::Wavefront`]), the same estimator; and Mitsuba's `direct` with several emitter or
-//! BSDF samples per hit ([`direct::radiance`]; with one of each it is `path` at depth 2).
+//! Integrators: from a camera ray to the radiance arriving along it.
+//!
+//! [`Integrator`] is the scene's integrator with its parameters: Mitsuba's `path`
+//! ([`PathIntegrator`]) and `direct` with several samples per hit ([`DirectIntegrator`]; with one
+//! of each it is `path` at depth 2, the same estimator).
+//!
+//! The path tracer's step at a surface (emission with MIS, the shading point, next-event
+//! estimation, the BSDF sample that continues the path, Russian roulette) is written once, on a
+//! [`path_state::PathState`] ([`path_state::PathState::scatter`]); two drivers advance that state:
+//! the scalar loop ([`path::radiance`]), one path to its end after another, and the wavefront
+//! ([`wavefront::Wavefront`]), a batch of paths a bounce at a time with each stage's rays and
+//! lookups done together. Both give the same image, bit for bit. The shading point
+//! ([`shading::ShadingPoint`]: footprint, frame, BSDF at a hit) and the light connection are
+//! shared with `direct` too.
 
-pub mod direct;
-pub mod path;
+mod direct;
+mod path;
+mod path_state;
+mod shading;
 pub mod wavefront;
 
-pub use path::radiance;
+pub use direct::DirectIntegrator;
+pub use path::{radiance, PathIntegrator};
+
+use torrey_parser as desc;
+
+/// The integrator of a render, with its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    Path(PathIntegrator),
+    Direct(DirectIntegrator),
+}
+
+impl Integrator {
+    /// The parsed integrator. `direct` with one emitter and one BSDF sample is the path tracer at
+    /// depth 2 (the same estimator), which also runs as a wavefront.
+    pub fn from_desc(d: &desc::Integrator) -> Self {
+        match d.kind {
+            desc::IntegratorKind::Path(p) => Integrator::Path(PathIntegrator {
+                max_depth: p.max_depth,
+                rr_depth: p.rr_depth,
+                hide_emitters: p.hide_emitters,
+            }),
+            desc::IntegratorKind::Direct(p) if (p.emitter_samples, p.bsdf_samples) == (1, 1) => {
+                Integrator::Path(PathIntegrator {
+                    max_depth: 2,
+                    rr_depth: d.rr_depth(),
+                    hide_emitters: p.hide_emitters,
+                })
+            }
+            desc::IntegratorKind::Direct(p) => Integrator::Direct(DirectIntegrator {
+                emitter_samples: p.emitter_samples,
+                bsdf_samples: p.bsdf_samples,
+                hide_emitters: p.hide_emitters,
+            }),
+        }
+    }
+
+    /// The integrator with the path tracer's `max_depth` replaced (`--max-depth`); `direct` with
+    /// several samples per hit follows one bounce whatever the depth.
+    pub fn with_max_depth(self, max_depth: i32) -> Self {
+        match self {
+            Integrator::Path(p) => Integrator::Path(PathIntegrator { max_depth, ..p }),
+            direct => direct,
+        }
+    }
+
+    /// Path segments followed (Mitsuba's `max_depth`; -1 unbounded).
+    pub fn max_depth(&self) -> i32 {
+        match self {
+            Integrator::Path(p) => p.max_depth,
+            Integrator::Direct(_) => 2,
+        }
+    }
+
+    /// Where Russian roulette starts.
+    pub fn rr_depth(&self) -> i32 {
+        match self {
+            Integrator::Path(p) => p.rr_depth,
+            Integrator::Direct(_) => 5,
+        }
+    }
+
+    /// Camera rays see no emitter.
+    pub fn hide_emitters(&self) -> bool {
+        match self {
+            Integrator::Path(p) => p.hide_emitters,
+            Integrator::Direct(d) => d.hide_emitters,
+        }
+    }
+}
 
 /// How the render loop runs the path tracer: one path to its end after another (`Scalar`), or a
 /// batch of paths (one pixel's samples) a bounce at a time (`Wavefront`). Both compute the same
 /// estimator with the same sampler dimensions, so the images agree bit for bit; they differ in
 /// speed (docs/performance.md). `Auto` takes the wavefront for scenes lit by an environment map
-/// (its batched lookups: envmap_sky 14-22% faster) and for scenes whose surface stage runs in
-/// SIMD lanes with every light (`wavefront::LaneTable::wavefront_pays`: cbox 7% faster,
-/// textured_mesh 1-2%), and the scalar loop otherwise (the wavefront's bookkeeping costs more
-/// than it gains where the scalar `shade` takes the paths).
+/// (its batched lookups) and the scalar loop otherwise.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PathLoop {
     #[default]
@@ -25,10 +103,16 @@ pub enum PathLoop {
     Wavefront,
 }
 
+/// What the path loops read besides the scene: the integrator's parameters and the render's.
 #[derive(Clone, Copy, Debug)]
 pub struct PathSettings {
-    pub max_depth: i32,
+    /// Path segments to follow (-1, unbounded, is `u32::MAX`).
+    pub max_depth: u32,
     pub rr_depth: i32,
+    /// Camera rays see no emitter (Mitsuba's `hide_emitters`): neither emitting shapes nor the
+    /// lights at infinity; emitters seen after a bounce, even a mirror's, and the light they cast
+    /// stay.
+    pub hide_emitters: bool,
     /// Filter textures by the ray cone's footprint (mip-mapping). Off: finest level, bilinear,
     /// as Mitsuba does; used to measure what mip-mapping changes.
     pub mipmapping: bool,

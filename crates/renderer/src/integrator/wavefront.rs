@@ -1,42 +1,30 @@
-//! The path tracer of [`super::path`] run as a wavefront: a batch of paths advances one bounce
-//! at a time through stages (the bounce's sampler draws for every live path, their closest hits,
-//! escaped rays' environment lookups, surface shading with the BSDF and light samples, the
-//! shadow rays, then compaction of the paths still alive), instead of following one path to its
-//! end before starting the next.
+//! The path tracer run as a wavefront: a batch of paths advances one bounce at a time through
+//! stages (the bounce's sampler draws for every live path, their closest hits, escaped rays'
+//! environment lookups, the surface step, the shadow rays, then compaction of the paths still
+//! alive), instead of following one path to its end before starting the next.
 //!
-//! The estimator is the scalar loop's, operation for operation: the same sampler dimensions per
-//! bounce (four requests, drawn whatever the branches), the same MIS weights and Russian roulette
-//! rule, and each path's radiance summed in the same order. With the same sampler state the two
-//! loops give bit-identical radiance per sample (tests in `render.rs`).
-//!
-//! Three parts run in SIMD lanes (16 with AVX-512, 8 with AVX2): escaped rays' environment
-//! lookups, the surfaced paths' environment-map light samples (`draw_env_lights`), and the
-//! surface stage of `diffuse` surfaces (constant or textured) lit by area lights, point lights, a
-//! constant background or an environment map's batched samples, and of torrey `mirror` surfaces
-//! (`lanes`, admitted by the scene's `LaneTable`). Every other surface goes through the scalar
-//! `shade`, one path at a time; there the batch buys independent work between dependent chains
-//! (one path's traversal overlaps the next path's set-up).
+//! The estimator is the scalar loop's ([`super::path`]): both drive the same [`PathState`], whose
+//! step at a surface is [`PathState::scatter`], with the same sampler dimensions per bounce
+//! (four requests, drawn whatever the branches), and each path's radiance is summed in the same
+//! order. With the same sampler state the two loops give bit-identical radiance per sample
+//! (tests in `render.rs`). What the batch buys: the sampler's draws of all paths at once (in SIMD
+//! lanes), escaped rays' environment lookups and the surfaced paths' environment-map light
+//! samples in SIMD lanes, shadow rays traced as packets where they are coherent, and
+//! independent work between one path's dependent chains.
 
-mod lane_kernel;
-mod lane_table;
-mod lanes;
-
-pub(crate) use lane_table::LaneTable;
-
-use super::path::shadow_ray;
+use super::path_state::{BounceDraws, LightPick, PathContext, PathState, ShadowRay};
 use super::{EnvStrategy, PathSettings, RayCount};
 use crate::accel::Simd;
 use crate::lights::{Light, LightDraw};
-use crate::ray::{offset_origin, Ray};
+use crate::ray::Ray;
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
-use crate::textures::TextureQuery;
 use glam::{Vec2, Vec3, Vec3A};
 use std::sync::OnceLock;
 use torrey_light::{BatchSimd, EnvSample};
-use torrey_texture::{Footprint, RayCone};
+use torrey_texture::RayCone;
 
 /// A camera ray that starts a path of the batch.
 #[derive(Clone, Copy, Debug)]
@@ -63,67 +51,38 @@ pub enum PathSamplers<'a, S: Sampler> {
     PerPath(&'a mut [S]),
 }
 
-/// One path's state between stages.
+/// A path's place in the batch besides its [`PathState`].
 #[derive(Clone, Copy)]
-struct PathState {
+struct Slot {
+    /// The sample's global index and the sampler requests it drew so far.
     sample: u32,
-    /// Sampler requests drawn so far by this sample.
     requests: u32,
-    ray: Ray,
-    cone: RayCone,
-    throughput: Vec3A,
-    result: Vec3A,
-    prev_bsdf_pdf: f32,
-    prev_delta: bool,
-    prev_p: Vec3A,
-    specular_chain: bool,
-    eta: f32,
-    depth: u32,
     /// The camera ray's hit is already in `Wavefront::hits` (traced by the caller).
     traced: bool,
-    // This bounce's draws.
-    u_dir: Vec2,
-    u_lobe: f32,
-    u_rr: f32,
-    light_draw: Option<(usize, LightDraw)>,
-}
-
-/// A shadow ray of next-event estimation and what it adds to its path when unoccluded.
-#[derive(Clone, Copy, Default)]
-struct ShadowRay {
-    path: u32,
-    origin: Vec3A,
-    dir: Vec3A,
-    tmax: f32,
-    contribution: Vec3A,
 }
 
 /// Reusable buffers of the wavefront loop (one per worker thread).
 #[derive(Default)]
 pub struct Wavefront {
     paths: Vec<PathState>,
+    slots: Vec<Slot>,
+    /// Each path's draws of its current bounce.
+    draws: Vec<BounceDraws>,
     live: Vec<u32>,
     /// Each path's last closest hit (valid for the paths in `surfaced`).
     hits: Vec<SurfaceHit>,
-    /// Stage 1's draws of each live path (same order): the light's and Russian roulette's
-    /// numbers, the light sample's, the BSDF direction's, the BSDF lobe's (x).
-    draws: Vec<[Vec2; 4]>,
+    /// Stage 1's numbers of each live path (same order).
+    numbers: Vec<[Vec2; 4]>,
     escaped: Vec<u32>,
     surfaced: Vec<u32>,
-    shadow: Vec<ShadowRay>,
+    /// The surface stage's shadow rays, with their paths.
+    shadow: Vec<(u32, ShadowRay)>,
     // The escaped paths' environment lookups.
     env_sums: Vec<Vec3A>,
     env_dirs: Vec<Vec3>,
     env_spreads: Vec<f32>,
     env_want_pdf: Vec<bool>,
     env_values: Vec<(Vec3, f32)>,
-    // The surface stage's lane path: its outputs before they are merged with the scalar
-    // `shade`'s.
-    lane_live: Vec<u32>,
-    lane_shadow: Vec<ShadowRay>,
-    merge_live: Vec<u32>,
-    merge_shadow: Vec<ShadowRay>,
-    lane_chunks: lanes::LaneChunks,
     // The surfaced paths' environment-map light samples.
     env_draw_paths: Vec<u32>,
     env_draw_us: Vec<Vec2>,
@@ -145,47 +104,25 @@ impl Wavefront {
         out: &mut Vec<Vec3A>,
     ) {
         out.clear();
-        let max_depth = if settings.max_depth < 0 {
-            u32::MAX
-        } else {
-            settings.max_depth as u32
-        };
-        if max_depth == 0 {
+        if settings.max_depth == 0 {
             out.resize(cameras.len(), Vec3A::ZERO);
             return;
         }
-        let light_count = scene.lights.len();
-        // Converted once (usize to f32 is several instructions on x86-64; the same value).
-        let light_count_f32 = light_count as f32;
-        let light_select_pdf = if light_count > 0 {
-            1.0 / light_count as f32
-        } else {
-            0.0
-        };
+        let ctx = PathContext::new(scene, settings);
         self.paths.clear();
-        self.paths.extend(cameras.iter().map(|c| PathState {
+        self.paths.extend(
+            cameras
+                .iter()
+                .map(|c| PathState::camera(c.origin, c.dir, c.cone)),
+        );
+        self.slots.clear();
+        self.slots.extend(cameras.iter().map(|c| Slot {
             sample: c.sample,
             requests,
-            ray: Ray {
-                origin: c.origin,
-                dir: c.dir,
-                tmax: f32::INFINITY,
-            },
-            cone: c.cone,
-            throughput: Vec3A::ONE,
-            result: Vec3A::ZERO,
-            prev_bsdf_pdf: 0.0,
-            prev_delta: true,
-            prev_p: c.origin,
-            specular_chain: true,
-            eta: 1.0,
-            depth: 0,
             traced: true,
-            u_dir: Vec2::ZERO,
-            u_lobe: 0.0,
-            u_rr: 0.0,
-            light_draw: None,
         }));
+        self.draws.clear();
+        self.draws.resize(cameras.len(), BounceDraws::NONE);
         self.live.clear();
         self.live.extend(0..cameras.len() as u32);
         self.hits.clear();
@@ -199,32 +136,28 @@ impl Wavefront {
             // memory that sample will read is prefetched here, to overlap the traversal.
             let prefetch_env = self.live.len() < ENV_BATCH_MIN;
             match &mut samplers {
-                // All the paths' requests at once (the lobe's number is its pair's x).
                 PathSamplers::Shared(s) => s.next_2d_resumed(
                     self.live.iter().map(|&i| {
-                        let path = &self.paths[i as usize];
-                        (path.sample, path.requests)
+                        let slot = &self.slots[i as usize];
+                        (slot.sample, slot.requests)
                     }),
-                    &mut self.draws,
+                    &mut self.numbers,
                 ),
-                PathSamplers::PerPath(s) => S::next_2d_each(s, &self.live, &mut self.draws),
+                PathSamplers::PerPath(s) => S::next_2d_each(s, &self.live, &mut self.numbers),
             }
-            for (&i, &[light_rr, u_pos, u_dir, u_lobe]) in self.live.iter().zip(&self.draws) {
-                let path = &mut self.paths[i as usize];
-                path.u_dir = u_dir;
-                path.u_lobe = u_lobe.x;
-                path.requests += 4;
-                path.u_rr = light_rr.y;
-                let last_segment = path.depth + 1 >= max_depth;
-                path.light_draw = (!last_segment && light_count > 0).then(|| {
-                    let index =
-                        ((light_rr.x * light_count_f32) as u32 as usize).min(light_count - 1);
-                    let light = &scene.lights[index];
-                    if let (Light::Env(env), true) = (light, prefetch_env) {
-                        env.map.prefetch_sample(u_pos);
+            for (&i, &numbers) in self.live.iter().zip(&self.numbers) {
+                self.slots[i as usize].requests += 4;
+                let draws = if self.paths[i as usize].last_segment(&ctx) {
+                    BounceDraws::NONE
+                } else {
+                    BounceDraws::new(&ctx, numbers)
+                };
+                if let (LightPick::Chosen { index, .. }, true) = (draws.light, prefetch_env) {
+                    if let Light::Env(env) = &scene.lights[index] {
+                        env.map.prefetch_sample(numbers[1]);
                     }
-                    (index, light.draw(u_pos))
-                });
+                }
+                self.draws[i as usize] = draws;
             }
 
             // Stage 2: closest hits (any-hit on the last segment when no shape emits). Paths
@@ -232,16 +165,16 @@ impl Wavefront {
             self.escaped.clear();
             self.surfaced.clear();
             for &i in &self.live {
-                let path = &mut self.paths[i as usize];
-                let last_segment = path.depth + 1 >= max_depth;
+                let path = &self.paths[i as usize];
+                let slot = &mut self.slots[i as usize];
                 // Each hit is written once, into its path's slot (no copy out and back).
-                let slot = &mut self.hits[i as usize];
-                let found = if path.traced {
+                let hit = &mut self.hits[i as usize];
+                let found = if slot.traced {
                     // The camera ray's hit, traced by the caller, is in its slot already.
-                    path.traced = false;
+                    slot.traced = false;
                     rays.closest += 1;
                     cameras[i as usize].first_hit.is_some()
-                } else if last_segment && !scene.has_area_lights {
+                } else if path.last_segment(&ctx) && !scene.has_area_lights {
                     // The slot keeps the last bounce's hit, which no stage reads again: the
                     // path ends here either way.
                     rays.shadow += 1;
@@ -251,7 +184,7 @@ impl Wavefront {
                     continue;
                 } else {
                     rays.closest += 1;
-                    closest_hit(scene, &path.ray, slot)
+                    closest_hit(scene, &path.ray, hit)
                 };
                 if found {
                     self.surfaced.push(i);
@@ -263,86 +196,32 @@ impl Wavefront {
             // Stage 3: escaped rays see the lights at infinity; their paths end. Environment maps
             // are looked up for all of them at once (directions to uv in SIMD lanes).
             self.escaped
-                .retain(|&i| self.paths[i as usize].depth > 0 || !scene.hide_emitters);
+                .retain(|&i| self.paths[i as usize].sees_emitters(&ctx));
             if !self.escaped.is_empty() {
-                self.escaped_radiance(scene, settings, light_select_pdf);
+                self.escaped_radiance(&ctx);
             }
 
             // The environment-map light samples of the paths that reached a surface, drawn all at
             // once in SIMD lanes (not in stage 1: an escaped path's would be wasted).
             if !self.surfaced.is_empty() {
-                self.draw_env_lights(scene, settings);
+                self.draw_env_lights(&ctx);
             }
 
-            // Stage 4: surfaces: emission, the BSDF sample, the light connection (queued as a
-            // shadow ray) and the path's continuation.
+            // Stage 4: the surface step of every path that found a surface; its shadow ray
+            // queued.
             self.shadow.clear();
             self.live.clear();
-            // The scalar stage of one path, its shadow ray queued.
-            let shade_one = |path: &mut PathState,
-                             hit: &SurfaceHit,
-                             i: u32,
-                             live: &mut Vec<u32>,
-                             shadow: &mut Vec<ShadowRay>| {
-                if let Some(ray) = shade(
-                    scene,
-                    path,
-                    hit,
-                    settings,
-                    max_depth,
-                    light_select_pdf,
-                    i,
-                    live,
-                ) {
-                    shadow.push(ray);
+            for &i in &self.surfaced {
+                let (shadow, continues) = self.paths[i as usize].scatter(
+                    &ctx,
+                    &self.hits[i as usize],
+                    &self.draws[i as usize],
+                );
+                if let Some(s) = shadow {
+                    self.shadow.push((i, s));
                 }
-            };
-            if scene.lanes.any && lanes::lanes_enabled() {
-                // The lanes take the paths they can as they come and hand the others to the
-                // scalar `shade`, whose outputs go to the stage's lists; the lanes' go to lists of
-                // their own, merged after (both ascend by path: merged, they are the scalar
-                // stage's order).
-                let (live, shadow) = (&mut self.live, &mut self.shadow);
-                self.lane_live.clear();
-                self.lane_shadow.clear();
-                lanes::shade_lanes(
-                    &mut self.lane_chunks,
-                    lanes::LaneWork {
-                        paths: &mut self.paths,
-                        hits: &self.hits,
-                        indices: &self.surfaced,
-                        params: lanes::LaneParams::new(
-                            scene,
-                            settings,
-                            max_depth,
-                            light_select_pdf,
-                        ),
-                        live: &mut self.lane_live,
-                        shadow: &mut self.lane_shadow,
-                        scalar: &mut |path, hit, i| shade_one(path, hit, i, live, shadow),
-                    },
-                );
-                lanes::merge_by(
-                    &mut self.live,
-                    &mut self.lane_live,
-                    &mut self.merge_live,
-                    |&i| i,
-                );
-                lanes::merge_by(
-                    &mut self.shadow,
-                    &mut self.lane_shadow,
-                    &mut self.merge_shadow,
-                    |r| r.path,
-                );
-            } else {
-                for &i in &self.surfaced {
-                    shade_one(
-                        &mut self.paths[i as usize],
-                        &self.hits[i as usize],
-                        i,
-                        &mut self.live,
-                        &mut self.shadow,
-                    );
+                if continues {
+                    self.live.push(i);
                 }
             }
 
@@ -351,12 +230,12 @@ impl Wavefront {
             let (shadow, paths) = (&self.shadow, &mut self.paths);
             scene.visible_batch(
                 shadow.len(),
-                |i| Ray {
-                    origin: shadow[i].origin,
-                    dir: shadow[i].dir,
-                    tmax: shadow[i].tmax,
+                |k| Ray {
+                    origin: shadow[k].1.origin,
+                    dir: shadow[k].1.dir,
+                    tmax: shadow[k].1.tmax,
                 },
-                |i| paths[shadow[i].path as usize].result += shadow[i].contribution,
+                |k| paths[shadow[k].0 as usize].result += shadow[k].1.contribution,
             );
         }
         out.extend(self.paths.iter().map(|p| p.result));
@@ -367,8 +246,9 @@ impl Wavefront {
     /// Samples, for every surfaced path whose light draw is an environment map's, the map's
     /// direction, radiance and density with [`torrey_light::EnvMap::sample_batch`] (the bits of
     /// the one-sample code), and leaves them in the draw for [`Light::connect`] to read.
-    fn draw_env_lights(&mut self, scene: &RenderScene, settings: PathSettings) {
-        if settings.env_strategy == EnvStrategy::Uniform || !batched_env() {
+    fn draw_env_lights(&mut self, ctx: &PathContext) {
+        let scene = ctx.scene;
+        if ctx.settings.env_strategy == EnvStrategy::Uniform || !batched_env() {
             return;
         }
         for &li in &scene.infinite_lights {
@@ -378,7 +258,12 @@ impl Wavefront {
             self.env_draw_paths.clear();
             self.env_draw_us.clear();
             for &i in &self.surfaced {
-                if let Some((index, LightDraw::Deferred(u))) = self.paths[i as usize].light_draw {
+                if let LightPick::Chosen {
+                    index,
+                    draw: LightDraw::Deferred(u),
+                    ..
+                } = self.draws[i as usize].light
+                {
                     if index == li as usize {
                         self.env_draw_paths.push(i);
                         self.env_draw_us.push(u);
@@ -404,19 +289,17 @@ impl Wavefront {
                         pdf: 0.0,
                     },
                 };
-                self.paths[i as usize].light_draw = Some((li as usize, draw));
+                if let LightPick::Chosen { draw: d, .. } = &mut self.draws[i as usize].light {
+                    *d = draw;
+                }
             }
         }
     }
 
     /// Adds to every escaped path (`self.escaped`) the radiance of the lights at infinity along
-    /// its ray: what `path::infinite_radiance` gives each, summed over the lights in the same order.
-    fn escaped_radiance(
-        &mut self,
-        scene: &RenderScene,
-        settings: PathSettings,
-        light_select_pdf: f32,
-    ) {
+    /// its ray: what `path_state::infinite_radiance` gives each, summed over the lights in the same order.
+    fn escaped_radiance(&mut self, ctx: &PathContext) {
+        let (scene, light_select_pdf) = (ctx.scene, ctx.infinite_select_pdf);
         // With one light at infinity (the usual case) each path's sum is that light's term, added
         // to the path at once; with several, the terms are summed per path in the lights' order
         // first. Either way the bits of the scalar loop: its sum starts at zero too.
@@ -425,7 +308,7 @@ impl Wavefront {
             self.env_sums.clear();
             self.env_sums.resize(self.escaped.len(), Vec3A::ZERO);
         }
-        let mis = settings.env_strategy == EnvStrategy::ImportanceMis;
+        let mis = ctx.infinite_mis();
         for &li in &scene.infinite_lights {
             let light = &scene.lights[li as usize];
             if let (Light::Env(env), true) = (light, batched_env()) {
@@ -435,12 +318,7 @@ impl Wavefront {
                 for &i in &self.escaped {
                     let path = &self.paths[i as usize];
                     self.env_dirs.push(path.ray.dir.into());
-                    self.env_spreads
-                        .push(if path.specular_chain && settings.mipmapping {
-                            path.cone.spread
-                        } else {
-                            0.0
-                        });
+                    self.env_spreads.push(path.escape_spread(ctx));
                     // Only a BSDF-sampled (non-delta) bounce weighs the sky by MIS below.
                     self.env_want_pdf.push(!path.prev_delta && mis);
                 }
@@ -453,7 +331,7 @@ impl Wavefront {
                 );
                 let term = |path: &PathState, (le, pdf): (Vec3, f32)| {
                     let le = Vec3A::from(le);
-                    match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                    match path.mis_bsdf_pdf() {
                         None => Some(le),
                         Some(_) if !mis => None,
                         Some(bsdf_pdf) => {
@@ -486,12 +364,8 @@ impl Wavefront {
                 }
                 for (&i, sum) in self.escaped.iter().zip(&mut self.env_sums) {
                     let path = &self.paths[i as usize];
-                    let spread = if path.specular_chain && settings.mipmapping {
-                        path.cone.spread
-                    } else {
-                        0.0
-                    };
-                    *sum += match (!path.prev_delta).then_some(path.prev_bsdf_pdf) {
+                    let spread = path.escape_spread(ctx);
+                    *sum += match path.mis_bsdf_pdf() {
                         None => light.radiance_infinite(path.ray.dir, spread),
                         Some(_) if !mis => continue,
                         Some(bsdf_pdf) => {
@@ -572,131 +446,4 @@ fn batch_simd() -> BatchSimd {
         Simd::Avx2 => BatchSimd::Avx2,
         Simd::Avx512 => BatchSimd::Avx512,
     }
-}
-
-/// One surface interaction of `path` at `hit`: adds emission, returns the shadow ray of the light
-/// sample (if any) and pushes the path onto `live` when it continues.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn shade(
-    scene: &RenderScene,
-    path: &mut PathState,
-    hit: &SurfaceHit,
-    settings: PathSettings,
-    max_depth: u32,
-    light_select_pdf: f32,
-    index: u32,
-    live: &mut Vec<u32>,
-) -> Option<ShadowRay> {
-    let ray = path.ray;
-    let wo = -ray.dir;
-    let shape = &scene.shapes[hit.shape as usize];
-    let emitters_visible = path.depth > 0 || !scene.hide_emitters;
-    if let (Some(li), true) = (shape.area_light, emitters_visible) {
-        if hit.ng.dot(wo) > 0.0 {
-            let light = &scene.lights[li as usize];
-            if let crate::lights::Light::Area(area) = light {
-                let radiance = area.radiance_at(&scene.textures, hit.uv);
-                let w = if path.prev_delta {
-                    1.0
-                } else {
-                    let pdf = light.pdf_area_hit(path.prev_p, ray.dir, hit.t, hit.ng, hit.uv)
-                        * light_select_pdf;
-                    power_heuristic(path.prev_bsdf_pdf, pdf)
-                };
-                path.result += path.throughput * radiance * w;
-            }
-        }
-    }
-    if path.depth + 1 >= max_depth {
-        return None;
-    }
-
-    // Cones only matter where they filter (textures, environment maps), as in `path::radiance`.
-    let track_cones = settings.mipmapping && scene.uses_cones;
-    if track_cones {
-        path.cone = path.cone.at_distance(hit.t);
-    }
-    let material = &scene.materials[shape.material as usize];
-    let footprint = if settings.mipmapping && material.is_textured() {
-        path.cone.footprint(ray.dir, hit.ng, hit.dpdu, hit.dpdv)
-    } else {
-        Footprint::POINT
-    };
-    let (frame, perturbation) = material.shading_frame(&scene.textures, hit, wo, footprint);
-    let wo_local = frame.to_local(wo);
-    let attribute_point = scene.attribute_point(hit);
-    let bsdf = material.bsdf_facing(
-        &TextureQuery {
-            textures: &scene.textures,
-            at: attribute_point.as_ref(),
-            uv: hit.uv,
-            footprint,
-        },
-        perturbation,
-        wo_local,
-    );
-    let bsdf_sample = bsdf.sample(wo_local, path.u_dir, path.u_lobe);
-
-    let mut shadow = None;
-    if let (true, Some((light_index, draw))) = (bsdf.flags().has_smooth(), path.light_draw) {
-        let light = &scene.lights[light_index];
-        let uniform_env = settings.env_strategy == EnvStrategy::Uniform;
-        if let Some(ls) = light.connect(draw, hit.p, uniform_env, &scene.textures) {
-            let wi_local = frame.to_local(ls.wi);
-            let f = bsdf.eval(wo_local, wi_local);
-            if f.max_element() > 0.0 && ls.pdf > 0.0 {
-                let (origin, dir, tmax) = shadow_ray(hit.p, hit.ng, &ls);
-                let light_pdf = ls.pdf * light_select_pdf;
-                let w = if ls.is_delta
-                    || (light.is_infinite() && settings.env_strategy != EnvStrategy::ImportanceMis)
-                {
-                    1.0
-                } else {
-                    power_heuristic(light_pdf, bsdf.pdf(wo_local, wi_local))
-                };
-                shadow = Some(ShadowRay {
-                    path: index,
-                    origin,
-                    dir,
-                    tmax,
-                    contribution: path.throughput * f * ls.radiance * (w / light_pdf),
-                });
-            }
-        }
-    }
-
-    let Some(bs) = bsdf_sample else {
-        return shadow;
-    };
-    if bs.weight.max_element().is_nan() || bs.weight.max_element() <= 0.0 {
-        return shadow;
-    }
-    path.throughput *= bs.weight;
-    let wi = frame.to_world(bs.wi);
-    if !bs.is_delta() {
-        if track_cones {
-            path.cone.spread += bsdf.roughness() * settings.footprint_scale;
-        }
-        path.specular_chain = false;
-    }
-    path.eta *= bs.eta;
-    path.prev_bsdf_pdf = bs.pdf;
-    path.prev_delta = bs.is_delta();
-    path.prev_p = hit.p;
-    path.ray = Ray {
-        origin: offset_origin(hit.p, hit.ng, wi),
-        dir: wi,
-        tmax: f32::INFINITY,
-    };
-    path.depth += 1;
-    if path.depth as i32 >= settings.rr_depth {
-        let q = (path.throughput.max_element() * path.eta * path.eta).min(0.95);
-        if path.u_rr >= q {
-            return shadow;
-        }
-        path.throughput /= q;
-    }
-    live.push(index);
-    shadow
 }

@@ -5,6 +5,7 @@
 //! luminance.
 
 use super::emission_texture::EmissionTexture;
+use super::light_bounds::{luminance, DirectionCone, LightBounds};
 use super::{LightDraw, LightSample};
 use crate::shapes::cylinder::Cylinder;
 use crate::shapes::disk::Disk;
@@ -12,6 +13,7 @@ use crate::shapes::mesh::MeshEmitter;
 use crate::shapes::sphere::Sphere;
 use crate::textures::Texture;
 use glam::{Vec2, Vec3A};
+use std::f32::consts::PI;
 use torrey_texture::Footprint;
 
 /// The geometry an area light samples from.
@@ -34,6 +36,65 @@ pub struct AreaLight {
 }
 
 impl AreaLight {
+    /// Its bounds for the light tree: the shape's box, π × area × radiance (a texture counted
+    /// as its scale), and the cone of its emitting normals (a sphere or cylinder emits every way).
+    pub fn bounds(&self) -> LightBounds {
+        let flip = if self.flip_normals { -1.0 } else { 1.0 };
+        let (min, max, area, normals) = match &self.emitter {
+            AreaEmitter::Mesh(mesh) => {
+                let mut min = Vec3A::splat(f32::INFINITY);
+                let mut max = Vec3A::splat(f32::NEG_INFINITY);
+                let mut axis = Vec3A::ZERO;
+                for t in mesh.triangles() {
+                    for p in [t.p0, t.p0 + t.e1, t.p0 + t.e2] {
+                        min = min.min(p);
+                        max = max.max(p);
+                    }
+                    axis += t.e1.cross(t.e2) * (0.5 * flip);
+                }
+                let normals = match axis.try_normalize() {
+                    Some(w) => DirectionCone {
+                        w,
+                        cos_theta: mesh
+                            .triangles()
+                            .iter()
+                            .map(|t| w.dot(t.normal * flip))
+                            .fold(1.0f32, f32::min)
+                            .max(-1.0),
+                    },
+                    None => DirectionCone::SPHERE,
+                };
+                (min, max, mesh.total_area(), normals)
+            }
+            AreaEmitter::Sphere(s) => (
+                s.center - Vec3A::splat(s.radius),
+                s.center + Vec3A::splat(s.radius),
+                4.0 * PI * s.radius * s.radius,
+                DirectionCone::SPHERE,
+            ),
+            AreaEmitter::Disk(d) => {
+                let (min, max) = box_of(&d.to_world, 0.0);
+                let normals = DirectionCone {
+                    w: (d.normal * flip).normalize(),
+                    cos_theta: 1.0,
+                };
+                (min, max, d.area, normals)
+            }
+            AreaEmitter::Cylinder(c) => {
+                let (min, max) = box_of(&c.to_world, 1.0);
+                (min, max, c.area, DirectionCone::SPHERE)
+            }
+        };
+        LightBounds {
+            min,
+            max,
+            phi: PI * area * luminance(self.radiance),
+            normals,
+            cos_theta_e: 0.0,
+            two_sided: false,
+        }
+    }
+
     /// The radiance leaving the emitting side at surface coordinates `uv`.
     #[inline]
     pub fn radiance_at(&self, textures: &[Texture], uv: Vec2) -> Vec3A {
@@ -216,4 +277,21 @@ impl AreaLight {
             }
         }
     }
+}
+
+/// The world box of the object-space box [-1, 1]² × [0, `z_max`] under `to_world`.
+fn box_of(to_world: &glam::Affine3A, z_max: f32) -> (Vec3A, Vec3A) {
+    let mut min = Vec3A::splat(f32::INFINITY);
+    let mut max = Vec3A::splat(f32::NEG_INFINITY);
+    for i in 0..8 {
+        let corner = Vec3A::new(
+            if i & 1 == 0 { -1.0 } else { 1.0 },
+            if i & 2 == 0 { -1.0 } else { 1.0 },
+            if i & 4 == 0 { 0.0 } else { z_max },
+        );
+        let p = to_world.transform_point3a(corner);
+        min = min.min(p);
+        max = max.max(p);
+    }
+    (min, max)
 }

@@ -9,8 +9,10 @@ mod constant;
 mod directional;
 mod emission_texture;
 mod envmap;
+mod light_bounds;
 mod point;
 mod projector;
+mod selection;
 mod spot;
 
 pub use area::{AreaEmitter, AreaLight};
@@ -18,8 +20,10 @@ pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use emission_texture::{EmissionTexture, TexelDistribution, UvMap};
 pub use envmap::EnvLight;
+pub use light_bounds::LightBounds;
 pub use point::PointLight;
 pub use projector::ProjectorLight;
+pub use selection::{EarlyChoice, LightSelection};
 pub use spot::SpotLight;
 
 use crate::textures::Texture;
@@ -79,6 +83,18 @@ impl Light {
             self,
             Light::Point(_) | Light::Spot(_) | Light::Directional(_) | Light::Projector(_)
         )
+    }
+
+    /// The light's bounds for choosing lights by their contribution ([`LightSelection`]); None
+    /// for lights at infinity, which are chosen independently of the shading point.
+    pub fn bounds(&self) -> Option<LightBounds> {
+        match self {
+            Light::Point(l) => Some(l.bounds()),
+            Light::Spot(l) => Some(l.bounds()),
+            Light::Area(l) => Some(l.bounds()),
+            Light::Projector(l) => Some(l.bounds()),
+            Light::Directional(_) | Light::Constant(_) | Light::Env(_) => None,
+        }
     }
 
     /// A light at infinity that escaped rays see (constant background, environment map).

@@ -1,5 +1,6 @@
 //! An isotropic point light (Mitsuba's `point`): intensity / r², reached only by light sampling.
 
+use super::light_bounds::{luminance, DirectionCone, LightBounds};
 use super::LightSample;
 use glam::Vec3A;
 
@@ -10,6 +11,16 @@ pub struct PointLight {
 }
 
 impl PointLight {
+    /// Its bounds for the light tree: a point emitting 4π I in every direction.
+    pub fn bounds(&self) -> LightBounds {
+        LightBounds::point(
+            self.position,
+            4.0 * std::f32::consts::PI * luminance(self.intensity),
+            DirectionCone::SPHERE,
+            0.0,
+        )
+    }
+
     /// The connection from `p`: a delta sample, so no MIS.
     #[inline(always)]
     pub fn sample(&self, p: Vec3A) -> Option<LightSample> {

@@ -6,6 +6,7 @@
 //! +z axis dotted with the direction from the projector to the point: so a constant texture
 //! projected onto the plane z = 1 gives it a constant irradiance. A delta-position light.
 
+use super::light_bounds::{luminance, DirectionCone, LightBounds};
 use super::LightSample;
 use crate::textures::{ColorSource, Texture};
 use glam::{Mat4, Vec2, Vec3A};
@@ -26,6 +27,24 @@ pub struct ProjectorLight {
 }
 
 impl ProjectorLight {
+    /// Its bounds for the light tree: a point emitting into its half space (power from the
+    /// irradiance's scale, a texture counted as 1).
+    pub fn bounds(&self) -> LightBounds {
+        let irradiance = match self.irradiance {
+            ColorSource::Constant(c) => luminance(c),
+            ColorSource::Texture(_) => 1.0,
+        };
+        LightBounds::point(
+            self.position,
+            4.0 * std::f32::consts::PI * self.scale * irradiance,
+            DirectionCone {
+                w: self.axis.normalize(),
+                cos_theta: 0.0,
+            },
+            0.0,
+        )
+    }
+
     /// `tan_half_x`: tan of half the horizontal field of view; `aspect`: the irradiance texture's
     /// width / height (1 for a constant).
     pub fn new(

@@ -2,6 +2,7 @@
 //! its axis and falls linearly in angle to zero at `cutoff_angle`, as Mitsuba's `spot.cpp`,
 //! optionally times a texture projected through the cone.
 
+use super::light_bounds::{luminance, DirectionCone, LightBounds};
 use super::LightSample;
 use crate::textures::Texture;
 use glam::{Mat3A, Vec2, Vec3A};
@@ -26,6 +27,21 @@ pub struct SpotLight {
 }
 
 impl SpotLight {
+    /// Its bounds for the light tree: a point emitting into the cone of its cutoff angle (its
+    /// power overestimated as a point light's, which only shifts the choice).
+    pub fn bounds(&self) -> LightBounds {
+        let axis = self.world_to_local.inverse() * Vec3A::Z;
+        LightBounds::point(
+            self.position,
+            4.0 * std::f32::consts::PI * luminance(self.intensity),
+            DirectionCone {
+                w: axis.normalize(),
+                cos_theta: self.cos_cutoff,
+            },
+            0.0,
+        )
+    }
+
     /// A spot at `to_world`'s origin shining along its +z; angles in radians.
     pub fn new(
         to_world: glam::Mat4,

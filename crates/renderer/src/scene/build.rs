@@ -408,7 +408,6 @@ impl RenderScene {
             bvh_width,
         );
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
-        let lanes = crate::integrator::wavefront::LaneTable::new(&shapes, &materials, &lights);
         let any_uv = shapes.iter().any(|s| {
             materials
                 .get(s.material as usize)
@@ -417,12 +416,13 @@ impl RenderScene {
         });
         let uses_cones = materials.iter().any(Material::is_textured)
             || lights.iter().any(|l| matches!(l, Light::Env(_)));
-        let i = &scene.integrator;
-        if i.kind == "direct" && i.emitter_samples > 1 && lights.iter().any(Light::is_delta) {
-            warnings.push(format!(
-                "integrator 'direct' with emitter_samples {}: point, spot, directional and projector lights count {} times, as in Mitsuba 3.9.1 (its direct integrator does not divide their samples by the count)",
-                i.emitter_samples, i.emitter_samples
-            ));
+        if let desc::IntegratorKind::Direct(d) = scene.integrator.kind {
+            if d.emitter_samples > 1 && lights.iter().any(Light::is_delta) {
+                warnings.push(format!(
+                    "integrator 'direct' with emitter_samples {}: point, spot, directional and projector lights count {} times, as in Mitsuba 3.9.1 (its direct integrator does not divide their samples by the count)",
+                    d.emitter_samples, d.emitter_samples
+                ));
+            }
         }
         Ok(Self {
             camera,
@@ -434,19 +434,13 @@ impl RenderScene {
             materials,
             textures,
             attributes,
+            light_selection: crate::lights::LightSelection::new(&lights),
             lights,
             infinite_lights,
             has_area_lights,
-            lanes,
             uses_cones,
             any_uv,
-            hide_emitters: scene.integrator.hide_emitters,
             // The crop window counts only for the film it was written for (not under `--size`).
-            direct_samples: {
-                let i = &scene.integrator;
-                let counts = (i.emitter_samples, i.bsdf_samples);
-                (i.kind == "direct" && counts != (1, 1)).then_some(counts)
-            },
             sample_window: match scene.film.crop {
                 Some(c) if (width, height) == (scene.film.width, scene.film.height) => c.rect(),
                 _ => (0, 0, width, height),

@@ -38,31 +38,23 @@ pub struct RenderScene {
     /// Mesh attributes for `mesh_attribute` textures (empty when no texture reads them).
     pub(crate) attributes: MeshAttributes,
     pub(crate) lights: Vec<Light>,
+    /// How next-event estimation chooses among `lights`.
+    pub(crate) light_selection: crate::lights::LightSelection,
     /// Indices of lights at infinity (constant background, environment maps).
     pub(crate) infinite_lights: Vec<u32>,
     /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
     /// path's last segment only needs to know whether it escapes (an any-hit query).
     pub(crate) has_area_lights: bool,
-    /// The shapes and lights the wavefront shades in SIMD lanes.
-    pub(crate) lanes: crate::integrator::wavefront::LaneTable,
     /// Whether ray cones filter anything: a material reads a texture, or a light at infinity is
     /// an environment map. Without, the path loop does not track them.
     pub(crate) uses_cones: bool,
     /// Whether any shape's hits need uv (a textured or anisotropic material, a textured
     /// emission). Without, hits skip the material look-up that decides it.
     pub(crate) any_uv: bool,
-    /// The integrator's `hide_emitters`: camera rays see no emission (neither emitting shapes
-    /// nor the lights at infinity), as Mitsuba's path integrator; emitters seen after a bounce,
-    /// even a mirror's, and the light they cast stay.
-    pub(crate) hide_emitters: bool,
     /// The film window whose pixels receive samples, `(x, y, width, height)`: the film's crop
     /// window, else the whole film. Mitsuba places samples inside the crop window only, so a
     /// filter offset that leaves it does not count, as at the film's edges.
     pub(crate) sample_window: (u32, u32, u32, u32),
-    /// Mitsuba's `direct` with other than one emitter and one BSDF sample per hit: the counts
-    /// ([`crate::integrator::direct`]); None renders `path` (`direct` with one of each is `path`
-    /// at depth 2).
-    pub(crate) direct_samples: Option<(u32, u32)>,
     /// What the build found worth telling the user (each once).
     pub warnings: Vec<String>,
 }

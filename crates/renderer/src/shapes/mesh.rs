@@ -303,6 +303,11 @@ impl MeshEmitter {
         (tri.p0 + b1 * tri.e1 + b2 * tri.e2, tri.normal)
     }
 
+    /// The emitting triangles.
+    pub fn triangles(&self) -> &[EmitterTriangle] {
+        &self.geometry
+    }
+
     /// The area density of [`MeshEmitter::sample_point`]: 1 / area.
     #[inline(always)]
     pub fn total_area(&self) -> f32 {
