@@ -28,6 +28,10 @@ pub const NAMES: &[(&str, &str)] = &[
     ("mesh_triangles", "triangles of all meshes together"),
     ("mesh_vertices", "vertices of all meshes together"),
     ("scene_bytes", "size of the scene file"),
+    (
+        "volume_values",
+        "values of all grid volumes (.vol files) together",
+    ),
     ("nesting_depth", "how deep XML elements may nest"),
     ("threads", "the most --threads may ask for"),
 ];
@@ -78,6 +82,7 @@ impl Limits {
                 "mesh_triangles" => l.parser.mesh_triangles = v,
                 "mesh_vertices" => l.parser.mesh_vertices = v,
                 "scene_bytes" => l.parser.scene_bytes = v,
+                "volume_values" => l.parser.volume_values = v,
                 "nesting_depth" => l.parser.nesting_depth = v.min(u32::MAX as u64) as u32,
                 "threads" => l.threads = v,
                 _ => return Err(format!("unknown limit '{name}'")),

@@ -76,7 +76,8 @@ struct RenderArgs {
     #[arg(long)]
     quiet: bool,
     /// Change a safety cap, NAME=VALUE (repeatable): film_pixels, image_pixels, mesh_triangles,
-    /// mesh_vertices, scene_bytes, nesting_depth, threads. See docs/robustness.md.
+    /// mesh_vertices, scene_bytes, volume_values, nesting_depth, threads. See
+    /// docs/robustness.md.
     #[arg(long = "limit", value_parser = limits::parse_limit)]
     limits: Vec<(String, u64)>,
     /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4`, `8` (needs AVX2 and FMA, else

@@ -69,6 +69,7 @@ pub(crate) fn scene_summary(s: &torrey_parser::Scene) -> String {
             torrey_parser::Geometry::Rectangle => "rectangle",
             torrey_parser::Geometry::Disk => "disk",
             torrey_parser::Geometry::Cylinder { .. } => "cylinder",
+            torrey_parser::Geometry::SdfGrid(_) => "sdfgrid",
         });
         if sh.emitter.is_some() {
             kinds.insert("area");

@@ -22,7 +22,8 @@ the lobe's weight), so that Mitsuba's own renders would fail the test there. For
 <name>_var.exr is the spread of VARIANCE_RENDERS independent Mitsuba renders at the test's spp
 (seeds 1000...), times that spp: the per-sample variance the verdict's z-test divides by the spp.
 Also (re)writes the scenes' own textures tests/scenes/mitsuba/textures/gradient_sky.exr,
-sun_sky.exr, emission_pattern.exr (radiance) and spot_pattern.png.
+sun_sky.exr, emission_pattern.exr (radiance) and spot_pattern.png, and the sdfgrid scene's
+grids tests/scenes/mitsuba/volumes/*.vol (sdf_volumes.py).
 Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
 """
 import argparse
@@ -180,6 +181,8 @@ def main():
     spot_pattern(os.path.join(SCENES, "textures", "spot_pattern.png"))
     sun_sky(os.path.join(SCENES, "textures", "sun_sky.exr"))
     emission_pattern(os.path.join(SCENES, "textures", "emission_pattern.exr"))
+    import sdf_volumes
+    sdf_volumes.write_all(os.path.join(SCENES, "volumes"))
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = {}

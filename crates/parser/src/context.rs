@@ -1,5 +1,11 @@
 //! Parsing state shared by the plugin parsers: the scene file (for positions and relative
 //! paths), the growing texture and bsdf tables, the id namespace, and the warnings.
+//!
+//! Ids are Mitsuba's: every object with an `id` names it, at any depth (a `twosided` nested in
+//! an anonymous `bumpmap` too), and a `<ref>` may name an object defined further on, since
+//! Mitsuba resolves references after reading the whole document. [`Ctx::declare_ids`] collects
+//! every id (and `<alias>`) before any plugin is parsed; an object a `<ref>` names is parsed
+//! when first needed ([`Ctx::lookup`]) and reused where it stands ([`Ctx::already`]).
 
 use crate::error::{ParseError, Result};
 use crate::include::Sources;
@@ -26,7 +32,7 @@ pub(crate) enum IdTarget {
     Other,
 }
 
-pub(crate) struct Ctx {
+pub(crate) struct Ctx<'a> {
     /// The scene's files (for positions) and `<path>` folders (for file names).
     pub sources: Sources,
     pub dialect: Dialect,
@@ -40,7 +46,14 @@ pub(crate) struct Ctx {
     pub area_emitters: Vec<(glam::Vec3, Option<TextureId>)>,
     /// Every file name resolved so far, in order: [`crate::Scene::files`].
     pub files: std::cell::RefCell<Vec<PathBuf>>,
-    ids: HashMap<String, (IdTarget, Pos, String)>,
+    /// Every id and alias of the document: the element it names (an alias: its source's).
+    declared: HashMap<String, &'a Element>,
+    /// Top-level children of `<scene>` (an `area` emitter there can be referenced).
+    top_level: std::collections::HashSet<Pos>,
+    /// What each element with an id was parsed into, by its position.
+    defined: HashMap<Pos, IdTarget>,
+    /// Elements a `<ref>` made us parse, innermost last: a `<ref>` back to one is a cycle.
+    defining: Vec<(Pos, String)>,
     media_warned: bool,
     pub limits: Limits,
     /// Warnings given once per scene: kind → (index in `warnings`, occurrences).
@@ -48,6 +61,8 @@ pub(crate) struct Ctx {
     /// Triangles and vertices of the meshes loaded so far, against `limits`.
     pub triangles: u64,
     pub vertices: u64,
+    /// Values of the grid volumes loaded so far, against `limits.volume_values`.
+    pub volume_values: u64,
     /// Textures used by the bsdf being parsed (and those nested in it), innermost last, each
     /// with whether a float parameter reads it.
     pub texture_uses: Vec<Vec<(crate::scene::TextureId, bool)>>,
@@ -55,7 +70,24 @@ pub(crate) struct Ctx {
     pub bsdf_textures: HashMap<crate::scene::BsdfId, Vec<(crate::scene::TextureId, bool)>>,
 }
 
-impl Ctx {
+/// Elements that are objects (and so may carry an id), as opposed to values and references.
+const OBJECT_TAGS: &[&str] = &[
+    "bsdf",
+    "texture",
+    "shape",
+    "emitter",
+    "sensor",
+    "film",
+    "sampler",
+    "rfilter",
+    "integrator",
+    "medium",
+    "phase",
+    "volume",
+    "subsurface",
+];
+
+impl<'a> Ctx<'a> {
     pub fn new(sources: Sources, dialect: Dialect, limits: &Limits) -> Self {
         Ctx {
             sources,
@@ -69,12 +101,16 @@ impl Ctx {
             texture_uses: Vec::new(),
             bsdf_textures: HashMap::new(),
             files: Default::default(),
-            ids: HashMap::new(),
+            declared: HashMap::new(),
+            top_level: Default::default(),
+            defined: HashMap::new(),
+            defining: Vec::new(),
             media_warned: false,
             once: HashMap::new(),
             limits: limits.clone(),
             triangles: 0,
             vertices: 0,
+            volume_values: 0,
         }
     }
 
@@ -108,35 +144,68 @@ impl Ctx {
         self.sources.location(pos)
     }
 
-    /// Makes `<alias id="a" as="b"/>`: `b` names what `a` names.
-    pub fn alias(&mut self, elem: &Element) -> Result<()> {
-        let get = |n: &str| {
-            elem.attr(n).ok_or_else(|| {
-                self.err(
-                    elem.pos,
-                    format!("missing required attribute '{n}' on <alias>"),
-                )
-            })
+    /// `a` in `<alias id="a" as="b"/>` or a duplicate id: the error, naming the first holder.
+    fn duplicate(&self, attr: &crate::xml::Attr) -> ParseError {
+        let first = self.declared[&attr.value];
+        let at = if first.pos.file == attr.value_pos.file {
+            format!("line {}, column {}", first.pos.line, first.pos.column)
+        } else {
+            self.location(first.pos).to_string()
         };
-        let (id, alias) = (get("id")?, get("as")?);
-        let Some(&(target, _, ref tag)) = self.ids.get(&id.value) else {
-            return Err(self.err(
-                id.value_pos,
-                format!("<alias> of undefined id '{}'", id.value),
-            ));
-        };
-        let tag = tag.clone();
-        if let Some((_, first, t)) = self.ids.get(&alias.value) {
-            return Err(self.err(
-                alias.value_pos,
-                format!(
-                    "duplicate id '{}' (a <{}> already has it at line {}, column {})",
-                    alias.value, t, first.line, first.column
-                ),
-            ));
+        self.err(
+            attr.value_pos,
+            format!(
+                "duplicate id '{}' (a <{}> already has it at {at})",
+                attr.value, first.tag
+            ),
+        )
+    }
+
+    /// Collects every id of the document (objects at any depth) and every top-level
+    /// `<alias id="a" as="b"/>` (`b` names what `a` names; `a` must be declared before it, as
+    /// Mitsuba reads in document order), before any plugin is parsed. A second definition of
+    /// an id is an error pointing at it and naming the first.
+    pub fn declare_ids(&mut self, root: &'a Element) -> Result<()> {
+        for child in &root.children {
+            self.top_level.insert(child.pos);
         }
-        self.ids
-            .insert(alias.value.clone(), (target, elem.pos, tag));
+        self.declare_in(root, true)
+    }
+
+    fn declare_in(&mut self, elem: &'a Element, top: bool) -> Result<()> {
+        for child in &elem.children {
+            if child.tag == "alias" && top {
+                let get = |n: &str| {
+                    child.attr(n).ok_or_else(|| {
+                        self.err(
+                            child.pos,
+                            format!("missing required attribute '{n}' on <alias>"),
+                        )
+                    })
+                };
+                let (id, alias) = (get("id")?, get("as")?);
+                let Some(&target) = self.declared.get(&id.value) else {
+                    return Err(self.err(
+                        id.value_pos,
+                        format!("<alias> of undefined id '{}'", id.value),
+                    ));
+                };
+                if self.declared.contains_key(&alias.value) {
+                    return Err(self.duplicate(alias));
+                }
+                self.declared.insert(alias.value.clone(), target);
+                continue;
+            }
+            if OBJECT_TAGS.contains(&child.tag.as_str()) {
+                if let Some(attr) = child.attr("id") {
+                    if self.declared.contains_key(&attr.value) {
+                        return Err(self.duplicate(attr));
+                    }
+                    self.declared.insert(attr.value.clone(), child);
+                }
+            }
+            self.declare_in(child, false)?;
+        }
         Ok(())
     }
 
@@ -165,48 +234,89 @@ impl Ctx {
         std::mem::take(&mut self.warnings)
     }
 
-    /// Records `elem`'s `id` attribute (if any) as naming `target`; a second definition of the
-    /// same id is an error pointing at the new one and naming the first.
+    /// Records what `elem` (if it has an id) was parsed into. Ids were checked for duplicates
+    /// by [`Ctx::declare_ids`].
     pub fn register_id(&mut self, elem: &Element, target: IdTarget) -> Result<()> {
-        let Some(attr) = elem.attr("id") else {
-            return Ok(());
-        };
-        if let Some((_, first, tag)) = self.ids.get(&attr.value) {
-            return Err(self.err(
-                attr.value_pos,
-                format!(
-                    "duplicate id '{}' (a <{}> already has it at line {}, column {})",
-                    attr.value, tag, first.line, first.column
-                ),
-            ));
+        if elem.attr("id").is_some() {
+            self.defined.insert(elem.pos, target);
         }
-        self.ids
-            .insert(attr.value.clone(), (target, elem.pos, elem.tag.clone()));
         Ok(())
     }
 
-    /// Looks up the object a `<ref id="...">` names; a dangling id is an error at the ref.
-    pub fn lookup(&self, ref_elem: &Element) -> Result<IdTarget> {
+    /// What `elem` was parsed into already, if a `<ref>` to its id made us parse it before its
+    /// place in the document: the parsers reuse that instead of parsing it twice.
+    pub fn already(&self, elem: &Element) -> Option<IdTarget> {
+        elem.attr("id")?;
+        self.defined.get(&elem.pos).copied()
+    }
+
+    /// Looks up the object a `<ref id="...">` names, parsing it now if it stands further on or
+    /// nested somewhere not parsed yet. A dangling id, or a reference cycle, is an error at the
+    /// ref.
+    pub fn lookup(&mut self, ref_elem: &Element) -> Result<IdTarget> {
         let attr = ref_elem
             .attr("id")
             .ok_or_else(|| self.err(ref_elem.pos, "missing required attribute 'id' on <ref>"))?;
-        self.ids
-            .get(&attr.value)
-            .map(|(t, _, _)| *t)
-            .ok_or_else(|| {
-                self.err(
-                    attr.value_pos,
-                    format!("reference to undefined id '{}'", attr.value),
-                )
-            })
+        let Some(&elem) = self.declared.get(&attr.value) else {
+            return Err(self.err(
+                attr.value_pos,
+                format!("reference to undefined id '{}'", attr.value),
+            ));
+        };
+        if let Some(&t) = self.defined.get(&elem.pos) {
+            return Ok(t);
+        }
+        if let Some(i) = self.defining.iter().position(|(p, _)| *p == elem.pos) {
+            let mut cycle: Vec<&str> = self.defining[i..].iter().map(|(_, n)| n.as_str()).collect();
+            cycle.push(&attr.value);
+            return Err(self.err(
+                attr.value_pos,
+                format!("circular reference: {}", cycle.join(" -> ")),
+            ));
+        }
+        self.defining.push((elem.pos, attr.value.clone()));
+        let target = self.define(elem);
+        self.defining.pop();
+        let target = target?;
+        self.defined.insert(elem.pos, target);
+        Ok(target)
     }
 
-    /// Resolves a file name given at `pos`: see [`Sources::resolve`] (the naming file's folder,
-    /// the `<path>` folders, the scene file's folder), and records it in [`Ctx::files`].
-    pub fn resolve(&self, name: &str, pos: Pos) -> PathBuf {
-        let resolved = self.sources.resolve(name, pos);
+    /// Parses an element a `<ref>` names before its place in the document. Only what a ref can
+    /// use is parsed (bsdfs, textures, shapegroups, area emitters declared outside shapes);
+    /// media are accepted as such, the rest is [`IdTarget::Other`].
+    fn define(&mut self, elem: &'a Element) -> Result<IdTarget> {
+        let ty = elem.attr_value("type");
+        Ok(match elem.tag.as_str() {
+            "bsdf" => IdTarget::Bsdf(crate::plugins::bsdf::parse_bsdf(self, elem)?),
+            "texture" => IdTarget::Texture(crate::plugins::texture::parse_texture(self, elem)?),
+            "shape" if ty == Some("shapegroup") => {
+                crate::plugins::shape::parse_shape(self, elem)?;
+                self.already(elem).unwrap_or(IdTarget::Other)
+            }
+            "emitter" if ty == Some("area") && self.top_level.contains(&elem.pos) => {
+                crate::plugins::shape::define_area_emitter(self, elem)?
+            }
+            "medium" => IdTarget::Medium,
+            _ => IdTarget::Other,
+        })
+    }
+
+    /// Resolves a plugin's file name given at `pos` as Mitsuba does ([`Sources::resolve`]: the
+    /// scene file's `<path>` folders, its folder, the working directory) and records it in
+    /// [`Ctx::files`]. `Err` says where it was looked for.
+    pub fn resolve(&self, name: &str, pos: Pos) -> std::result::Result<PathBuf, String> {
+        let resolved = self.sources.resolve(name, pos)?;
         self.files.borrow_mut().push(resolved.clone());
-        resolved
+        Ok(resolved)
+    }
+
+    /// [`Ctx::resolve`] for a `<spectrum filename>`, read with the resolver in effect where it
+    /// stands ([`Sources::resolve_spectrum`]).
+    pub fn resolve_spectrum(&self, name: &str, pos: Pos) -> std::result::Result<PathBuf, String> {
+        let resolved = self.sources.resolve_spectrum(name, pos)?;
+        self.files.borrow_mut().push(resolved.clone());
+        Ok(resolved)
     }
 }
 

@@ -19,7 +19,12 @@ pub(crate) fn regular_file_size(path: &Path) -> std::result::Result<u64, String>
 /// Resolves a file name given in the scene (`kind` is "mesh" or "texture") and checks that it
 /// is a regular file; errors point at the attribute.
 pub(crate) fn input_file(ctx: &Ctx, attr: &Attr, kind: &str) -> Result<PathBuf> {
-    let path = ctx.resolve(&attr.value, attr.value_pos);
+    let path = ctx.resolve(&attr.value, attr.value_pos).map_err(|looked| {
+        ctx.err(
+            attr.value_pos,
+            format!("{kind} file '{}' not found ({looked})", attr.value),
+        )
+    })?;
     match std::fs::metadata(&path) {
         Ok(meta) if meta.is_file() => Ok(path),
         Ok(_) => Err(ctx.err(

@@ -6,6 +6,30 @@
 //!
 //! Every position remembers its file ([`Pos::file`]); [`Sources`] turns positions into
 //! `file:line:column` and appends the chain of includes to error messages.
+//!
+//! Relative file names are found as Mitsuba 3.9.1's file resolver finds them (its
+//! `src/core/parser.cpp`; every rule below was checked against Mitsuba 3.9.1 on a test layout,
+//! see `crates/parser/tests/resolver.rs`). A resolver is a list of folders, searched in order;
+//! the current working directory always comes last.
+//! - The scene file's resolver starts as [the scene file's folder]. A `<path>` (only as a
+//!   direct child of a file's `<scene>`) is put in front of the resolver of the file that holds
+//!   it, so later `<path>`s are searched first.
+//! - A `<path value>` is taken relative to the folder of the file that holds it; if that folder
+//!   does not exist, it is looked up with that file's resolver (so an included file's
+//!   `../../common` may also be found from the scene file's folder). A folder found nowhere is an
+//!   error.
+//! - `<include filename>` is looked up in the folder of the file that holds it, then with that
+//!   file's resolver. The included file is read with that list ([the including file's folder] +
+//!   the including file's resolver) as its resolver; its own `<path>`s go in front of it and are
+//!   forgotten when the include ends.
+//! - Plugin file names (meshes, textures, environment maps, volumes) are resolved when Mitsuba
+//!   instantiates the objects, after the whole document is read: with the scene file's final
+//!   resolver (every `<path>` of the scene file itself, the last first, wherever it stands, then
+//!   the scene file's folder), whichever file names them. An included file's own folder and its
+//!   `<path>`s do not count.
+//! - A `<spectrum filename>` is read while parsing, with the resolver in effect at that point
+//!   (in an included file: the including file's folder and resolver, with the included file's
+//!   `<path>`s so far).
 
 use crate::error::{ParseError, Result};
 use crate::limits::Limits;
@@ -42,13 +66,54 @@ pub(crate) struct SourceFile {
     pub included_at: Option<Pos>,
 }
 
-/// The files of a scene and the `<path>` search folders.
+/// The files of a scene and the resolvers that find the files they name (module docs).
 #[derive(Clone, Debug)]
 pub(crate) struct Sources {
     pub files: Vec<SourceFile>,
-    /// Folders from `<path>`, in document order (later ones are searched first, as Mitsuba
-    /// prepends them to its file resolver).
-    pub search: Vec<PathBuf>,
+    /// The scene file's final resolver, searched first to last (then the working directory):
+    /// its `<path>` folders, the last one first, then its own folder. Plugin file names are
+    /// looked up here.
+    pub resolver: Vec<PathBuf>,
+    /// The resolver in effect where each `<spectrum filename>` stands (keyed by the position of
+    /// the `filename` value): spectrum files are read while Mitsuba parses.
+    spectrum_resolvers: std::collections::HashMap<Pos, std::rc::Rc<Vec<PathBuf>>>,
+}
+
+/// The first existing `folder/name` of `folders`, then of the working directory; `None` when
+/// there is none. An absolute `name` is itself or nothing.
+fn find_in(folders: &[PathBuf], name: &str) -> Option<PathBuf> {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        return p.exists().then(|| p.to_path_buf());
+    }
+    folders
+        .iter()
+        .map(|d| d.join(p))
+        .chain(std::env::current_dir().ok().map(|d| d.join(p)))
+        .find(|c| c.exists())
+}
+
+/// Where `name` was looked for, for messages: "'a/x', 'b/x' and 'x' (the working directory)".
+fn looked_for(folders: &[PathBuf], name: &str) -> String {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        return format!("'{}'", p.display());
+    }
+    let mut all: Vec<String> = folders
+        .iter()
+        .map(|d| format!("'{}'", d.join(p).display()))
+        .collect();
+    if let Ok(cwd) = std::env::current_dir() {
+        all.push(format!(
+            "'{}' (the working directory)",
+            cwd.join(p).display()
+        ));
+    }
+    match all.len() {
+        0 => String::new(),
+        1 => all.remove(0),
+        n => format!("{} and {}", all[..n - 1].join(", "), all[n - 1]),
+    }
 }
 
 fn absolute_dir(file: &Path) -> PathBuf {
@@ -58,13 +123,15 @@ fn absolute_dir(file: &Path) -> PathBuf {
 
 impl Sources {
     pub fn new(main: &Path) -> Self {
+        let dir = absolute_dir(main);
         Sources {
             files: vec![SourceFile {
                 path: main.to_path_buf(),
-                dir: absolute_dir(main),
+                dir: dir.clone(),
                 included_at: None,
             }],
-            search: Vec::new(),
+            resolver: vec![dir],
+            spectrum_resolvers: Default::default(),
         }
     }
 
@@ -114,29 +181,33 @@ impl Sources {
         }
     }
 
-    /// Finds a file named in the scene at `pos`: absolute names as they are; relative ones in
-    /// the folder of the file that names them, then in the `<path>` folders (last first), then
-    /// in the scene file's folder. When none exists, the first candidate (for messages).
-    pub fn resolve(&self, name: &str, pos: Pos) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            return p.to_path_buf();
+    /// Finds a plugin's file named in the scene at `pos` as Mitsuba does (module docs): with the
+    /// scene file's resolver, whichever file names it. `Err` says where it was looked for (and
+    /// that it exists next to the included file naming it, if it does: Mitsuba does not look
+    /// there).
+    pub fn resolve(&self, name: &str, pos: Pos) -> std::result::Result<PathBuf, String> {
+        find_in(&self.resolver, name).ok_or_else(|| self.not_found(&self.resolver, name, pos))
+    }
+
+    /// Finds the file of a `<spectrum filename>` at `pos` with the resolver in effect there.
+    pub fn resolve_spectrum(&self, name: &str, pos: Pos) -> std::result::Result<PathBuf, String> {
+        let folders = self
+            .spectrum_resolvers
+            .get(&pos)
+            .map_or(&self.resolver[..], |r| &r[..]);
+        find_in(folders, name).ok_or_else(|| self.not_found(folders, name, pos))
+    }
+
+    fn not_found(&self, folders: &[PathBuf], name: &str, pos: Pos) -> String {
+        let mut m = format!("looked for {}", looked_for(folders, name));
+        let file = self.files.get(pos.file as usize).unwrap_or(&self.files[0]);
+        if pos.file != 0 && Path::new(name).is_relative() && file.dir.join(name).exists() {
+            m += &format!(
+                "; it is next to the included file '{}', but Mitsuba looks for file names only in the scene file's folder and the scene file's <path> folders",
+                file.path.display()
+            );
         }
-        let own = self
-            .files
-            .get(pos.file as usize)
-            .unwrap_or(&self.files[0])
-            .dir
-            .join(p);
-        let candidates = std::iter::once(own.clone())
-            .chain(self.search.iter().rev().map(|d| d.join(p)))
-            .chain(std::iter::once(self.files[0].dir.join(p)));
-        for c in candidates {
-            if c.exists() {
-                return c;
-            }
-        }
-        own
+        m
     }
 }
 
@@ -149,6 +220,10 @@ pub(crate) struct Expanded {
 
 struct Expander<'l> {
     sources: Sources,
+    /// The resolver of the file being read (front first; the working directory comes last):
+    /// the scene file's grows into [`Sources::resolver`]; an included file's is pushed on top
+    /// while it is read.
+    resolvers: Vec<std::rc::Rc<Vec<PathBuf>>>,
     defaults: HashMap<String, String>,
     warnings: Vec<Warning>,
     /// Names a `<default>` has defined (a `-D` override is not one: it wins silently).
@@ -192,10 +267,27 @@ impl Expander<'_> {
         })
     }
 
-    fn include(&mut self, inc: &Element, depth: usize) -> Result<Element> {
+    /// The resolver of the file being read.
+    fn resolver(&self) -> &[PathBuf] {
+        self.resolvers.last().map_or(&[][..], |r| &r[..])
+    }
+
+    /// Reads the file an `<include>` names. Returns its root and the resolver to read it with:
+    /// the including file's folder in front of the including file's resolver.
+    fn include(&mut self, inc: &Element, depth: usize) -> Result<(Element, Vec<PathBuf>)> {
         let attr = self.attr(inc, "filename")?;
         let name = self.substituted(attr, "include")?;
-        let path = self.sources.resolve(&name, attr.value_pos);
+        let mut resolver = vec![self.sources.files[inc.pos.file as usize].dir.clone()];
+        resolver.extend(self.resolver().iter().cloned());
+        let Some(path) = find_in(&resolver, &name) else {
+            return Err(self.sources.err(
+                attr.value_pos,
+                format!(
+                    "cannot read included file '{name}': not found (looked for {})",
+                    looked_for(&resolver, &name)
+                ),
+            ));
+        };
         if depth >= MAX_INCLUDE_DEPTH {
             return Err(self.sources.err(
                 inc.pos,
@@ -259,35 +351,68 @@ impl Expander<'_> {
                 ),
             ));
         }
-        Ok(root)
+        Ok((root, resolver))
     }
 
-    /// Expands `elem`'s children in document order; `nested` is true inside objects.
-    fn children(&mut self, elem: &mut Element, nested: bool, depth: usize) -> Result<()> {
+    /// `<path value>`: the folder relative to the file holding it, else found with that file's
+    /// resolver; put in front of that resolver.
+    fn path(&mut self, child: &Element, file_top: bool) -> Result<()> {
+        let attr = self.attr(child, "value")?;
+        let value = self.substituted(attr, "path")?;
+        if !file_top {
+            return Err(self.sources.err(
+                child.pos,
+                "<path> must be a direct child of <scene> (as in Mitsuba)",
+            ));
+        }
+        let p = Path::new(&value);
+        let own = self.sources.files[child.pos.file as usize].dir.join(p);
+        let dir = if p.is_absolute() {
+            p.exists().then(|| p.to_path_buf())
+        } else if own.exists() {
+            Some(own.clone())
+        } else {
+            find_in(self.resolver(), &value)
+        };
+        let Some(dir) = dir else {
+            let mut places = vec![self.sources.files[child.pos.file as usize].dir.clone()];
+            places.extend(self.resolver().iter().cloned());
+            return Err(self.sources.err(
+                attr.value_pos,
+                format!(
+                    "<path> folder '{value}' does not exist (looked for {})",
+                    looked_for(&places, &value)
+                ),
+            ));
+        };
+        if !dir.is_dir() {
+            self.warnings.push(self.sources.warning(
+                attr.value_pos,
+                format!(
+                    "<path> '{value}' is not a folder ('{}'); nothing is found in it",
+                    dir.display()
+                ),
+            ));
+        }
+        let top = self.resolvers.last_mut().expect("a resolver per file");
+        std::rc::Rc::make_mut(top).insert(0, dir);
+        Ok(())
+    }
+
+    /// Expands `elem`'s children in document order; `nested` is true inside objects, `file_top`
+    /// for the children of a file's `<scene>`.
+    fn children(
+        &mut self,
+        elem: &mut Element,
+        nested: bool,
+        file_top: bool,
+        depth: usize,
+    ) -> Result<()> {
         let children = std::mem::take(&mut elem.children);
         let mut out = Vec::with_capacity(children.len());
         for mut child in children {
             match child.tag.as_str() {
-                "path" => {
-                    let attr = self.attr(&child, "value")?;
-                    let value = self.substituted(attr, "path")?;
-                    let p = Path::new(&value);
-                    let dir = if p.is_absolute() {
-                        p.to_path_buf()
-                    } else {
-                        self.sources.files[child.pos.file as usize].dir.join(p)
-                    };
-                    if !dir.is_dir() {
-                        return Err(self.sources.err(
-                            attr.value_pos,
-                            format!(
-                                "<path> folder '{value}' does not exist (looked for '{}')",
-                                dir.display()
-                            ),
-                        ));
-                    }
-                    self.sources.search.push(dir);
-                }
+                "path" => self.path(&child, file_top)?,
                 "default" => {
                     let name = self.attr(&child, "name")?.value.clone();
                     let value = self.attr(&child, "value")?.value.clone();
@@ -302,8 +427,11 @@ impl Expander<'_> {
                     self.defaults.entry(name).or_insert(value);
                 }
                 "include" => {
-                    let mut root = self.include(&child, depth)?;
-                    self.children(&mut root, nested, depth + 1)?;
+                    let (mut root, resolver) = self.include(&child, depth)?;
+                    self.resolvers.push(std::rc::Rc::new(resolver));
+                    let expanded = self.children(&mut root, nested, true, depth + 1);
+                    self.resolvers.pop();
+                    expanded?;
                     for c in root.children {
                         if nested && VALUE_TAGS.contains(&c.tag.as_str()) {
                             // Mitsuba keeps only objects from an include inside an object.
@@ -320,8 +448,14 @@ impl Expander<'_> {
                         }
                     }
                 }
-                _ => {
-                    self.children(&mut child, true, depth)?;
+                tag => {
+                    if tag == "spectrum" {
+                        if let Some(a) = child.attr("filename") {
+                            let r = self.resolvers.last().expect("a resolver per file").clone();
+                            self.sources.spectrum_resolvers.insert(a.value_pos, r);
+                        }
+                    }
+                    self.children(&mut child, true, false, depth)?;
                     out.push(child);
                 }
             }
@@ -365,15 +499,18 @@ pub(crate) fn expand(
     overrides: &[(String, String)],
     limits: &Limits,
 ) -> Result<Expanded> {
+    let sources = Sources::new(path);
     let mut ex = Expander {
-        sources: Sources::new(path),
+        resolvers: vec![std::rc::Rc::new(sources.resolver.clone())],
+        sources,
         defaults: overrides.iter().cloned().collect(),
         warnings: Vec::new(),
         defined: Default::default(),
         limits,
         growth: limits.scene_bytes,
     };
-    ex.children(&mut root, false, 0)?;
+    ex.children(&mut root, false, true, 0)?;
+    ex.sources.resolver = ex.resolvers.pop().map(|r| (*r).clone()).unwrap_or_default();
     ex.substitute(&mut root)?;
     Ok(Expanded {
         root,

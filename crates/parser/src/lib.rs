@@ -18,6 +18,7 @@ pub mod scene;
 mod spectrum;
 mod transform;
 mod values;
+pub mod vol;
 mod xml;
 
 pub use error::ParseError;
@@ -56,7 +57,8 @@ pub struct LoadOptions {
 }
 
 /// Reads a scene file; `overrides` are `-D name=value` pairs that replace `<default>` values.
-/// Relative file names inside are resolved against the scene file's folder.
+/// Relative file names inside are found as Mitsuba 3's file resolver finds them (the scene file's
+/// `<path>` folders, then its folder; see docs/scene-format.md).
 pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, ParseError> {
     load_scene_with(
         path,

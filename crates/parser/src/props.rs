@@ -364,7 +364,17 @@ impl<'a> Props<'a> {
             return self.parse_attr(ctx, e, a, |s| spectrum::parse_value(s, usage));
         }
         if let Some(f) = e.attr("filename") {
-            let path = ctx.resolve(&f.value, f.value_pos);
+            let path = ctx
+                .resolve_spectrum(&f.value, f.value_pos)
+                .map_err(|looked| {
+                    ctx.err(
+                        f.value_pos,
+                        format!(
+                            "cannot read spectrum file '{}': not found ({looked})",
+                            f.value
+                        ),
+                    )
+                })?;
             let text = std::fs::read_to_string(&path).map_err(|err| {
                 ctx.err(
                     f.value_pos,

@@ -66,7 +66,7 @@ impl std::fmt::Display for Warning {
 
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// The scene file this was read from (relative paths inside were resolved against its folder).
+    /// The scene file this was read from (relative file names inside were found from its folder and its `<path>`s).
     pub path: PathBuf,
     pub dialect: Dialect,
     /// Why [`Scene::dialect`] was chosen (the version, the first plugin the torrey course does
@@ -277,6 +277,14 @@ pub enum TextureKind {
         name: String,
         scale: f32,
         location: SourceLocation,
+    },
+    /// Mitsuba's `rawconstant`: `value` returned as it is, without colour conversion or range
+    /// checks (negative values too); one channel (`<float>`) is read as grey, three
+    /// (`<vector>`) cannot be read as a float parameter. Where a bsdf or an emitter reads it,
+    /// the parser puts the value in place as a [`ColorParam::Constant`].
+    RawConstant {
+        value: Vec3,
+        channels: u8,
     },
 }
 
@@ -563,6 +571,54 @@ pub enum Geometry {
         p1: Vec3,
         radius: f32,
     },
+    /// Mitsuba's `sdfgrid`: the zero set of the trilinear interpolant of a signed distance
+    /// function sampled on a grid that spans [0, 1]^3 in object space (then `to_world`).
+    SdfGrid(std::sync::Arc<SdfGrid>),
+}
+
+/// The samples of an `sdfgrid` (Mitsuba 3.9.1's conventions). Sample (i, j, k) sits at
+/// (i / (nx − 1), j / (ny − 1), k / (nz − 1)) of the unit cube, whatever bounding box the
+/// `.vol` file declares; the values between samples are the trilinear interpolant; the surface
+/// is where it is zero, and its normal points where the values grow.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SdfGrid {
+    /// Samples along x, y, z: at least 2 each.
+    pub size: [u32; 3],
+    /// nx · ny · nz finite values, x fastest, then y, then z.
+    pub values: Vec<f32>,
+    /// Mitsuba's `normals`: `smooth` (true, the default) blends the gradients of the voxels
+    /// around the hit (Hansson-Söderlund et al. 2022); `analytic` is the gradient of the
+    /// interpolant, continuous within a voxel only.
+    pub smooth_normals: bool,
+    /// Voxels whose corner samples are not all of one sign (some ≥ 0 and some ≤ 0): those that
+    /// can hold surface; at least one.
+    pub surface_voxels: u64,
+}
+
+impl SdfGrid {
+    /// The value of sample (i, j, k).
+    #[inline]
+    pub fn value(&self, i: u32, j: u32, k: u32) -> f32 {
+        let [nx, ny, _] = self.size;
+        self.values[(k as usize * ny as usize + j as usize) * nx as usize + i as usize]
+    }
+
+    /// The eight corner samples of voxel (i, j, k), corner c at (i + (c & 1), j + (c >> 1 & 1),
+    /// k + (c >> 2)).
+    #[inline]
+    pub fn corners(&self, i: u32, j: u32, k: u32) -> [f32; 8] {
+        std::array::from_fn(|c| {
+            let c = c as u32;
+            self.value(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2))
+        })
+    }
+
+    /// Whether voxel (i, j, k) can hold surface: its corners are not all > 0 nor all < 0.
+    #[inline]
+    pub fn voxel_has_surface(&self, i: u32, j: u32, k: u32) -> bool {
+        let f = self.corners(i, j, k);
+        f.iter().any(|&v| v >= 0.0) && f.iter().any(|&v| v <= 0.0)
+    }
 }
 
 /// A triangle mesh in object space. Texture coordinates are already in Mitsuba's convention

@@ -10,7 +10,7 @@ use std::path::Path;
 /// A 1-based line and column (columns count characters, a tab is one column), and which file
 /// of the scene it is in: 0 is the scene file, others are `<include>`d files (see
 /// `include::Sources`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub(crate) struct Pos {
     pub line: u32,
     pub column: u32,

@@ -152,6 +152,43 @@ pub(crate) fn color_param_within(
     default: Vec3,
     bound: Bound,
 ) -> Result<ColorParam> {
+    texture_param(ctx, props, names, default, bound, false)
+}
+
+/// A `rawconstant` texture `t` named by `e`, read as a parameter: its value, put in place (no
+/// colour conversion and no range check, as Mitsuba's); a float parameter (`float`) needs one
+/// channel (Mitsuba: "eval_1() is not defined for 3D-valued textures"). None for other
+/// textures.
+fn raw_constant(
+    ctx: &Ctx,
+    t: TextureId,
+    e: &Element,
+    float: bool,
+    owner: &str,
+) -> Result<Option<Vec3>> {
+    match ctx.textures[t].kind {
+        TextureKind::RawConstant { channels: 3, .. } if float => Err(ctx.err(
+            e.pos,
+            format!(
+                "{} of {owner} is a float parameter, but this rawconstant texture has three channels (Mitsuba: eval_1() is not defined for 3D-valued textures)",
+                e.attr_value("name").map_or("the parameter".to_string(), |n| format!("'{n}'"))
+            ),
+        )),
+        TextureKind::RawConstant { value, .. } => Ok(Some(value)),
+        _ => Ok(None),
+    }
+}
+
+/// [`color_param_within`], or a float parameter (`float`: a rawconstant texture must have one
+/// channel).
+fn texture_param(
+    ctx: &mut Ctx,
+    props: &mut Props,
+    names: &[&str],
+    default: Vec3,
+    bound: Bound,
+    float: bool,
+) -> Result<ColorParam> {
     let Some(e) = props.take_any(names) else {
         return Ok(ColorParam::Constant(default));
     };
@@ -161,6 +198,9 @@ pub(crate) fn color_param_within(
         _ => None,
     };
     if let Some(t) = texture {
+        if let Some(value) = raw_constant(ctx, t, e, float, &props.owner)? {
+            return Ok(ColorParam::Constant(value));
+        }
         if let Some(uses) = ctx.texture_uses.last_mut() {
             uses.push((t, false));
         }
@@ -192,7 +232,7 @@ pub(crate) fn color_param_within(
     Ok(ColorParam::Constant(c))
 }
 
-pub(crate) fn texture_ref(ctx: &Ctx, e: &Element) -> Result<TextureId> {
+pub(crate) fn texture_ref(ctx: &mut Ctx, e: &Element) -> Result<TextureId> {
     match ctx.lookup(e)? {
         IdTarget::Texture(t) => Ok(t),
         _ => Err(ctx.err(
@@ -218,8 +258,9 @@ fn normal_map_param(ctx: &mut Ctx, props: &mut Props, names: &[&str]) -> Result<
     let Some(e) = props.take_any(names) else {
         return Ok(None);
     };
+    // An inline texture with an id may be used elsewhere too (by a `<ref>`): shared.
     let (index, shared) = match e.tag.as_str() {
-        "texture" => (parse_texture(ctx, e)?, false),
+        "texture" => (parse_texture(ctx, e)?, e.attr("id").is_some()),
         "ref" => (texture_ref(ctx, e)?, true),
         _ => {
             return Err(ctx.err(
@@ -278,11 +319,27 @@ fn nested_bsdfs(ctx: &mut Ctx, props: &mut Props, elem: &Element, max: usize) ->
         .collect()
 }
 
-/// One nested `<bsdf>` or `<ref>` to a bsdf.
+/// A copy of the scene's bsdf `index` to nest in another; the textures it uses count as the
+/// outer bsdf's (for the `mesh_attribute` checks).
+fn nested_copy(ctx: &mut Ctx, index: BsdfId) -> Bsdf {
+    if let Some(uses) = ctx.bsdf_textures.get(&index).cloned() {
+        if let Some(outer) = ctx.texture_uses.last_mut() {
+            outer.extend(uses);
+        }
+    }
+    ctx.bsdfs[index].clone()
+}
+
+/// One nested `<bsdf>` or `<ref>` to a bsdf. A nested bsdf with an id is added to the scene's
+/// table and registered (Mitsuba registers ids at any depth: shapes may `<ref>` it).
 fn nested_bsdf_value(ctx: &mut Ctx, first: &Element) -> Result<Bsdf> {
+    if first.tag != "ref" && first.attr("id").is_some() {
+        let index = parse_bsdf(ctx, first)?;
+        return Ok(nested_copy(ctx, index));
+    }
     if first.tag == "ref" {
         match ctx.lookup(first)? {
-            IdTarget::Bsdf(b) => Ok(ctx.bsdfs[b].clone()),
+            IdTarget::Bsdf(b) => Ok(nested_copy(ctx, b)),
             _ => Err(ctx.err(
                 first.pos,
                 format!(
@@ -350,7 +407,7 @@ fn float_param(
     default: f32,
     bound: Bound,
 ) -> Result<ColorParam> {
-    let p = color_param_within(ctx, props, names, Vec3::splat(default), bound)?;
+    let p = texture_param(ctx, props, names, Vec3::splat(default), bound, true)?;
     if let (ColorParam::Texture(t), Some(uses)) = (&p, ctx.texture_uses.last_mut()) {
         if let Some(last) = uses.iter_mut().rev().find(|(u, _)| u == t) {
             last.1 = true;
@@ -365,11 +422,15 @@ fn float_texture(ctx: &mut Ctx, props: &mut Props, name: &str, default: f32) -> 
     let Some(e) = props.take_any(&[name]) else {
         return Ok(ColorParam::Constant(Vec3::splat(default)));
     };
-    match e.tag.as_str() {
-        "texture" => Ok(ColorParam::Texture(parse_texture(ctx, e)?)),
-        "ref" => texture_ref(ctx, e).map(ColorParam::Texture),
-        _ => Ok(ColorParam::Constant(props.color_of(ctx, e)?)),
-    }
+    let t = match e.tag.as_str() {
+        "texture" => parse_texture(ctx, e)?,
+        "ref" => texture_ref(ctx, e)?,
+        _ => return Ok(ColorParam::Constant(props.color_of(ctx, e)?)),
+    };
+    Ok(match raw_constant(ctx, t, e, true, &props.owner)? {
+        Some(value) => ColorParam::Constant(value),
+        None => ColorParam::Texture(t),
+    })
 }
 
 /// Whether a lobe parameter is switched on, as Mitsuba's `get_flag`: given, and not a constant 0.
@@ -936,6 +997,10 @@ pub(crate) fn parse_bsdf_value(ctx: &mut Ctx, elem: &Element) -> Result<Bsdf> {
 
 /// Parses a `<bsdf>`, adds it to the scene and registers its id.
 pub(crate) fn parse_bsdf(ctx: &mut Ctx, elem: &Element) -> Result<BsdfId> {
+    if let Some(IdTarget::Bsdf(b)) = ctx.already(elem) {
+        // A `<ref>` made us parse it before its place in the document.
+        return Ok(b);
+    }
     ctx.texture_uses.push(Vec::new());
     let bsdf = parse_bsdf_value(ctx, elem);
     let uses = ctx.texture_uses.pop().unwrap_or_default();

@@ -182,6 +182,17 @@ fn parse_spot(ctx: &mut Ctx, props: &mut Props, elem: &Element) -> Result<Light>
             }
         },
     };
+    if let Some(t) = texture {
+        if matches!(
+            ctx.textures[t].kind,
+            crate::scene::TextureKind::RawConstant { .. }
+        ) {
+            return Err(ctx.err(
+                elem.pos,
+                "a spot light's texture must be spatially varying (bitmap, checkerboard), not a rawconstant; a constant belongs in its intensity",
+            ));
+        }
+    }
     let intensity = props.color(ctx, &["intensity"], Vec3::ONE)?;
     let (cutoff, cutoff_pos) = props
         .opt_float_pos(ctx, &["cutoff_angle"])?

@@ -41,6 +41,7 @@ pub(crate) fn parse_scene(
     };
     let mut ctx = Ctx::new(expanded.sources, dialect, limits);
     ctx.warnings = expanded.warnings;
+    ctx.declare_ids(&root)?;
     let mut camera_parts = None;
     let mut integrator = None;
     let mut shapes = Vec::new();
@@ -48,7 +49,8 @@ pub(crate) fn parse_scene(
     let mut has_background = false;
     for child in &root.children {
         match child.tag.as_str() {
-            "alias" => ctx.alias(child)?,
+            // Declared with the ids, before parsing (Ctx::declare_ids).
+            "alias" => {}
             "sensor" => {
                 if camera_parts.is_some() {
                     ctx.warn(
@@ -79,10 +81,7 @@ pub(crate) fn parse_scene(
             "shape" => shapes.extend(shape::parse_shape(&mut ctx, child)?),
             "emitter" if child.attr_value("type") == Some("area") && child.attr("id").is_some() => {
                 // Declared here, attached to shapes by `<ref>` (as Mitsuba allows).
-                let emission = shape::parse_area_emitter(&mut ctx, child)?;
-                ctx.area_emitters.push(emission);
-                let index = ctx.area_emitters.len() - 1;
-                ctx.register_id(child, IdTarget::AreaEmitter(index))?;
+                shape::define_area_emitter(&mut ctx, child)?;
             }
             "emitter" => {
                 let light = emitter::parse_emitter(&mut ctx, child)?;

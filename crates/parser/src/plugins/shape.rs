@@ -1,5 +1,5 @@
 //! Shape plugins: `obj`, `ply`, `serialized`, `sphere`, `rectangle`, `cube`, `disk`, `cylinder`,
-//! `shapegroup`, `instance`.
+//! `sdfgrid`, `shapegroup`, `instance`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -24,6 +24,7 @@ pub(crate) const KNOWN: &[&str] = &[
     "cube",
     "disk",
     "cylinder",
+    "sdfgrid",
     "shapegroup",
     "instance",
 ];
@@ -112,6 +113,10 @@ fn cube_mesh() -> TriangleMesh {
 /// | --- | --- | --- |
 /// | nested `<shape>`s | shape | none |
 fn parse_shapegroup(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
+    if ctx.already(elem).is_some() {
+        // A `<ref>` further up made us parse it already.
+        return Ok(Vec::new());
+    }
     let Some(id) = elem.attr("id").map(|a| a.value.clone()) else {
         return Err(ctx.err(elem.pos, "a shapegroup needs an 'id' to be instanced"));
     };
@@ -325,12 +330,140 @@ fn world_problem(geometry: &Geometry, to_world: Mat4) -> Option<String> {
             let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
             ends + *radius as f64 * axes.iter().fold(0.0f64, |a, &b| a.max(b))
         }
+        Geometry::SdfGrid(_) => farthest(
+            &mut (0..8)
+                .map(|c| glam::DVec3::new((c & 1) as f64, (c >> 1 & 1) as f64, (c >> 2) as f64)),
+        ),
     };
     (reach.is_nan() || reach > WORLD_EXTENT).then(|| {
         format!(
             "moved to world space by its to_world, the geometry reaches {reach:.3e}, beyond the {WORLD_EXTENT:e} torrey supports"
         )
     })
+}
+
+/// Mitsuba's `sdfgrid`: a `.vol` grid of one channel (read by [`crate::vol`]) whose samples
+/// span [0, 1]^3 in object space, the file's own bounding box ignored, as Mitsuba 3.9.1 does.
+///
+/// | name | type | default |
+/// | --- | --- | --- |
+/// | `filename` | string | required: a `.vol` file (version 3, float32, one channel, at least 2 samples along each axis, finite values, at least one voxel whose corners are not all of one sign) |
+/// | `normals` | string | `smooth` (Hansson-Söderlund et al.'s blend of the gradients of the voxels around the hit, continuous across voxels) or `analytic` (the gradient of the trilinear interpolant in the hit's voxel) |
+/// | `to_world` | transform | identity |
+///
+/// Not parameters of Mitsuba's `sdfgrid`: `flip_normals` (Mitsuba reports it unreferenced;
+/// here it is warned about and ignored), an area emitter (an error: Mitsuba cannot sample one
+/// on it), uvs (hits have uv 0).
+fn sdf_grid(
+    ctx: &mut Ctx,
+    props: &mut Props,
+    elem: &Element,
+    to_world: Mat4,
+) -> Result<std::sync::Arc<crate::scene::SdfGrid>> {
+    let Some(file) = props.string(ctx, &["filename"])? else {
+        return Err(ctx.err(
+            elem.pos,
+            "missing required parameter 'filename' of shape 'sdfgrid' (a .vol file)",
+        ));
+    };
+    let smooth_normals = match props.string(ctx, &["normals"])? {
+        None => true,
+        Some(a) => match a.value.as_str() {
+            "smooth" => true,
+            "analytic" => false,
+            v => {
+                return Err(ctx.err(
+                    a.value_pos,
+                    format!(
+                    "unknown normals mode '{v}' of shape 'sdfgrid' (expected smooth or analytic)"
+                ),
+                ))
+            }
+        },
+    };
+    let path = input_file(ctx, file, "sdfgrid")?;
+    let in_file = |ctx: &Ctx, m: String| {
+        ctx.err(
+            file.value_pos,
+            format!("in sdfgrid file '{}': {m}", file.value),
+        )
+    };
+    let budget = ctx.limits.volume_values.saturating_sub(ctx.volume_values);
+    let grid = crate::vol::read_vol_file(&path, budget).map_err(|e| in_file(ctx, e.0))?;
+    if grid.channels != 1 {
+        return Err(in_file(
+            ctx,
+            format!(
+                "it has {} channels; an sdfgrid needs 1 (as in Mitsuba)",
+                grid.channels
+            ),
+        ));
+    }
+    if grid.size.iter().any(|&s| s < 2) {
+        let [x, y, z] = grid.size;
+        return Err(in_file(
+            ctx,
+            format!("it has {x} x {y} x {z} samples; an sdfgrid needs at least 2 along each axis"),
+        ));
+    }
+    if grid.trailing_bytes > 0 {
+        ctx.warn(
+            file.value_pos,
+            format!(
+                "sdfgrid file '{}' has {} bytes after its last value; ignored (as Mitsuba does)",
+                file.value, grid.trailing_bytes
+            ),
+        );
+    }
+    let mut sdf = crate::scene::SdfGrid {
+        size: grid.size,
+        values: grid.data,
+        smooth_normals,
+        surface_voxels: 0,
+    };
+    let [nx, ny, nz] = sdf.size;
+    let mut surface_voxels = 0u64;
+    for k in 0..nz - 1 {
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                surface_voxels += sdf.voxel_has_surface(i, j, k) as u64;
+            }
+        }
+    }
+    if surface_voxels == 0 {
+        return Err(in_file(
+            ctx,
+            "no voxel has corner samples of both signs: the grid has no surface (Mitsuba: \"SDFGrid should at least have one non-empty voxel\")"
+                .into(),
+        ));
+    }
+    // Each voxel with surface is a primitive of the BVH, as a triangle is.
+    if ctx.triangles.saturating_add(surface_voxels) > ctx.limits.mesh_triangles {
+        return Err(in_file(
+            ctx,
+            format!(
+            "its {surface_voxels} voxels with surface and the {} triangles before it make more primitives than the limit of {} (raise with --limit mesh_triangles=N)",
+            ctx.triangles, ctx.limits.mesh_triangles
+        ),
+        ));
+    }
+    ctx.triangles += surface_voxels;
+    ctx.volume_values += sdf.values.len() as u64;
+    sdf.surface_voxels = surface_voxels;
+    // Mitsuba 3.9.1 warns about rotations in an sdfgrid's to_world; its voxels' boxes then
+    // ignore the rotation and it misses hits.
+    let m = Mat3::from_mat4(to_world);
+    let scale = m.to_cols_array().iter().fold(0.0f32, |a, v| a.max(v.abs()));
+    let off_diagonal = [
+        m.x_axis.y, m.x_axis.z, m.y_axis.x, m.y_axis.z, m.z_axis.x, m.z_axis.y,
+    ];
+    if off_diagonal.iter().any(|v| v.abs() > 1e-6 * scale) {
+        ctx.warn(
+            elem.pos,
+            "the to_world of shape 'sdfgrid' rotates or shears it: torrey renders that, but Mitsuba 3.9.1 warns and can miss hits (its voxel boxes ignore the rotation); place the grid with a shapegroup and an instance to get the same picture from both",
+        );
+    }
+    Ok(std::sync::Arc::new(sdf))
 }
 
 /// An `<emitter type="area">` (inside a shape, or with an id outside one): its radiance, 1 with a
@@ -360,6 +493,20 @@ pub(crate) fn parse_area_emitter(
     };
     ep.finish(ctx);
     Ok(emission)
+}
+
+/// An `area` emitter declared with an id outside shapes (attached to the shapes that `<ref>` it,
+/// as Mitsuba allows): added to [`Ctx::area_emitters`] once, where it stands or when a `<ref>`
+/// first names it.
+pub(crate) fn define_area_emitter(ctx: &mut Ctx, elem: &Element) -> Result<IdTarget> {
+    if let Some(t) = ctx.already(elem) {
+        return Ok(t);
+    }
+    let emission = parse_area_emitter(ctx, elem)?;
+    ctx.area_emitters.push(emission);
+    let target = IdTarget::AreaEmitter(ctx.area_emitters.len() - 1);
+    ctx.register_id(elem, target)?;
+    Ok(target)
 }
 
 /// Every `mesh_attribute` texture that bsdf `bsdf` uses must name an attribute `geometry` has,
@@ -449,7 +596,8 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
     let to_world = props
         .transform(ctx, &["to_world"], false)?
         .unwrap_or(Mat4::IDENTITY);
-    let flip_normals = props.boolean(ctx, &["flip_normals"], false)?;
+    // Mitsuba's sdfgrid has no flip_normals: left unread, it is warned about as unused.
+    let flip_normals = ty != "sdfgrid" && props.boolean(ctx, &["flip_normals"], false)?;
     let geometry = match ty {
         "sphere" => {
             let center = props.point(ctx, &["center"])?.unwrap_or(Vec3::ZERO);
@@ -491,6 +639,7 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
             props.boolean(ctx, &["face_normals"], false)?;
             Geometry::Mesh(cube_mesh())
         }
+        "sdfgrid" => Geometry::SdfGrid(sdf_grid(ctx, &mut props, elem, to_world)?),
         _ => Geometry::Mesh(mesh(ctx, &mut props, elem, ty)?),
     };
 
@@ -564,6 +713,12 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         Some((radiance, texture)) => (Some(radiance), texture),
         None => (None, None),
     };
+    if emitter.is_some() && ty == "sdfgrid" {
+        return Err(ctx.err(
+            emitters[0].pos,
+            "shape 'sdfgrid' cannot be an area emitter (Mitsuba cannot sample points on it either)",
+        ));
+    }
     // Mitsuba gives an emitting shape without a bsdf a black diffuse one (it does not reflect);
     // other shapes get diffuse 0.5 (`bsdf: None`). The torrey course keeps 0.5 for both.
     let bsdf = match bsdf {

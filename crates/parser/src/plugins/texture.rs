@@ -1,4 +1,4 @@
-//! Texture plugins: `bitmap` and `checkerboard`.
+//! Texture plugins: `bitmap`, `checkerboard`, `mesh_attribute` and `rawconstant`.
 
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
@@ -30,7 +30,7 @@ fn uv_transform(ctx: &Ctx, props: &mut Props) -> Result<Affine2> {
 ///
 /// | name | type | default |
 /// | --- | --- | --- |
-/// | `filename` | string | required; relative to the scene file's folder |
+/// | `filename` | string | required; found with the scene file's resolver (`<path>` folders, then its folder) |
 /// | `uscale`, `vscale` | float | 1 |
 /// | `uvscale` | float | 1 (sets both scales) |
 /// | `uoffset`, `voffset` | float | 0 |
@@ -112,8 +112,44 @@ pub(crate) fn bitmap_element(ctx: &mut Ctx, elem: &Element) -> Result<Bitmap> {
     Ok(b)
 }
 
+/// `rawconstant`'s `value`: a `<float>` (one channel) or a `<vector>`/`<point>` (three), as
+/// Mitsuba's properties type it; any other tag is an error, as in Mitsuba.
+fn raw_constant(ctx: &Ctx, props: &mut Props, elem: &Element) -> Result<TextureKind> {
+    let Some(e) = props.take("value") else {
+        return Err(ctx.err(
+            elem.pos,
+            "missing required parameter 'value' of texture 'rawconstant' (a <float> or a 3D <vector>)",
+        ));
+    };
+    match e.tag.as_str() {
+        "float" => {
+            let a = e.attr("value").ok_or_else(|| {
+                ctx.err(e.pos, "missing required attribute 'value' on <float name=\"value\">")
+            })?;
+            let v = crate::values::float(&a.value).map_err(|m| {
+                ctx.err(
+                    a.value_pos,
+                    format!("{m} in parameter 'value' of texture 'rawconstant'"),
+                )
+            })?;
+            Ok(TextureKind::RawConstant {
+                value: Vec3::splat(v),
+                channels: 1,
+            })
+        }
+        "vector" | "point" => Ok(TextureKind::RawConstant {
+            value: props.xyz(ctx, e, 0.0)?,
+            channels: 3,
+        }),
+        t => Err(ctx.err(
+            e.pos,
+            format!("parameter 'value' of texture 'rawconstant' must be a <float> or a 3D <vector> (as in Mitsuba), found <{t}>"),
+        )),
+    }
+}
+
 /// The texture types this parser reads.
-pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard", "mesh_attribute"];
+pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"];
 
 /// Parses a `<texture>` (top level or inline), adds it to the scene and registers its id.
 ///
@@ -131,7 +167,17 @@ pub(crate) const KNOWN: &[&str] = &["bitmap", "checkerboard", "mesh_attribute"];
 /// | --- | --- | --- |
 /// | `name` | string | required; starts with `vertex_` or `face_` |
 /// | `scale` | float | 1 |
+///
+/// `rawconstant` (Mitsuba 3.9.1's: no colour conversion, no range check):
+///
+/// | name | type | default |
+/// | --- | --- | --- |
+/// | `value` | `<float>` (one channel, read as grey) or `<vector>`/`<point>` (three; not usable as a float parameter) | required |
 pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> {
+    if let Some(IdTarget::Texture(t)) = ctx.already(elem) {
+        // A `<ref>` made us parse it before its place in the document.
+        return Ok(t);
+    }
     let ty = plugin_type(ctx, elem)?;
     if !KNOWN.contains(&ty) {
         return Err(unknown_type(ctx, elem, "texture", KNOWN));
@@ -161,6 +207,8 @@ pub(crate) fn parse_texture(ctx: &mut Ctx, elem: &Element) -> Result<TextureId> 
             scale: props.float(ctx, &["scale"], 1.0)?,
             location: ctx.location(elem.pos),
         }
+    } else if ty == "rawconstant" {
+        raw_constant(ctx, &mut props, elem)?
     } else {
         TextureKind::Checkerboard {
             color0: props.color(ctx, &["color0"], Vec3::splat(0.4))?,

@@ -157,7 +157,7 @@ impl Embree {
                     prims[1].push(i);
                 }
                 // The bench scenes have none; Embree's user geometry would be needed for them.
-                PrimGeom::Disk { .. } | PrimGeom::Cylinder { .. } => {
+                PrimGeom::Disk { .. } | PrimGeom::Cylinder { .. } | PrimGeom::SdfVoxel { .. } => {
                     panic!("the Embree comparison handles triangles and spheres only")
                 }
             }

@@ -5,6 +5,7 @@ use super::leaves::Leaves;
 use super::nodes4::Nodes4;
 use super::traversal::{ChildRef, EMPTY};
 use super::{Layout, PrimGeom};
+use crate::shapes::sdfgrid::SdfVoxel;
 use glam::Vec3A;
 use obvhs::{aabb::Aabb, bvh2::Bvh2, BvhBuildParams};
 use std::time::Duration;
@@ -20,6 +21,7 @@ impl PrimGeom {
             PrimGeom::Disk { to_object } | PrimGeom::Cylinder { to_object } => {
                 to_object.is_finite() && to_object.inverse_affine().is_finite()
             }
+            PrimGeom::SdfVoxel { min, max, .. } => min.is_finite() && max.is_finite(),
         };
         coordinates && {
             let b = self.aabb();
@@ -63,6 +65,7 @@ impl PrimGeom {
                 }
                 b
             }
+            PrimGeom::SdfVoxel { min, max, .. } => Aabb { min, max },
         }
     }
 }
@@ -110,6 +113,7 @@ fn wide_bounds<const W: usize>(bvh2: &Bvh2, children: &[usize]) -> [[f32; W]; 6]
 pub(crate) struct WideBuilder<'a> {
     bvh2: &'a Bvh2,
     geoms: &'a [PrimGeom],
+    sdf_voxels: &'a [SdfVoxel],
     leaves: Leaves,
     depth: usize,
 }
@@ -137,8 +141,13 @@ impl WideBuilder<'_> {
         for (lane, &c) in children.iter().enumerate() {
             let node = &self.bvh2.nodes[c];
             let child = if node.is_leaf() {
-                self.leaves
-                    .add(self.bvh2, node.first_index, node.prim_count, self.geoms)
+                self.leaves.add(
+                    self.bvh2,
+                    node.first_index,
+                    node.prim_count,
+                    self.geoms,
+                    self.sdf_voxels,
+                )
             } else {
                 self.add_inner(nodes, c, level + 1, make, set_child)
             };
@@ -155,7 +164,11 @@ const LARGE_SCENE: usize = 100_000;
 /// Builds the nodes and leaves over `geoms`, `width` children per node (8 only on CPUs with AVX2
 /// and FMA, 16 only with AVX-512, which the caller checks; 4 otherwise): the layout, the leaves,
 /// the root reference and the depth of the inner nodes below the root.
-pub(super) fn build(geoms: &[PrimGeom], width: usize) -> (Layout, Leaves, ChildRef, usize) {
+pub(super) fn build(
+    geoms: &[PrimGeom],
+    sdf_voxels: &[SdfVoxel],
+    width: usize,
+) -> (Layout, Leaves, ChildRef, usize) {
     let mut leaves = Leaves::new();
     let empty_layout = || Layout::Four(Nodes4::empty());
     if geoms.is_empty() {
@@ -178,12 +191,13 @@ pub(super) fn build(geoms: &[PrimGeom], width: usize) -> (Layout, Leaves, ChildR
     let bvh2 = obvhs::bvh2::builder::build_bvh2(&aabbs, params, &mut Duration::default());
     let root = &bvh2.nodes[0];
     if root.is_leaf() {
-        let root = leaves.add(&bvh2, root.first_index, root.prim_count, geoms);
+        let root = leaves.add(&bvh2, root.first_index, root.prim_count, geoms, sdf_voxels);
         return (empty_layout(), leaves, root, 0);
     }
     let mut builder = WideBuilder {
         bvh2: &bvh2,
         geoms,
+        sdf_voxels,
         leaves,
         depth: 0,
     };

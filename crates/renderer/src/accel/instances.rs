@@ -30,12 +30,23 @@ impl GroupAccel {
     /// The BVH over `geoms` (in the group's space), whose records start at `first_prim`; None
     /// for a group without primitives (nothing of it can be hit).
     pub fn build(geoms: &[PrimGeom], first_prim: u32, width: super::BvhWidth) -> Option<Self> {
+        Self::build_with(geoms, &[], first_prim, width)
+    }
+
+    /// [`GroupAccel::build`] with the table of the `sdfgrid` voxels among `geoms`
+    /// ([`Accel::build_with`]).
+    pub fn build_with(
+        geoms: &[PrimGeom],
+        sdf_voxels: &[crate::shapes::sdfgrid::SdfVoxel],
+        first_prim: u32,
+        width: super::BvhWidth,
+    ) -> Option<Self> {
         let bounds = geoms
             .iter()
             .map(PrimGeom::aabb)
             .reduce(|a, b| a.union(&b))?;
         Some(Self {
-            accel: Accel::build(geoms, width),
+            accel: Accel::build_with(geoms, sdf_voxels, width),
             first_prim,
             bounds,
         })

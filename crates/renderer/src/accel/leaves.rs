@@ -1,5 +1,5 @@
-//! The leaves of a BVH, whatever its node width: blocks of four triangles, spheres, disks and
-//! cylinders, and the records of leaves that hold anything but triangles.
+//! The leaves of a BVH, whatever its node width: blocks of four triangles, spheres, disks,
+//! cylinders and `sdfgrid` voxels, and the records of leaves that hold anything but triangles.
 
 use super::traversal::{reciprocal, ChildRef, LEAF, LEAF_COUNT_SHIFT, LEAF_INDEX_MASK};
 use super::triangle4::{Ray4, Triangle4};
@@ -8,6 +8,7 @@ use crate::ray::Ray;
 use crate::shapes::cylinder::intersect_cylinder;
 use crate::shapes::disk::intersect_disk;
 use crate::shapes::object_rows::ObjectRows;
+use crate::shapes::sdfgrid::{intersect_sdf_voxel, SdfVoxel};
 use crate::shapes::sphere::intersect_sphere;
 use glam::Vec3A;
 use obvhs::bvh2::Bvh2;
@@ -21,6 +22,15 @@ struct Leaf {
     sphere_count: u32,
     first_quadric: u32,
     quadric_count: u32,
+    first_sdf: u32,
+    sdf_count: u32,
+}
+
+/// An `sdfgrid` voxel in a leaf: its samples and placement, and its primitive index.
+#[derive(Clone, Copy, Debug)]
+struct SdfRef {
+    voxel: SdfVoxel,
+    prim: u32,
 }
 
 /// A disk or a cylinder in a leaf: its world-to-object transform and primitive index.
@@ -69,6 +79,7 @@ pub(crate) struct Leaves {
     blocks: Vec<Triangle4>,
     spheres: Vec<SphereRef>,
     quadrics: Vec<QuadricRef>,
+    sdf: Vec<SdfRef>,
 }
 
 impl Leaves {
@@ -82,10 +93,13 @@ impl Leaves {
                 sphere_count: 0,
                 first_quadric: 0,
                 quadric_count: 0,
+                first_sdf: 0,
+                sdf_count: 0,
             }],
             blocks: Vec::new(),
             spheres: Vec::new(),
             quadrics: Vec::new(),
+            sdf: Vec::new(),
         }
     }
 
@@ -99,11 +113,13 @@ impl Leaves {
         first: u32,
         count: u32,
         geoms: &[PrimGeom],
+        sdf_voxels: &[SdfVoxel],
     ) -> ChildRef {
         let prims = &bvh2.primitive_indices[first as usize..(first + count) as usize];
         let mut tris = Vec::new();
         let first_sphere = self.spheres.len() as u32;
         let first_quadric = self.quadrics.len() as u32;
+        let first_sdf = self.sdf.len() as u32;
         for &prim in prims {
             match geoms[prim as usize] {
                 PrimGeom::Triangle { p0, p1, p2 } => tris.push((p0, p1, p2, prim)),
@@ -122,6 +138,11 @@ impl Leaves {
                     cylinder: true,
                     prim,
                 }),
+                PrimGeom::SdfVoxel { index, .. } => self.sdf.push(SdfRef {
+                    // The table the BVH is built with holds every voxel its primitives name.
+                    voxel: sdf_voxels[index as usize],
+                    prim,
+                }),
             }
         }
         let first_block = self.blocks.len() as u32;
@@ -129,8 +150,10 @@ impl Leaves {
         let block_count = self.blocks.len() as u32 - first_block;
         let sphere_count = self.spheres.len() as u32 - first_sphere;
         let quadric_count = self.quadrics.len() as u32 - first_quadric;
+        let sdf_count = self.sdf.len() as u32 - first_sdf;
         if sphere_count == 0
             && quadric_count == 0
+            && sdf_count == 0
             && (1..16).contains(&block_count)
             && first_block <= LEAF_INDEX_MASK
         {
@@ -143,6 +166,8 @@ impl Leaves {
             sphere_count: self.spheres.len() as u32 - first_sphere,
             first_quadric,
             quadric_count,
+            first_sdf,
+            sdf_count,
         });
         LEAF | (self.leaves.len() as u32 - 1)
     }
@@ -208,6 +233,18 @@ impl Leaves {
                 best = Some(ClosestHit {
                     t,
                     prim: q.prim,
+                    b1: 0.0,
+                    b2: 0.0,
+                });
+            }
+        }
+        let sdf = leaf.first_sdf as usize..(leaf.first_sdf + leaf.sdf_count) as usize;
+        for v in &self.sdf[sdf] {
+            if let Some(t) = intersect_sdf_voxel(ray, &v.voxel, tmax) {
+                tmax = t;
+                best = Some(ClosestHit {
+                    t,
+                    prim: v.prim,
                     b1: 0.0,
                     b2: 0.0,
                 });

@@ -166,6 +166,16 @@ impl Accel {
     /// empty scene gives an accelerator that every ray misses. Primitives with non-finite bounds
     /// must have been removed by the caller (obvhs's builder cannot order them).
     pub fn build(geoms: &[PrimGeom], width: BvhWidth) -> Self {
+        Self::build_with(geoms, &[], width)
+    }
+
+    /// [`Accel::build`] over primitives that include `sdfgrid` voxels: each
+    /// [`PrimGeom::SdfVoxel`]'s `index` is a position in `sdf_voxels`.
+    pub fn build_with(
+        geoms: &[PrimGeom],
+        sdf_voxels: &[crate::shapes::sdfgrid::SdfVoxel],
+        width: BvhWidth,
+    ) -> Self {
         let simd = Simd::detect();
         let widest = match simd {
             Simd::Portable => 4,
@@ -179,7 +189,7 @@ impl Accel {
             BvhWidth::Sixteen => 16,
         }
         .min(widest);
-        let (layout, leaves, root, depth) = build::build(geoms, width);
+        let (layout, leaves, root, depth) = build::build(geoms, sdf_voxels, width);
         Self {
             // A node pushes at most all but one of its children, at each level below the root.
             stack_needed: (layout.width() - 1) * depth + 1,

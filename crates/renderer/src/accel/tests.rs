@@ -13,6 +13,7 @@ fn intersect_one(g: &PrimGeom, ray: &Ray, tmax: f32) -> Option<f32> {
         PrimGeom::Sphere { center, radius } => intersect_sphere(ray, center, radius, 0.0, tmax),
         PrimGeom::Disk { to_object } => intersect_disk(ray, &to_object, tmax),
         PrimGeom::Cylinder { to_object } => intersect_cylinder(ray, &to_object, tmax),
+        PrimGeom::SdfVoxel { .. } => unreachable!("these tests build no sdfgrid voxels"),
     }
 }
 

@@ -118,7 +118,7 @@ pub struct LightConnection {
 #[inline(always)]
 pub fn hit_emission(scene: &RenderScene, hit: &SurfaceHit, dir: Vec3A) -> Option<(Vec3A, usize)> {
     let li = scene.shapes[hit.shape as usize].area_light? as usize;
-    if !(hit.ng.dot(-dir) > 0.0) {
+    if hit.ng.dot(-dir).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     match &scene.lights[li] {

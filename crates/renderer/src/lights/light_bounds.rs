@@ -43,7 +43,7 @@ impl DirectionCone {
         }
         let axis = self.w.cross(other.w);
         let len = axis.length();
-        if !(len > 1e-12) {
+        if len.partial_cmp(&1e-12) != Some(std::cmp::Ordering::Greater) {
             return DirectionCone::SPHERE;
         }
         // Rotate a's axis towards b's by theta_o - theta_a (Rodrigues' formula).

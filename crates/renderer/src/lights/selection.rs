@@ -220,7 +220,7 @@ impl LightSelection {
             let ia = self.nodes[a].bounds.importance(p, n);
             let ib = self.nodes[b].bounds.importance(p, n);
             let total = ia + ib;
-            if !(total > 0.0) {
+            if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return None;
             }
             let pa = ia / total;
@@ -249,7 +249,7 @@ impl LightSelection {
             let ia = self.nodes[a].bounds.importance(p, n);
             let ib = self.nodes[b].bounds.importance(p, n);
             let total = ia + ib;
-            if !(total > 0.0) {
+            if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return 0.0;
             }
             if trail >> level & 1 == 0 {

@@ -14,6 +14,7 @@ use crate::shapes::attributes::{AttributeData, MeshAttributes};
 use crate::shapes::cylinder::Cylinder;
 use crate::shapes::disk::Disk;
 use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
+use crate::shapes::sdfgrid::{SdfGridData, SdfGridShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimInfo, Shape, ShapeKind};
 use crate::textures::{ColorSource, Texture};
@@ -78,6 +79,7 @@ impl RenderScene {
         let mut lights = Vec::new();
         let mut dropped = 0usize;
         let mut dropped_analytic = 0usize;
+        let mut dropped_sdf = 0usize;
         // Attributes are kept only when a mesh_attribute texture may read them.
         let attribute_names: Vec<&str> = scene
             .textures
@@ -204,14 +206,43 @@ impl RenderScene {
                         }
                     }
                 }
+                desc::Geometry::SdfGrid(grid) => {
+                    match SdfGridData::new(grid.clone(), shape.to_world) {
+                        Some(data) => {
+                            let voxels = data.primitives(&mut mesh.sdf_voxels, &mut mesh.sdf_cells);
+                            for geom in voxels {
+                                if let PrimGeom::SdfVoxel { index, .. } = geom {
+                                    if geom.is_finite() {
+                                        geoms.push(geom);
+                                        prims.push(PrimInfo {
+                                            ng: Vec3A::ZERO,
+                                            indices: [index, 0, 0],
+                                            shape: shape_id,
+                                        });
+                                    }
+                                }
+                            }
+                            mesh.sdf_grids.push(data);
+                            ShapeKind::SdfGrid(SdfGridShape {
+                                grid: mesh.sdf_grids.len() as u32 - 1,
+                            })
+                        }
+                        None => {
+                            dropped_sdf += 1;
+                            ShapeKind::Mesh(MeshShape::EMPTY)
+                        }
+                    }
+                }
             };
             let shape_prims = &prims[first_prim..];
             let area_light = match shape.emitter {
                 // Shapes in groups do not emit (the parser refuses them, as Mitsuba does).
+                // An sdfgrid cannot emit (the parser refuses it, as Mitsuba cannot sample it).
                 Some(radiance)
                     if radiance.max_element() > 0.0
                         && !shape_prims.is_empty()
-                        && group.is_none() =>
+                        && group.is_none()
+                        && !matches!(kind, ShapeKind::SdfGrid(_)) =>
                 {
                     let textured = shape.emitter_texture.is_some();
                     let emitter = match kind {
@@ -221,7 +252,7 @@ impl RenderScene {
                         }
                         ShapeKind::Disk(disk) => AreaEmitter::Disk(Box::new(disk)),
                         ShapeKind::Cylinder(cylinder) => AreaEmitter::Cylinder(Box::new(cylinder)),
-                        ShapeKind::Mesh(_) => {
+                        ShapeKind::Mesh(_) | ShapeKind::SdfGrid(_) => {
                             AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
                         }
                     };
@@ -245,6 +276,11 @@ impl RenderScene {
                 textured_emission: area_light.is_some() && shape.emitter_texture.is_some(),
                 flip_normals: shape.flip_normals,
             });
+        }
+        if dropped_sdf > 0 {
+            warnings.push(format!(
+                "{dropped_sdf} sdfgrid(s) with a degenerate or non-finite transform were left out"
+            ));
         }
         if dropped_analytic > 0 {
             warnings.push(format!(
@@ -363,8 +399,14 @@ impl RenderScene {
         }
 
         debug_assert!(world_geoms.iter().all(PrimGeom::is_finite));
-        let accel = Accel::build(&world_geoms, bvh_width);
-        let instances = build_instances(scene, &group_geoms, &group_first_prim, bvh_width);
+        let accel = Accel::build_with(&world_geoms, &mesh.sdf_voxels, bvh_width);
+        let instances = build_instances(
+            scene,
+            &group_geoms,
+            &group_first_prim,
+            &mesh.sdf_voxels,
+            bvh_width,
+        );
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
         let any_uv = shapes.iter().any(|s| {
             materials
@@ -414,6 +456,7 @@ fn build_instances(
     scene: &desc::Scene,
     group_geoms: &[Vec<PrimGeom>],
     group_first_prim: &[u32],
+    sdf_voxels: &[crate::shapes::sdfgrid::SdfVoxel],
     bvh_width: BvhWidth,
 ) -> Option<Box<Instances>> {
     if scene.instances.is_empty() {
@@ -430,7 +473,7 @@ fn build_instances(
         .map(|((geoms, &first), placed)| {
             debug_assert!(geoms.iter().all(PrimGeom::is_finite));
             placed
-                .then(|| GroupAccel::build(geoms, first, bvh_width))
+                .then(|| GroupAccel::build_with(geoms, sdf_voxels, first, bvh_width))
                 .flatten()
         })
         .collect();
@@ -563,6 +606,14 @@ fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Textur
         desc::TextureKind::MeshAttribute { scale, .. } => Texture::MeshAttribute {
             by_shape: Vec::new(),
             scale: *scale,
+        },
+        // Where a bsdf or an emitter reads a rawconstant, the parser put its value in place;
+        // as a texture of its own (a bump map's heights, say) it is a constant: a checkerboard
+        // of one colour (no gradient, as Mitsuba's constant).
+        desc::TextureKind::RawConstant { value, .. } => Texture::Checkerboard {
+            color0: (*value).into(),
+            color1: (*value).into(),
+            to_uv: glam::Affine2::IDENTITY,
         },
     })
 }

@@ -107,6 +107,15 @@ impl RenderScene {
             ShapeKind::Sphere(sphere) => sphere.prim_geom(),
             ShapeKind::Disk(disk) => disk.prim_geom(),
             ShapeKind::Cylinder(cylinder) => cylinder.prim_geom(),
+            ShapeKind::SdfGrid(_) => {
+                let index = info.indices[0];
+                let c = &self.mesh.sdf_cells[index as usize];
+                PrimGeom::SdfVoxel {
+                    min: c.min,
+                    max: c.max,
+                    index,
+                }
+            }
             ShapeKind::Mesh(_) => {
                 let [p0, p1, p2] = info.indices.map(|i| self.mesh.positions[i as usize]);
                 PrimGeom::Triangle { p0, p1, p2 }

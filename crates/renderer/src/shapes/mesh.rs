@@ -10,7 +10,8 @@ use glam::{Mat3, Mat4, Vec2, Vec3A};
 use torrey_light::AliasTable;
 use torrey_parser as desc;
 
-/// All triangles of the scene in world space, concatenated.
+/// All triangles of the scene in world space, concatenated; and the grids of the `sdfgrid`
+/// shapes, with the table of their voxels that hold surface (the BVH primitives).
 #[derive(Default)]
 pub struct MeshData {
     pub positions: Vec<Vec3A>,
@@ -18,6 +19,13 @@ pub struct MeshData {
     pub uvs: Vec<Vec2>,
     /// Triangles kept (degenerate ones are dropped); their indices are in [`PrimInfo`].
     pub triangle_count: usize,
+    /// Each `sdfgrid` shape's grid ([`super::sdfgrid::SdfGridShape::grid`]).
+    pub sdf_grids: Vec<super::sdfgrid::SdfGridData>,
+    /// Every voxel with surface of every grid: what the BVH tests; an `sdfgrid` primitive's
+    /// record holds its index here (`indices[0]`).
+    pub sdf_voxels: Vec<super::sdfgrid::SdfVoxel>,
+    /// The same voxels' cells and boxes.
+    pub sdf_cells: Vec<super::sdfgrid::SdfCell>,
 }
 
 impl MeshData {

@@ -11,6 +11,7 @@ pub mod instance;
 pub mod mesh;
 pub mod object_rows;
 pub mod prim_geom;
+pub mod sdfgrid;
 pub mod sphere;
 pub mod triangle;
 
@@ -22,6 +23,7 @@ use cylinder::Cylinder;
 use disk::Disk;
 use glam::{Vec2, Vec3A};
 use mesh::{MeshData, MeshShape};
+use sdfgrid::SdfGridShape;
 use sphere::Sphere;
 
 /// What a hit needs to know about a BVH primitive, one load away from the hit's primitive index:
@@ -32,7 +34,7 @@ use sphere::Sphere;
 pub struct PrimInfo {
     /// (p1 − p0) × (p2 − p0), normalised; zero for a sphere.
     pub ng: Vec3A,
-    /// Zero for a sphere.
+    /// Zero for a sphere; an `sdfgrid` voxel's index in [`MeshData::sdf_voxels`] first.
     pub indices: [u32; 3],
     pub shape: u32,
 }
@@ -66,6 +68,7 @@ pub enum ShapeKind {
     Sphere(Sphere),
     Disk(Disk),
     Cylinder(Cylinder),
+    SdfGrid(SdfGridShape),
 }
 
 /// A shape of the scene: its geometry, material, emitter and orientation.
@@ -96,6 +99,10 @@ impl Shape {
             ShapeKind::Sphere(s) => s.surface(ray, prim, hit, needs_uv),
             ShapeKind::Disk(d) => d.surface(ray, prim, hit, needs_uv),
             ShapeKind::Cylinder(c) => c.surface(ray, prim, hit, needs_uv),
+            ShapeKind::SdfGrid(g) => {
+                let index = prim.indices[0] as usize;
+                mesh.sdf_grids[g.grid as usize].surface(ray, prim, hit, mesh.sdf_cells[index].cell)
+            }
         };
         if self.flip_normals {
             sh.ng = -sh.ng;

@@ -24,4 +24,12 @@ pub enum PrimGeom {
     Cylinder {
         to_object: ObjectRows,
     },
+    /// A voxel of an `sdfgrid` with surface in it: the box of that surface and the voxel's
+    /// record in the table the BVH is built with ([`crate::accel::Accel::build_with`]), which
+    /// holds its samples and placement.
+    SdfVoxel {
+        min: Vec3A,
+        max: Vec3A,
+        index: u32,
+    },
 }
