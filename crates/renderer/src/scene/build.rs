@@ -1,27 +1,19 @@
-//! Building a [`RenderScene`] from the parser's description: each concept by its own
-//! constructor (camera, textures, materials, shapes, lights), then the BVH over every primitive.
+//! Building a [`RenderScene`] from the parser's description: each concept by its own builder
+//! (camera and textures: build_textures.rs; shapes, their primitives and area lights:
+//! build_shapes.rs; the other lights: build_lights.rs; materials: material.rs), then the BVHs
+//! over every primitive and the light selection.
 
+use super::build_lights::build_light;
+use super::build_shapes::{build_shapes, ShapeSet};
+use super::build_textures::{build_camera, build_texture};
 use super::{Material, RenderScene};
 use crate::accel::instances::{GroupAccel, Instances};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
-use crate::cameras::{Camera, OrthographicCamera, PerspectiveCamera, ThinLensCamera};
-use crate::lights::{
-    AreaEmitter, AreaLight, ConstantLight, DirectionalLight, EmissionTexture, EnvLight, Light,
-    PointLight, ProjectorLight, SpotLight, TexelDistribution, UvMap,
-};
-use crate::shapes::attributes::{AttributeData, MeshAttributes};
-use crate::shapes::cylinder::Cylinder;
-use crate::shapes::disk::Disk;
-use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
-use crate::shapes::sdfgrid::{SdfGridData, SdfGridShape};
-use crate::shapes::sphere::Sphere;
-use crate::shapes::{PrimInfo, Shape, ShapeKind};
+use crate::lights::Light;
 use crate::textures::{ColorSource, Texture};
-use glam::{Mat3, Mat4, Vec3A};
-use torrey_light::EnvMap;
+use glam::Vec3A;
 use torrey_parser as desc;
-use torrey_texture::{BitmapTexture, MipMap};
 
 /// Why a parsed scene could not be prepared for rendering (texture files that do not decode, a
 /// camera that cannot form an image, say).
@@ -72,312 +64,27 @@ impl RenderScene {
             false,
         ));
 
-        let mut mesh = MeshData::default();
-        let mut world_geoms = Vec::new();
-        let mut prims = Vec::new();
-        let mut shapes = Vec::new();
         let mut lights = Vec::new();
-        let mut dropped = 0usize;
-        let mut dropped_analytic = 0usize;
-        let mut dropped_sdf = 0usize;
-        // Attributes are kept only when a mesh_attribute texture may read them.
-        let attribute_names: Vec<&str> = scene
-            .textures
-            .iter()
-            .filter_map(|t| match &t.kind {
-                desc::TextureKind::MeshAttribute { name, .. } => Some(name.as_str()),
-                _ => None,
-            })
-            .collect();
-        let mut attributes = MeshAttributes::default();
-        // The world's shapes, then each shape group's (in the group's space): a group's
-        // primitives get their own list (its BVH's) and contiguous records in `prims` from
-        // `group_first_prim`, so that group primitive i is record group_first_prim + i.
-        let mut group_geoms = vec![Vec::new(); scene.shape_groups.len()];
-        let mut group_first_prim = vec![0u32; scene.shape_groups.len()];
-        let group_shapes = scene
-            .shape_groups
-            .iter()
-            .enumerate()
-            .flat_map(|(g, group)| group.shapes.iter().map(move |s| (Some(g), s)));
-        let all_shapes = scene.shapes.iter().map(|s| (None, s)).chain(group_shapes);
-        for (shape_index, (group, shape)) in all_shapes.enumerate() {
-            let shape_id = shape_index as u32;
-            let first_prim = prims.len();
-            let geoms: &mut Vec<PrimGeom> = match group {
-                Some(g) => {
-                    if group_geoms[g].is_empty() {
-                        group_first_prim[g] = first_prim as u32;
-                    }
-                    &mut group_geoms[g]
-                }
-                None => &mut world_geoms,
-            };
-            let kind = match &shape.geometry {
-                desc::Geometry::Mesh(m) => {
-                    let base = mesh.positions.len() as u32;
-                    let kind =
-                        MeshShape::add(&mut mesh, geoms, &mut prims, shape_id, m, shape.to_world);
-                    for a in &m.attributes {
-                        if !attribute_names.contains(&a.name.as_str()) {
-                            continue;
-                        }
-                        let per_face = a.per_face();
-                        let values = if per_face {
-                            // One tuple per kept triangle, in primitive order.
-                            m.indices
-                                .iter()
-                                .enumerate()
-                                .filter(|(_, t)| mesh.keeps_triangle(t.map(|i| i + base)))
-                                .flat_map(|(f, _)| {
-                                    a.values[f * a.channels..(f + 1) * a.channels].iter()
-                                })
-                                .copied()
-                                .collect()
-                        } else {
-                            a.values.clone()
-                        };
-                        attributes.list.push(AttributeData {
-                            name: a.name.clone(),
-                            shape: shape_id,
-                            channels: a.channels as u32,
-                            per_face,
-                            offset: if per_face { first_prim as u32 } else { base },
-                            values,
-                        });
-                    }
-                    ShapeKind::Mesh(kind)
-                }
-                desc::Geometry::Rectangle => ShapeKind::Mesh(MeshShape::add(
-                    &mut mesh,
-                    geoms,
-                    &mut prims,
-                    shape_id,
-                    &MeshShape::rectangle(),
-                    shape.to_world,
-                )),
-                desc::Geometry::Sphere { center, radius } => {
-                    let sphere = Sphere::new(*center, *radius, shape.to_world);
-                    if sphere.prim_geom().is_finite() && sphere.radius > 0.0 {
-                        geoms.push(sphere.prim_geom());
-                        prims.push(PrimInfo {
-                            ng: Vec3A::ZERO,
-                            indices: [0; 3],
-                            shape: shape_id,
-                        });
-                    } else {
-                        dropped += 1;
-                    }
-                    ShapeKind::Sphere(sphere)
-                }
-                desc::Geometry::Disk => {
-                    match Disk::new(shape.to_world).filter(|d| d.prim_geom().is_finite()) {
-                        Some(disk) => {
-                            geoms.push(disk.prim_geom());
-                            prims.push(PrimInfo {
-                                ng: Vec3A::ZERO,
-                                indices: [0; 3],
-                                shape: shape_id,
-                            });
-                            ShapeKind::Disk(disk)
-                        }
-                        None => {
-                            dropped_analytic += 1;
-                            ShapeKind::Mesh(MeshShape::EMPTY)
-                        }
-                    }
-                }
-                desc::Geometry::Cylinder { p0, p1, radius } => {
-                    match Cylinder::new(*p0, *p1, *radius, shape.to_world)
-                        .filter(|c| c.prim_geom().is_finite())
-                    {
-                        Some(cylinder) => {
-                            geoms.push(cylinder.prim_geom());
-                            prims.push(PrimInfo {
-                                ng: Vec3A::ZERO,
-                                indices: [0; 3],
-                                shape: shape_id,
-                            });
-                            ShapeKind::Cylinder(cylinder)
-                        }
-                        None => {
-                            dropped_analytic += 1;
-                            ShapeKind::Mesh(MeshShape::EMPTY)
-                        }
-                    }
-                }
-                desc::Geometry::SdfGrid(grid) => {
-                    match SdfGridData::new(grid.clone(), shape.to_world) {
-                        Some(data) => {
-                            let voxels = data.primitives(&mut mesh.sdf_voxels, &mut mesh.sdf_cells);
-                            for geom in voxels {
-                                if let PrimGeom::SdfVoxel { index, .. } = geom {
-                                    if geom.is_finite() {
-                                        geoms.push(geom);
-                                        prims.push(PrimInfo {
-                                            ng: Vec3A::ZERO,
-                                            indices: [index, 0, 0],
-                                            shape: shape_id,
-                                        });
-                                    }
-                                }
-                            }
-                            mesh.sdf_grids.push(data);
-                            ShapeKind::SdfGrid(SdfGridShape {
-                                grid: mesh.sdf_grids.len() as u32 - 1,
-                            })
-                        }
-                        None => {
-                            dropped_sdf += 1;
-                            ShapeKind::Mesh(MeshShape::EMPTY)
-                        }
-                    }
-                }
-            };
-            let shape_prims = &prims[first_prim..];
-            let area_light = match shape.emitter {
-                // Shapes in groups do not emit (the parser refuses them, as Mitsuba does).
-                // An sdfgrid cannot emit (the parser refuses it, as Mitsuba cannot sample it).
-                Some(radiance)
-                    if radiance.max_element() > 0.0
-                        && !shape_prims.is_empty()
-                        && group.is_none()
-                        && !matches!(kind, ShapeKind::SdfGrid(_)) =>
-                {
-                    let textured = shape.emitter_texture.is_some();
-                    let emitter = match kind {
-                        ShapeKind::Sphere(sphere) => AreaEmitter::Sphere(sphere),
-                        ShapeKind::Mesh(_) if textured => {
-                            AreaEmitter::Mesh(MeshEmitter::with_uvs(&mesh, shape_prims))
-                        }
-                        ShapeKind::Disk(disk) => AreaEmitter::Disk(Box::new(disk)),
-                        ShapeKind::Cylinder(cylinder) => AreaEmitter::Cylinder(Box::new(cylinder)),
-                        ShapeKind::Mesh(_) | ShapeKind::SdfGrid(_) => {
-                            AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
-                        }
-                    };
-                    let texture = shape
-                        .emitter_texture
-                        .map(|t| emission_texture(t as u32, &textures, shape, &kind, shape_prims));
-                    lights.push(Light::Area(AreaLight {
-                        radiance: radiance.into(),
-                        texture,
-                        emitter,
-                        flip_normals: shape.flip_normals,
-                    }));
-                    Some(lights.len() as u32 - 1)
-                }
-                _ => None,
-            };
-            shapes.push(Shape {
-                kind,
-                material: shape.bsdf.map_or(default_material, |b| b as u32),
-                area_light,
-                textured_emission: area_light.is_some() && shape.emitter_texture.is_some(),
-                flip_normals: shape.flip_normals,
-            });
-        }
-        if dropped_sdf > 0 {
-            warnings.push(format!(
-                "{dropped_sdf} sdfgrid(s) with a degenerate or non-finite transform were left out"
-            ));
-        }
-        if dropped_analytic > 0 {
-            warnings.push(format!(
-                "{dropped_analytic} disk(s) or cylinder(s) with a degenerate or non-finite \
-                 transform (a zero scale or radius, p0 = p1) were left out"
-            ));
-        }
-        if dropped > 0 {
-            warnings.push(format!(
-                "{dropped} sphere(s) with a zero or non-finite size or position after their \
-                 transform were left out"
-            ));
-        }
+        let ShapeSet {
+            mesh,
+            prims,
+            shapes,
+            world_geoms,
+            group_geoms,
+            group_first_prim,
+            attributes,
+        } = build_shapes(
+            scene,
+            &textures,
+            default_material,
+            &mut lights,
+            &mut warnings,
+        )?;
 
         let mut infinite_lights = Vec::new();
         for light in &scene.lights {
-            let light = match light {
-                desc::Light::Point {
-                    position,
-                    intensity,
-                } => Light::Point(PointLight {
-                    position: (*position).into(),
-                    intensity: (*intensity).into(),
-                }),
-                desc::Light::Spot {
-                    to_world,
-                    intensity,
-                    cutoff_angle,
-                    beam_width,
-                    texture,
-                } => {
-                    // The light keeps its own copy: lights are sampled without the scene's
-                    // texture list at hand.
-                    let texture = texture
-                        .map(|t| build_texture(&scene.textures[t], &mut warnings).map(Box::new))
-                        .transpose()?;
-                    Light::Spot(SpotLight::new(
-                        *to_world,
-                        (*intensity).into(),
-                        *cutoff_angle,
-                        *beam_width,
-                        texture,
-                    ))
-                }
-                desc::Light::Directional {
-                    direction,
-                    irradiance,
-                } => Light::Directional(DirectionalLight {
-                    to_light: -Vec3A::from(*direction),
-                    irradiance: (*irradiance).into(),
-                }),
-                // A black background emits nothing: keeping it would only waste light samples.
-                desc::Light::Constant { radiance } if radiance.max_element() <= 0.0 => continue,
-                desc::Light::Constant { radiance } => Light::Constant(ConstantLight {
-                    radiance: (*radiance).into(),
-                }),
-                desc::Light::Projector {
-                    to_world,
-                    irradiance,
-                    scale,
-                    fov_degrees,
-                    fov_axis,
-                } => {
-                    let (irradiance, (w, h)) = match irradiance {
-                        desc::ColorParam::Constant(c) => {
-                            (ColorSource::Constant((*c).into()), (1, 1))
-                        }
-                        desc::ColorParam::Texture(t) => (
-                            ColorSource::Texture(*t as u32),
-                            match &textures[*t] {
-                                Texture::Bitmap(b) => (b.mip().width(), b.mip().height()),
-                                _ => (1, 1),
-                            },
-                        ),
-                    };
-                    // The field of view as a perspective camera of the texture's size has it.
-                    let camera =
-                        PerspectiveCamera::new(Mat4::IDENTITY, *fov_degrees, *fov_axis, w, h);
-                    Light::Projector(ProjectorLight::new(
-                        *to_world,
-                        irradiance,
-                        *scale,
-                        camera.tan_half_x(),
-                        w as f32 / h as f32,
-                    ))
-                }
-                desc::Light::Envmap {
-                    bitmap,
-                    scale,
-                    to_world,
-                } => {
-                    let image = load_bitmap_image(bitmap, &mut warnings)?;
-                    let rotation = Mat3::from_mat4(*to_world);
-                    Light::Env(Box::new(EnvLight {
-                        map: EnvMap::new(image, *scale, rotation),
-                    }))
-                }
+            let Some(light) = build_light(light, scene, &textures, &mut warnings)? else {
+                continue;
             };
             if light.is_infinite() {
                 infinite_lights.push(lights.len() as u32);
@@ -483,139 +190,6 @@ fn build_instances(
         .map(|i| (i.to_world, i.group))
         .collect();
     Instances::build(groups, &placements).map(Box::new)
-}
-
-/// The camera of the scene for a `width` x `height` film. Its transform must be finite and
-/// invertible: a degenerate one (a zero scale, say) maps every pixel to the same non-finite ray.
-fn build_camera(c: &desc::Camera, width: u32, height: u32) -> Result<Camera, BuildError> {
-    let linear = Mat3::from_mat4(c.to_world);
-    let det = linear.determinant();
-    if !(c.to_world.is_finite() && det.is_finite() && det != 0.0) {
-        return Err(BuildError::Other(
-            "error: the camera's transform is degenerate (zero scale, or non-finite)".into(),
-        ));
-    }
-    if !(c.fov_degrees.is_finite() && c.fov_degrees > 0.0 && c.fov_degrees < 180.0) {
-        return Err(BuildError::Other(format!(
-            "error: the camera's field of view must be in (0, 180) degrees, found {}",
-            c.fov_degrees
-        )));
-    }
-    let pinhole = PerspectiveCamera::new(c.to_world, c.fov_degrees, c.fov_axis, width, height)
-        .with_clip(c.near_clip, c.far_clip);
-    Ok(match c.kind {
-        desc::CameraKind::ThinLens {
-            aperture_radius,
-            focus_distance,
-        } => Camera::ThinLens(ThinLensCamera::new(
-            pinhole,
-            aperture_radius,
-            focus_distance,
-        )),
-        desc::CameraKind::Orthographic => Camera::Orthographic(
-            OrthographicCamera::new(c.to_world, c.near_clip, width, height)
-                .with_far_clip(c.far_clip),
-        ),
-        // Mitsuba's thinlens has no principal point offset; its perspective camera does.
-        desc::CameraKind::Perspective => {
-            Camera::Perspective(pinhole.with_principal_point(c.principal_point_offset))
-        }
-    })
-}
-
-fn load_bitmap_image(
-    bitmap: &desc::Bitmap,
-    warnings: &mut Vec<String>,
-) -> Result<torrey_texture::Image, BuildError> {
-    let loaded = torrey_texture::load_image(&bitmap.filename, bitmap.raw).map_err(|e| {
-        BuildError::Texture {
-            location: bitmap.location.to_string(),
-            message: e.to_string(),
-        }
-    })?;
-    warnings.extend(loaded.warnings);
-    Ok(loaded.image)
-}
-
-/// A texture of the scene from its description, its bitmap loaded and mip-mapped.
-/// A textured area emitter's radiance: texture `index`, sampled by its luminance where Mitsuba
-/// inverts the shape's uv map (a bitmap without a uv transform on a rectangle or a sphere).
-fn emission_texture(
-    index: u32,
-    textures: &[Texture],
-    shape: &desc::Shape,
-    kind: &ShapeKind,
-    prims: &[PrimInfo],
-) -> EmissionTexture {
-    let map = match (&shape.geometry, kind) {
-        (desc::Geometry::Rectangle, _) => prims.first().map(|prim| UvMap::Rectangle {
-            origin: shape.to_world.transform_point3(glam::Vec3::ZERO).into(),
-            ax: shape.to_world.transform_vector3(glam::Vec3::X).into(),
-            ay: shape.to_world.transform_vector3(glam::Vec3::Y).into(),
-            normal: prim.ng,
-        }),
-        (_, ShapeKind::Sphere(sphere)) => Some(UvMap::Sphere {
-            center: sphere.center,
-            radius: sphere.radius,
-            to_world: sphere.to_object.transpose(),
-        }),
-        (_, ShapeKind::Disk(disk)) => Some(UvMap::Disk(Box::new(*disk))),
-        (_, ShapeKind::Cylinder(cylinder)) => Some(UvMap::Cylinder(Box::new(*cylinder))),
-        _ => None,
-    };
-    let sampling = match (&textures[index as usize], map) {
-        (Texture::Bitmap(b), Some(map)) if b.to_uv() == glam::Affine2::IDENTITY => {
-            TexelDistribution::new(b.mip().level(0)).map(|d| (d, map))
-        }
-        _ => None,
-    };
-    EmissionTexture {
-        texture: index,
-        sampling,
-    }
-}
-
-fn build_texture(t: &desc::Texture, warnings: &mut Vec<String>) -> Result<Texture, BuildError> {
-    Ok(match &t.kind {
-        desc::TextureKind::Bitmap(bitmap) => {
-            let image = load_bitmap_image(bitmap, warnings)?;
-            let wrap = match bitmap.wrap {
-                desc::WrapMode::Repeat => torrey_texture::WrapMode::Repeat,
-                desc::WrapMode::Mirror => torrey_texture::WrapMode::Mirror,
-                desc::WrapMode::Clamp => torrey_texture::WrapMode::Clamp,
-            };
-            let filter = match bitmap.filter {
-                desc::FilterType::Bilinear => torrey_texture::FilterType::Bilinear,
-                desc::FilterType::Nearest => torrey_texture::FilterType::Nearest,
-            };
-            Texture::Bitmap(BitmapTexture::new(
-                MipMap::new(image, wrap, filter),
-                bitmap.to_uv,
-            ))
-        }
-        desc::TextureKind::Checkerboard {
-            color0,
-            color1,
-            to_uv,
-        } => Texture::Checkerboard {
-            color0: (*color0).into(),
-            color1: (*color1).into(),
-            to_uv: *to_uv,
-        },
-        // Its table of shapes is filled once the shapes are built.
-        desc::TextureKind::MeshAttribute { scale, .. } => Texture::MeshAttribute {
-            by_shape: Vec::new(),
-            scale: *scale,
-        },
-        // Where a bsdf or an emitter reads a rawconstant, the parser put its value in place;
-        // as a texture of its own (a bump map's heights, say) it is a constant: a checkerboard
-        // of one colour (no gradient, as Mitsuba's constant).
-        desc::TextureKind::RawConstant { value, .. } => Texture::Checkerboard {
-            color0: (*value).into(),
-            color1: (*value).into(),
-            to_uv: glam::Affine2::IDENTITY,
-        },
-    })
 }
 
 #[cfg(test)]

@@ -3,6 +3,9 @@
 //! ([`build`]), each concept by its own constructor.
 
 mod build;
+mod build_lights;
+mod build_shapes;
+mod build_textures;
 mod material;
 mod perturb;
 
