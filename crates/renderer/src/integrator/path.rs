@@ -83,6 +83,9 @@ pub fn radiance(
     // by 1/η², which Russian roulette must not mistake for an absorbing path.
     let mut eta = 1.0f32;
     let mut depth: u32 = 0;
+    // Mitsuba's `valid_ray` (`sample_valid`): a sample counts only if the scene has a light at
+    // infinity that the camera sees, or the path met a surface that is not a `null` crossing.
+    let mut valid = sample_valid_at_start(scene);
 
     loop {
         let last_segment = depth + 1 >= max_depth;
@@ -172,6 +175,7 @@ pub fn radiance(
         }
 
         if last_segment {
+            valid |= !scene.materials[shape.material as usize].passes_through();
             break;
         }
 
@@ -204,6 +208,7 @@ pub fn radiance(
         // polynomial and square roots overlaps the shadow ray's traversal instead of waiting
         // for it (4% faster renders, the same images).
         let bsdf_sample = bsdf.sample(wo_local, u_dir, u_lobe);
+        valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
 
         // Next-event estimation.
         if let (true, Some((index, draw))) = (bsdf.flags().has_smooth(), light_draw) {
@@ -266,7 +271,25 @@ pub fn radiance(
             throughput /= q;
         }
     }
-    result
+    if valid {
+        result
+    } else {
+        Vec3A::ZERO
+    }
+}
+
+/// Mitsuba 3's `path` integrator returns a sample's radiance only if `valid_ray` holds: the scene
+/// has a light at infinity the camera sees (an environment map or a constant background, with
+/// `hide_emitters` off), or the path reached a surface whose BSDF sample there was not a `null`
+/// crossing. So emitters with a `null` BSDF seen against nothing count for nothing: the 400
+/// small `null` rectangle lamps of ../shared/scenes/mitsuba-real/stage-lights seen against the
+/// black sky (issue 34). This follows the `llvm_ad_rgb` variant the references come from: it
+/// samples the BSDF at every vertex, the last one too (torrey asks the material there,
+/// [`crate::scene::Material::passes_through`]); Mitsuba's scalar variants instead also count a
+/// path whose last vertex is an emitter.
+#[inline(always)]
+pub(super) fn sample_valid_at_start(scene: &RenderScene) -> bool {
+    !scene.hide_emitters && !scene.infinite_lights.is_empty()
 }
 
 /// The shadow ray of light sample `ls` from `p` (geometric normal `ng`): origin, direction and
@@ -361,5 +384,80 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 15_000);
+    }
+
+    /// Mitsuba's `valid_ray` (3.9.1, `llvm_ad_rgb`): a `null` emitter in front of the camera,
+    /// seen against nothing, adds nothing; with a wall behind it, or a light at infinity in the
+    /// scene, it adds its radiance; a path that ends on it (max depth 1) does not count, unless
+    /// the scene has a light at infinity; a diffuse emitter always does. Each value is Mitsuba's
+    /// for the same scene (the centre pixel). Both loops, both samplers.
+    #[test]
+    fn null_emitters_count_only_as_mitsubas_path_counts_them() {
+        use crate::integrator::PathLoop;
+        use crate::render::{render, RenderSettings};
+        use crate::sampler::SamplerKind;
+        use torrey_parser::PixelFilter;
+        let scene = |bsdf: &str, wall: f32, env: bool| {
+            let env = if env {
+                r#"<emitter type="constant"><rgb name="radiance" value="0.25"/></emitter>"#
+            } else {
+                ""
+            };
+            crate::scene::scene_from_xml(
+                &format!(
+                    r#"<scene version="3.0.0">
+                    <sensor type="perspective"><float name="fov" value="40"/>
+                        <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+                        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
+                            <rfilter type="box"/></film></sensor>
+                    <shape type="rectangle"><bsdf type="{bsdf}"/>
+                        <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+                    <shape type="rectangle"><bsdf type="diffuse"/>
+                        <transform name="to_world"><scale value="{wall}"/><translate z="-1"/></transform></shape>
+                    {env}
+                </scene>"#
+                ),
+                8,
+                8,
+            )
+        };
+        // (bsdf, wall scale (0: none), constant background, max depth, Mitsuba's centre pixel)
+        let cases = [
+            ("null", 0.0, false, -1, 0.0),
+            ("null", 10.0, false, -1, 1.0),
+            ("null", 10.0, false, 2, 1.0),
+            ("null", 10.0, false, 1, 0.0),
+            ("null", 0.0, true, -1, 1.25),
+            ("null", 0.0, true, 1, 1.0),
+            ("diffuse", 0.0, false, -1, 1.0),
+            ("diffuse", 0.0, false, 1, 1.0),
+        ];
+        for (bsdf, wall, env, max_depth, want) in cases {
+            let scene = scene(bsdf, wall, env);
+            for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+                for path_loop in [PathLoop::Scalar, PathLoop::Wavefront] {
+                    let settings = RenderSettings {
+                        spp: 4,
+                        max_depth,
+                        rr_depth: 5,
+                        seed: 0,
+                        filter: PixelFilter::Box,
+                        tile_size: 8,
+                        mipmapping: true,
+                        env_strategy: Default::default(),
+                        sampler,
+                        packets: true,
+                        path_loop,
+                    };
+                    let out = render(&scene, &settings, &|_, _| {});
+                    let centre = out.image.pixels[4 * 8 + 4];
+                    assert_eq!(
+                        centre,
+                        Vec3::splat(want),
+                        "{bsdf} wall {wall} env {env} max depth {max_depth} {sampler:?} {path_loop:?}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -79,6 +79,8 @@ struct PathState {
     specular_chain: bool,
     eta: f32,
     depth: u32,
+    /// Mitsuba's `valid_ray` (`path::sample_valid_at_start`): the sample's radiance counts.
+    valid: bool,
     /// The camera ray's hit is already in `Wavefront::hits` (traced by the caller).
     traced: bool,
     // This bounce's draws.
@@ -180,6 +182,7 @@ impl Wavefront {
             specular_chain: true,
             eta: 1.0,
             depth: 0,
+            valid: super::path::sample_valid_at_start(scene),
             traced: true,
             u_dir: Vec2::ZERO,
             u_lobe: 0.0,
@@ -359,7 +362,11 @@ impl Wavefront {
                 |i| paths[shadow[i].path as usize].result += shadow[i].contribution,
             );
         }
-        out.extend(self.paths.iter().map(|p| p.result));
+        out.extend(
+            self.paths
+                .iter()
+                .map(|p| if p.valid { p.result } else { Vec3A::ZERO }),
+        );
     }
 }
 
@@ -609,6 +616,7 @@ fn shade(
         }
     }
     if path.depth + 1 >= max_depth {
+        path.valid |= !scene.materials[shape.material as usize].passes_through();
         return None;
     }
 
@@ -637,6 +645,7 @@ fn shade(
         wo_local,
     );
     let bsdf_sample = bsdf.sample(wo_local, path.u_dir, path.u_lobe);
+    path.valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
 
     let mut shadow = None;
     if let (true, Some((light_index, draw))) = (bsdf.flags().has_smooth(), path.light_draw) {

@@ -446,6 +446,8 @@ fn scatter<const N: usize, const MIRROR: bool>(
     params: LaneParams,
 ) {
     path.result = take(&c.result, l);
+    // Lane surfaces (diffuse, mirror) are never `null` crossings.
+    path.valid = true;
     // The scalar `shade`'s bookkeeping of a diffuse bounce (roughness 1, eta 1), or of a
     // mirror's (a delta lobe, eta 1: the cone's spread and the specular chain unchanged).
     let delta = MIRROR && c.mirror[l] != 0;
@@ -700,6 +702,7 @@ mod tests {
                 specular_chain: rng.f32() < 0.5,
                 eta: if rng.f32() < 0.2 { 1.5 } else { 1.0 },
                 depth,
+                valid: rng.f32() < 0.5,
                 traced: false,
                 u_dir: Vec2::new(unit(&mut rng), unit(&mut rng)),
                 u_lobe: rng.f32(),
@@ -873,6 +876,7 @@ mod tests {
                     let what = format!("{simd:?} path {i}");
                     assert_eq!(bits(g.result), bits(w.result), "{what}");
                     assert_eq!(g.depth, w.depth, "{what}");
+                    assert_eq!(g.valid, w.valid, "{what}");
                     if g.depth == paths[i as usize].depth {
                         continue; // ended here: only its radiance counts
                     }
