@@ -769,3 +769,84 @@ fn silent_oddities_now_speak() {
         &e[..e.len().min(600)]
     );
 }
+
+/// Issue 34, item 5: finite samples whose sums or squares leave f32's range (a reflectance of
+/// 1e30, an environment map or an emitted radiance with one texel near f32::MAX, a splatting
+/// filter) render with exit 0 to images, means and variances, that hold no NaN or infinity: the
+/// film sums in f64 and clamps to f32::MAX, and the run says how many pixels it clamped. Before,
+/// the variance (f32 Welford sums of squares) came out infinite.
+#[test]
+fn huge_sample_values_never_make_infinite_pixels() {
+    let dir = temp_dir("huge");
+    let mut sky = torrey_texture::Image::filled(8, 4, glam::Vec3::splat(0.5));
+    sky.pixels[9] = glam::Vec3::new(3.0e38, 1.0, 3.3e38);
+    torrey_texture::write_exr(&dir.join("huge.exr"), &sky).unwrap();
+    let camera = r#"<integrator type="path"><integer name="max_depth" value="3"/></integrator>
+        <sensor type="perspective"><float name="fov" value="100"/>
+            <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>FILTER</film></sensor>"#;
+    let scenes = [
+        (
+            "reflectance 1e30",
+            r#"<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1e30"/></bsdf></shape>
+               <emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#,
+            "",
+        ),
+        (
+            "one huge envmap texel",
+            r#"<shape type="sphere"><bsdf type="diffuse"/></shape>
+               <emitter type="envmap"><string name="filename" value="huge.exr"/></emitter>"#,
+            "",
+        ),
+        (
+            "one huge emitted texel, splatted by lanczos",
+            r#"<shape type="rectangle"><transform name="to_world"><scale value="2"/></transform>
+                 <emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="huge.exr"/></texture></emitter></shape>
+               <shape type="sphere"><transform name="to_world"><translate z="-2"/></transform><bsdf type="diffuse"/></shape>"#,
+            r#"<rfilter type="lanczos"/>"#,
+        ),
+    ];
+    for (what, body, filter) in scenes {
+        let xml = format!(
+            "<scene version=\"3.0.0\">{}{body}</scene>",
+            camera.replace("FILTER", filter)
+        );
+        std::fs::write(dir.join("scene.xml"), &xml).unwrap();
+        let out = torrey()
+            .arg(dir.join("scene.xml"))
+            .args(["--spp", "64", "-o"])
+            .arg(dir.join("out.exr"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{what}: {stderr}");
+        let part =
+            torrey_parts::read_part(&dir.join("out.exr")).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let values = || {
+            part.mean
+                .iter()
+                .chain(&part.variance)
+                .flat_map(|v| v.to_array())
+        };
+        assert!(values().all(f32::is_finite), "{what}");
+        // Something did leave the range, was clamped, and the run says so.
+        assert!(values().any(|v| v == f32::MAX), "{what}");
+        assert!(part.meta.clamped > 0, "{what}");
+        assert!(
+            stderr.contains("pixels had a mean or variance beyond the largest 32-bit float"),
+            "{what}: {stderr}"
+        );
+        // `torrey compare` accepts the image: no NaN or infinite pixel.
+        let out = torrey()
+            .arg("compare")
+            .arg(dir.join("out.exr"))
+            .arg(dir.join("out.exr"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{what}: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+}
