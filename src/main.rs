@@ -323,8 +323,19 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             out.nonfinite_samples
         );
     }
+    if out.clamped_pixels > 0 {
+        eprintln!("{}", clamped_warning(out.clamped_pixels));
+    }
     eprintln!("wrote {} and {}", output.display(), png.display());
     Ok(())
+}
+
+/// The warning for pixels whose mean or variance did not fit in a 32-bit float.
+pub(crate) fn clamped_warning(pixels: u64) -> String {
+    format!(
+        "warning: {pixels} pixels had a mean or variance beyond the largest 32-bit float \
+         (3.4e38) and were clamped to it"
+    )
 }
 
 /// The output EXR: `-o`, else the film's filename (with .exr), else `<scene stem>.exr`, in the

@@ -37,5 +37,8 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
             m.nonfinite
         );
     }
+    if m.clamped > 0 {
+        eprintln!("{}", crate::clamped_warning(m.clamped));
+    }
     Ok(())
 }

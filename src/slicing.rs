@@ -75,6 +75,7 @@ pub fn part_meta(
         samples: (slice.samples.start, slice.samples.end),
         crop: slice.crop,
         nonfinite: 0,
+        clamped: 0,
     })
 }
 

@@ -18,8 +18,8 @@
 //! beyond 5 sigma and the image mean is within 5 sigma.
 //!
 //! `stage_lights_top_rows` renders a crop window of the film (the same pixels as the whole
-//! film's) at 1024 spp where issue 34 §3 found pixels at 44-600 against a reference of ~0; it is
-//! a known failure until that bias is fixed.
+//! film's) at 1024 spp where issue 34 §3 found pixels at 44-600 against a reference of ~0 (null
+//! emitters seen against the black sky, which Mitsuba's `valid_ray` does not count).
 
 mod common;
 
@@ -336,16 +336,15 @@ fn stage_lights() {
 }
 
 /// The top rows of stage-lights' film, columns 96-247, at 1024 spp: where issue 34 §3 found
-/// torrey's pixels at 44-600 against Mitsuba's 0.000-0.03 (an emitter Mitsuba does not show).
+/// torrey's pixels at 44-600 against Mitsuba's 0.000-0.03 (null emitters against the black sky,
+/// which Mitsuba's `valid_ray` does not count; `PathState::radiance`).
 #[test]
 fn stage_lights_top_rows() {
     run(&Case {
         name: "stage-lights",
         spp: 1024,
         crop: Some((96, 0, 152, 4)),
-        known_issue: Some(
-            "issue 34 §3 (fireflies and bright pixels with small emitters): torrey's top rows of stage-lights are brighter than Mitsuba's (pixels at 44-600 where the reference is ~0); another helper is fixing it",
-        ),
+        known_issue: None,
     });
 }
 

@@ -204,9 +204,13 @@ impl Harness {
                 if out.image.pixels.iter().any(|p| !p.is_finite()) {
                     panic!("render produced a NaN or infinite pixel");
                 }
+                if out.variance.pixels.iter().any(|p| !p.is_finite()) {
+                    panic!("render produced a NaN or infinite variance pixel");
+                }
                 Ok(format!(
-                    "rendered, {} nonfinite",
-                    out.nonfinite_samples.min(1)
+                    "rendered, {} nonfinite, {} clamped",
+                    out.nonfinite_samples.min(1),
+                    out.clamped_pixels.min(1)
                 ))
             }
         }

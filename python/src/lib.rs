@@ -177,7 +177,7 @@ impl PyPart {
         floats(py, &self.0.variance)
     }
     /// The metadata: scene, scene_hash, settings, width, height, spp, sample_range, crop,
-    /// nonfinite_samples.
+    /// nonfinite_samples, clamped_pixels.
     #[getter]
     fn meta<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.0.meta;
@@ -191,6 +191,7 @@ impl PyPart {
         d.set_item("sample_range", m.samples)?;
         d.set_item("crop", m.crop)?;
         d.set_item("nonfinite_samples", m.nonfinite)?;
+        d.set_item("clamped_pixels", m.clamped)?;
         Ok(d)
     }
     /// The part as an EXR file in memory (what `write` writes).
@@ -314,6 +315,7 @@ fn render(
         samples: (slice.samples.start, slice.samples.end),
         crop: slice.crop,
         nonfinite: 0,
+        clamped: 0,
     };
     let callback_error: Mutex<Option<PyErr>> = Mutex::new(None);
     let result = py.detach(|| {

@@ -121,10 +121,25 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
     let mut variance = vec![Vec3::ZERO; owner.len()];
     let mut count = vec![0u32; owner.len()];
     let mut weight = vec![0f32; owner.len()];
+    // Pixels whose merged mean or variance left f32's range (clamped to it, as the film does).
+    let mut clamped = 0u64;
+    let to_f32 = |v: [f64; 3], hit: &mut bool| {
+        let limit = f32::MAX as f64;
+        let c = v.map(|x| {
+            if x.is_nan() {
+                0.0
+            } else {
+                x.clamp(-limit, limit)
+            }
+        });
+        *hit |= c != v;
+        Vec3::from_array(c.map(|x| x as f32))
+    };
     for (&(x, y, w, h), members) in &by_crop {
         for i in 0..(w * h) as usize {
             let (px, py) = (x + i as u32 % w, y + i as u32 / w);
             let o = ((py - oy) * ow + (px - ox)) as usize;
+            let mut hit = false;
             let unit_weights = members.iter().all(|&k| {
                 let part = &parts[k].1;
                 part.weight[i] == part.count[i] as f32
@@ -145,9 +160,10 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
                     }
                 }
                 if wsum != 0.0 {
-                    mean[o] = Vec3::from_array(s.map(|t| (t / wsum) as f32));
-                    variance[o] = Vec3::from_array(v.map(|t| (t / (wsum * wsum)) as f32));
+                    mean[o] = to_f32(s.map(|t| t / wsum), &mut hit);
+                    variance[o] = to_f32(v.map(|t| t / (wsum * wsum)), &mut hit);
                 }
+                clamped += hit as u64;
                 count[o] = n.min(u32::MAX as u64) as u32;
                 weight[o] = wsum as f32;
                 continue;
@@ -170,20 +186,22 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
                 }
                 n = total;
             }
-            mean[o] = Vec3::from_array(m.map(|v| v as f32));
+            mean[o] = to_f32(m, &mut hit);
             count[o] = n as u32;
             weight[o] = n as f32;
             variance[o] = if n > 1.0 {
-                Vec3::from_array(m2.map(|v| (v / (n * (n - 1.0))) as f32))
+                to_f32(m2.map(|v| v / (n * (n - 1.0))), &mut hit)
             } else {
                 Vec3::ZERO
             };
+            clamped += hit as u64;
         }
     }
     let mut out_meta = meta.clone();
     out_meta.samples = (0, spp);
     out_meta.crop = out_crop;
     out_meta.nonfinite = parts.iter().map(|(_, p)| p.meta.nonfinite).sum();
+    out_meta.clamped = clamped + parts.iter().map(|(_, p)| p.meta.clamped).sum::<u64>();
     Ok(Part {
         meta: out_meta,
         mean,
@@ -211,6 +229,7 @@ mod tests {
                 samples,
                 crop,
                 nonfinite: 1,
+                clamped: 0,
             },
             mean: vec![Vec3::splat(value); n],
             variance: vec![Vec3::ZERO; n],
@@ -260,6 +279,30 @@ mod tests {
         assert!((m.mean[5].x - 1.75).abs() < 1e-6, "{:?}", m.mean[5]);
         assert!((m.variance[5].y - (6.25 * 0.1 + 2.25 * 0.2) / 16.0).abs() < 1e-7);
         assert_eq!((m.count[5], m.weight[5]), (8, 4.0));
+    }
+
+    /// Sample ranges whose means are 0 and 3.4e38: the merged variance of the mean (their
+    /// spread) is beyond f32's range, so it is clamped to f32::MAX and counted, and the parts'
+    /// own counts add up; in f32 it was infinite. A weighted merge whose sum leaves the range
+    /// (a negative weight) is clamped the same way.
+    #[test]
+    fn merged_values_beyond_f32_are_clamped_and_counted() {
+        let mut a = part((0, 0, 4, 2), (0, 4), 0.0);
+        let b = part((0, 0, 4, 2), (4, 8), 3.4e38);
+        a.meta.clamped = 2;
+        let m = merge(&named(vec![a, b])).unwrap();
+        assert_eq!(m.mean[0], Vec3::splat(1.7e38));
+        assert_eq!(m.variance[0], Vec3::splat(f32::MAX));
+        assert_eq!(m.meta.clamped, 8 + 2);
+        let mut a = part((0, 0, 4, 2), (0, 4), 3.4e38);
+        let b = part((0, 0, 4, 2), (4, 8), 0.0);
+        a.weight = vec![2.0; 8];
+        let mut b = b;
+        b.weight = vec![-1.0; 8];
+        let m = merge(&named(vec![a, b])).unwrap();
+        assert_eq!(m.mean[7], Vec3::splat(f32::MAX));
+        assert!(m.variance.iter().all(|v| v.is_finite()));
+        assert_eq!(m.meta.clamped, 8);
     }
 
     #[test]
@@ -327,6 +370,7 @@ mod tests {
         p.variance[1] = Vec3::new(0.25, 1e-12, 7.0);
         p.weight[2] = -0.375;
         p.meta.scene = "/tmp/scènes/a b\\c\nd=e.xml".into();
+        p.meta.clamped = 3;
         let bytes = crate::write_part_bytes(&p).unwrap();
         let q = crate::read_part_bytes(&bytes, "mem").unwrap();
         assert_eq!(q.meta, p.meta);
@@ -336,5 +380,22 @@ mod tests {
         assert_eq!(q.weight, p.weight);
         let err = crate::read_part_bytes(b"not an exr", "junk.exr").unwrap_err();
         assert!(err.starts_with("junk.exr: not a readable EXR"), "{err}");
+        // A part holding an infinite or NaN value was not written by torrey: refused, so that it
+        // cannot spread into a merge.
+        for (bad, variance) in [(f32::INFINITY, false), (f32::NAN, true)] {
+            let mut r = p.clone();
+            if variance {
+                r.variance[3].y = bad;
+            } else {
+                r.mean[3].z = bad;
+            }
+            let bytes = crate::write_part_bytes(&r).unwrap();
+            let err = crate::read_part_bytes(&bytes, "bad.exr").unwrap_err();
+            let channel = if variance { "variance.G" } else { "B" };
+            assert_eq!(
+                err,
+                format!("bad.exr: a value of {bad} in the '{channel}' channel")
+            );
+        }
     }
 }

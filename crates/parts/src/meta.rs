@@ -24,6 +24,9 @@ pub struct PartMeta {
     pub crop: (u32, u32, u32, u32),
     /// Samples that were NaN or infinite and were dropped (counted as zero).
     pub nonfinite: u64,
+    /// Pixels whose mean or variance exceeded f32's range and was clamped to it (in the render
+    /// of each part, and in the merge; `RenderOutput::clamped_pixels`).
+    pub clamped: u64,
 }
 
 /// The render settings that decide pixels, as one canonical line (`key=value` pairs): parts
@@ -54,6 +57,7 @@ const SPP: &str = "torrey.spp";
 const SAMPLES: &str = "torrey.sampleRange";
 const CROP: &str = "torrey.crop";
 const NONFINITE: &str = "torrey.nonfiniteSamples";
+const CLAMPED: &str = "torrey.clampedPixels";
 
 impl PartMeta {
     /// The EXR header attributes (all text) that record this part.
@@ -68,6 +72,7 @@ impl PartMeta {
             (SAMPLES, format!("{}..{}", self.samples.0, self.samples.1)),
             (CROP, format!("{x},{y},{w},{h}")),
             (NONFINITE, self.nonfinite.to_string()),
+            (CLAMPED, self.clamped.to_string()),
         ]
     }
 
@@ -114,6 +119,11 @@ impl PartMeta {
             samples,
             crop: (x, y, w, h),
             nonfinite: num(NONFINITE)?,
+            // Parts written before the count existed have none.
+            clamped: match get(CLAMPED) {
+                Some(_) => num(CLAMPED)?,
+                None => 0,
+            },
         })
     }
 

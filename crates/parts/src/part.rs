@@ -24,6 +24,7 @@ impl Part {
     /// `nonfinite` count is taken from the output).
     pub fn from_output(mut meta: PartMeta, out: &RenderOutput) -> Self {
         meta.nonfinite = out.nonfinite_samples;
+        meta.clamped = out.clamped_pixels;
         Part {
             meta,
             mean: out.image.pixels.clone(),

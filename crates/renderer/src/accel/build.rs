@@ -8,7 +8,6 @@ use super::{Layout, PrimGeom};
 use crate::shapes::sdfgrid::SdfVoxel;
 use glam::Vec3A;
 use obvhs::{aabb::Aabb, bvh2::Bvh2, BvhBuildParams};
-use std::time::Duration;
 
 impl PrimGeom {
     /// Whether the builder can place it: every coordinate (and radius) finite, and so is its
@@ -159,7 +158,7 @@ impl WideBuilder<'_> {
 
 /// Primitive count from which a scene counts as large: it gets obvhs's medium build instead of
 /// the slowest, best one, which would take seconds.
-const LARGE_SCENE: usize = 100_000;
+pub(super) const LARGE_SCENE: usize = 100_000;
 
 /// Builds the nodes and leaves over `geoms`, `width` children per node (8 only on CPUs with AVX2
 /// and FMA, 16 only with AVX-512, which the caller checks; 4 otherwise): the layout, the leaves,
@@ -188,7 +187,8 @@ pub(super) fn build(
     // or 6, and leaves of up to eight (two blocks) with a cost of 3 or 6.
     params.max_prims_per_leaf = 4;
     params.collapse_traversal_cost = 3.0;
-    let bvh2 = obvhs::bvh2::builder::build_bvh2(&aabbs, params, &mut Duration::default());
+    // obvhs's build, with its PLOC clustering made O(n log n) on overlapping boxes (ploc.rs).
+    let bvh2 = super::ploc::build_bvh2(&aabbs, params);
     let root = &bvh2.nodes[0];
     if root.is_leaf() {
         let root = leaves.add(&bvh2, root.first_index, root.prim_count, geoms, sdf_voxels);

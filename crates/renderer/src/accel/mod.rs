@@ -28,6 +28,7 @@ mod build;
 pub mod instances;
 mod leaves;
 mod nodes4;
+mod ploc;
 mod shadow_batch;
 #[cfg(test)]
 mod shadow_tests;

@@ -20,6 +20,10 @@ impl BsdfFlags {
     pub const GLOSSY: Self = Self(8);
     /// A Dirac delta (perfect mirror or refraction): light sampling cannot hit it.
     pub const DELTA: Self = Self(16);
+    /// A pass-through of Mitsuba's `null` (alone or as a `mask`'s transparent part), marked on
+    /// top of its delta transmission, as Mitsuba's `BSDFFlags::Null`: the path loops tell a
+    /// crossing from a scattering by it.
+    pub const NULL: Self = Self(32);
 
     pub const DIFFUSE_REFLECTION: Self = Self::DIFFUSE.union(Self::REFLECTION);
     pub const GLOSSY_REFLECTION: Self = Self::GLOSSY.union(Self::REFLECTION);

@@ -121,6 +121,12 @@ impl BsdfSample {
     pub fn is_delta(&self) -> bool {
         self.lobe.contains(BsdfFlags::DELTA)
     }
+
+    /// A crossing of a `null` surface (Mitsuba's `BSDFFlags::Null`), not a scattering.
+    #[inline(always)]
+    pub fn is_null(&self) -> bool {
+        self.lobe.contains(BsdfFlags::NULL)
+    }
 }
 
 /// Mirror reflection of a local direction about the shading normal (+z).

@@ -10,7 +10,7 @@ use glam::Vec3A;
 pub struct Null;
 
 impl Null {
-    pub const FLAGS: BsdfFlags = BsdfFlags::DELTA_TRANSMISSION;
+    pub const FLAGS: BsdfFlags = BsdfFlags::DELTA_TRANSMISSION.union(BsdfFlags::NULL);
 
     #[inline(always)]
     pub fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Vec3A {
@@ -46,6 +46,7 @@ mod tests {
             assert_eq!(s.wi, -w);
             assert_eq!(s.weight, Vec3A::ONE);
             assert!(s.is_delta() && s.lobe.contains(BsdfFlags::TRANSMISSION) && s.eta == 1.0);
+            assert!(s.lobe.contains(BsdfFlags::NULL));
         }
         assert_eq!(Null.eval(wo, -wo), Vec3A::ZERO);
     }

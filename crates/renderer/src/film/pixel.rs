@@ -1,7 +1,10 @@
 //! One pixel's running estimate: a plain mean of unit-weight samples (importance-sampled
-//! filters), or weighted sums of splats (splatted filters).
+//! filters), or weighted sums of splats (splatted filters). Both accumulate in f64, where the
+//! squares of any f32 sample stay finite, and a finished pixel's mean and variance are clamped to
+//! f32's range ([`PixelValue::clamped`] says when): no image torrey writes holds an infinite
+//! value, whatever finite samples it received (a texture near f32::MAX, `reflectance = 1e30`).
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 
 /// A finished pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -14,22 +17,36 @@ pub struct PixelValue {
     pub count: u32,
     /// Sum of the weights: `count` for unit weights. Merging sample ranges weighs by it.
     pub weight: f32,
+    /// The mean or the variance exceeded f32's range and was clamped to ±f32::MAX.
+    pub clamped: bool,
 }
 
-/// Welford's running mean and variance of unit-weight samples.
+/// `v` as f32, each component clamped to ±f32::MAX; `clamped` is set when one was.
+#[inline]
+fn to_f32_clamped(v: DVec3, clamped: &mut bool) -> Vec3A {
+    let limit = f32::MAX as f64;
+    let c = v.clamp(DVec3::splat(-limit), DVec3::splat(limit));
+    // NaN cannot come from finite samples; should one appear, it is written as 0.
+    let c = DVec3::select(c.cmpeq(c), c, DVec3::ZERO);
+    *clamped |= c != v;
+    c.as_vec3a()
+}
+
+/// Welford's running mean and variance of unit-weight samples, in f64.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct PixelMean {
     n: u32,
-    mean: Vec3A,
-    m2: Vec3A,
+    mean: DVec3,
+    m2: DVec3,
 }
 
 impl PixelMean {
     #[inline]
     pub(crate) fn add(&mut self, l: Vec3A) {
+        let l = l.as_dvec3();
         self.n += 1;
         let delta = l - self.mean;
-        self.mean += delta / self.n as f32;
+        self.mean += delta / self.n as f64;
         self.m2 += delta * (l - self.mean);
     }
 
@@ -37,15 +54,19 @@ impl PixelMean {
     /// correlated low-discrepancy samples).
     pub(crate) fn finish(&self) -> PixelValue {
         let n = self.n;
+        let mut clamped = false;
+        let mean = to_f32_clamped(self.mean, &mut clamped);
+        let variance = if n > 1 {
+            to_f32_clamped(self.m2 / ((n - 1) as f64 * n as f64), &mut clamped)
+        } else {
+            Vec3A::ZERO
+        };
         PixelValue {
-            mean: self.mean,
-            variance: if n > 1 {
-                self.m2 / ((n - 1) as f32 * n as f32)
-            } else {
-                Vec3A::ZERO
-            },
+            mean,
+            variance,
             count: n,
             weight: n as f32,
+            clamped,
         }
     }
 }
@@ -100,8 +121,8 @@ impl SplatSum {
                 ..PixelValue::default()
             };
         }
-        let mut mean = [0.0f64; 3];
-        let mut var = [0.0f64; 3];
+        let mut mean = DVec3::ZERO;
+        let mut var = DVec3::ZERO;
         let w_sq = self.w * self.w;
         let n_eff = w_sq / self.w2;
         let correction = if n_eff > 1.0 {
@@ -115,11 +136,13 @@ impl SplatSum {
             mean[c] = m;
             var[c] = q.max(0.0) / w_sq * correction;
         }
+        let mut clamped = false;
         PixelValue {
-            mean: Vec3A::from_array(mean.map(|v| v as f32)),
-            variance: Vec3A::from_array(var.map(|v| v as f32)),
+            mean: to_f32_clamped(mean, &mut clamped),
+            variance: to_f32_clamped(var, &mut clamped),
             count: self.n,
             weight: self.w as f32,
+            clamped,
         }
     }
 }
@@ -141,6 +164,41 @@ mod tests {
         assert!((a.mean - b.mean).abs().max_element() < 1e-6);
         assert!((a.variance - b.variance).abs().max_element() < 1e-6);
         assert_eq!((a.count, a.weight), (b.count, b.weight));
+    }
+
+    /// Finite samples near f32::MAX: the mean is theirs (sums in f64 do not overflow) and the
+    /// variance, beyond f32's range, is clamped to f32::MAX and flagged; in f32 the sum of
+    /// squares was infinite. Ordinary samples are not flagged.
+    #[test]
+    fn huge_samples_give_finite_clamped_pixels() {
+        let values = [3.0e38f32, 1.0, 3.4e38, 0.0, 2.5e38];
+        let mut p = PixelMean::default();
+        for v in values {
+            p.add(Vec3A::new(v, 1.0, -v));
+        }
+        let v = p.finish();
+        let mean = values.iter().map(|&x| x as f64).sum::<f64>() / values.len() as f64;
+        assert!(((v.mean.x as f64) - mean).abs() <= 1e-6 * mean, "{v:?}");
+        assert_eq!(v.mean.y, 1.0);
+        assert!(((v.mean.z as f64) + mean).abs() <= 1e-6 * mean, "{v:?}");
+        assert_eq!(v.variance, Vec3A::new(f32::MAX, 0.0, f32::MAX));
+        assert!(v.clamped);
+        let mut ordinary = PixelMean::default();
+        ordinary.add(Vec3A::splat(1e18));
+        ordinary.add(Vec3A::splat(2e18));
+        let o = ordinary.finish();
+        assert!(
+            !o.clamped && o.variance.is_finite() && o.variance.x > 0.0,
+            "{o:?}"
+        );
+
+        // Splats: a negative lobe on one side makes sum(w L) / sum(w) exceed f32::MAX.
+        let mut s = SplatSum::default();
+        s.add(1.0, Vec3A::splat(3.4e38));
+        s.add(-0.5, Vec3A::splat(0.0));
+        let v = s.finish();
+        assert_eq!(v.mean, Vec3A::splat(f32::MAX));
+        assert!(v.variance.is_finite() && v.clamped, "{v:?}");
     }
 
     /// Signed weights: the estimate is sum(w L) / sum(w); split sums merge to the same pixel.

@@ -110,5 +110,87 @@ fn trace_path(
             break;
         }
     }
-    path.result
+    path.radiance(ctx)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Mitsuba's `valid_ray` (3.9.1, `llvm_ad_rgb`): a `null` emitter in front of the camera,
+    /// seen against nothing, adds nothing; with a wall behind it, or a light at infinity in the
+    /// scene, it adds its radiance; a path that ends on it (max depth 1) does not count, unless
+    /// the scene has a light at infinity; a diffuse emitter always does. Each value is Mitsuba's
+    /// for the same scene (the centre pixel). Both loops, both samplers.
+    #[test]
+    fn null_emitters_count_only_as_mitsubas_path_counts_them() {
+        use crate::integrator::{Integrator, PathIntegrator, PathLoop};
+        use glam::Vec3;
+        use crate::render::{render, RenderSettings};
+        use crate::sampler::SamplerKind;
+        use torrey_parser::PixelFilter;
+        let scene = |bsdf: &str, wall: f32, env: bool| {
+            let env = if env {
+                r#"<emitter type="constant"><rgb name="radiance" value="0.25"/></emitter>"#
+            } else {
+                ""
+            };
+            crate::scene::scene_from_xml(
+                &format!(
+                    r#"<scene version="3.0.0">
+                    <sensor type="perspective"><float name="fov" value="40"/>
+                        <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+                        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
+                            <rfilter type="box"/></film></sensor>
+                    <shape type="rectangle"><bsdf type="{bsdf}"/>
+                        <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+                    <shape type="rectangle"><bsdf type="diffuse"/>
+                        <transform name="to_world"><scale value="{wall}"/><translate z="-1"/></transform></shape>
+                    {env}
+                </scene>"#
+                ),
+                8,
+                8,
+            )
+        };
+        // (bsdf, wall scale (0: none), constant background, max depth, Mitsuba's centre pixel)
+        let cases = [
+            ("null", 0.0, false, -1, 0.0),
+            ("null", 10.0, false, -1, 1.0),
+            ("null", 10.0, false, 2, 1.0),
+            ("null", 10.0, false, 1, 0.0),
+            ("null", 0.0, true, -1, 1.25),
+            ("null", 0.0, true, 1, 1.0),
+            ("diffuse", 0.0, false, -1, 1.0),
+            ("diffuse", 0.0, false, 1, 1.0),
+        ];
+        for (bsdf, wall, env, max_depth, want) in cases {
+            let scene = scene(bsdf, wall, env);
+            for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+                for path_loop in [PathLoop::Scalar, PathLoop::Wavefront] {
+                    let settings = RenderSettings {
+                        spp: 4,
+                        integrator: Integrator::Path(PathIntegrator {
+                            max_depth,
+                            rr_depth: 5,
+                            hide_emitters: false,
+                        }),
+                        seed: 0,
+                        filter: PixelFilter::Box,
+                        tile_size: 8,
+                        mipmapping: true,
+                        env_strategy: Default::default(),
+                        sampler,
+                        packets: true,
+                        path_loop,
+                    };
+                    let out = render(&scene, &settings, &|_, _| {});
+                    let centre = out.image.pixels[4 * 8 + 4];
+                    assert_eq!(
+                        centre,
+                        Vec3::splat(want),
+                        "{bsdf} wall {wall} env {env} max depth {max_depth} {sampler:?} {path_loop:?}"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -46,6 +46,9 @@ pub struct PathContext<'a> {
     pub infinite_select_pdf: f32,
     /// Cones only matter where they filter: textures (mip-mapping) and environment maps.
     track_cones: bool,
+    /// Every sample counts from the start ([`PathState::radiance`]): the camera sees a light at
+    /// infinity.
+    valid_at_start: bool,
 }
 
 impl<'a> PathContext<'a> {
@@ -55,6 +58,7 @@ impl<'a> PathContext<'a> {
             settings,
             infinite_select_pdf: scene.light_selection.pmf_unbounded(),
             track_cones: settings.mipmapping && scene.uses_cones,
+            valid_at_start: !settings.hide_emitters && !scene.infinite_lights.is_empty(),
         }
     }
 
@@ -179,6 +183,9 @@ pub struct PathState {
     pub eta: f32,
     /// Segments traced before `ray`.
     pub depth: u32,
+    /// The path met a surface that is not a `null` crossing (Mitsuba's `valid_ray`; see
+    /// [`PathState::radiance`]).
+    pub valid: bool,
 }
 
 impl PathState {
@@ -201,6 +208,26 @@ impl PathState {
             specular_chain: true,
             eta: 1.0,
             depth: 0,
+            valid: false,
+        }
+    }
+
+    /// The sample's radiance once the path has ended. Mitsuba 3's `path` integrator counts a
+    /// sample only if `valid_ray` holds: the camera sees a light at infinity (an environment
+    /// map or a constant background, `hide_emitters` off), or the path reached a surface whose
+    /// BSDF sample there was not a `null` crossing. So emitters with a `null` BSDF seen against
+    /// nothing count for nothing: the 400 small `null` rectangle lamps of
+    /// ../shared/scenes/mitsuba-real/stage-lights seen against the black sky (issue 34). This
+    /// follows the `llvm_ad_rgb` variant the references come from: it samples the BSDF at every
+    /// vertex, the last one too (torrey asks the material there,
+    /// [`crate::scene::Material::passes_through`]); Mitsuba's scalar variants also count a path
+    /// whose last vertex is an emitter.
+    #[inline(always)]
+    pub fn radiance(&self, ctx: &PathContext) -> Vec3A {
+        if self.valid || ctx.valid_at_start {
+            self.result
+        } else {
+            Vec3A::ZERO
         }
     }
 
@@ -277,6 +304,8 @@ impl PathState {
             }
         }
         if self.last_segment(ctx) {
+            let material = scene.shapes[hit.shape as usize].material;
+            self.valid |= !scene.materials[material as usize].passes_through();
             return (None, false);
         }
 
@@ -296,6 +325,7 @@ impl PathState {
         // used after it: it depends only on this hit, so its dependent chain of a division, a
         // polynomial and square roots overlaps the light connection instead of waiting for it.
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
+        self.valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
 
         let mut shadow = None;
         let light = match sp.bsdf.flags().has_smooth() {

@@ -238,7 +238,7 @@ impl Wavefront {
                 |k| paths[shadow[k].0 as usize].result += shadow[k].1.contribution,
             );
         }
-        out.extend(self.paths.iter().map(|p| p.result));
+        out.extend(self.paths.iter().map(|p| p.radiance(&ctx)));
     }
 }
 

@@ -43,6 +43,9 @@ pub struct RenderOutput {
     pub weights: Vec<f32>,
     /// Samples whose value was NaN or infinite; they were dropped (counted as zero).
     pub nonfinite_samples: u64,
+    /// Pixels whose mean or variance exceeded f32's range and was clamped to f32::MAX (the
+    /// film sums in f64; `PixelValue::clamped`).
+    pub clamped_pixels: u64,
     pub elapsed: Duration,
     /// Rays traced, closest-hit and shadow.
     pub rays: RayCount,
@@ -247,6 +250,7 @@ pub fn render_slice(
     let image = Image::new(cw, ch, pixels.iter().map(|p| p.mean.into()).collect());
     let variance = Image::new(cw, ch, pixels.iter().map(|p| p.variance.into()).collect());
     let counts = pixels.iter().map(|p| p.count).collect();
+    let clamped_pixels = pixels.iter().filter(|p| p.clamped).count() as u64;
     let weights = pixels.iter().map(|p| p.weight).collect();
     let elapsed = start.elapsed();
     Ok(RenderOutput {
@@ -256,6 +260,7 @@ pub fn render_slice(
         counts,
         weights,
         nonfinite_samples: nonfinite,
+        clamped_pixels,
         elapsed,
         rays: RayCount {
             closest: closest_rays.into_inner(),

@@ -102,6 +102,14 @@ impl Material {
         }
     }
 
+    /// A `null` surface on both sides: every BSDF sample there is a pass-through
+    /// (`BsdfSample::is_null`). The path loops ask at a path's last vertex, where they draw no
+    /// sample (a `mask` counts as scattering there).
+    #[inline(always)]
+    pub fn passes_through(&self) -> bool {
+        matches!(self.bsdf, BsdfParams::Null) && matches!(self.back, None | Some(BsdfParams::Null))
+    }
+
     /// Whether shading reads any texture, i.e. needs uv and a ray-cone footprint.
     #[inline(always)]
     pub fn is_textured(&self) -> bool {

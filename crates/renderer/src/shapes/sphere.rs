@@ -170,11 +170,11 @@ impl Sphere {
         sample_sphere_solid_angle(self.center.into(), self.radius, reference.into(), u)
     }
 
-    /// The solid-angle density at `reference` of [`Sphere::sample_solid_angle`] producing
-    /// `direction`.
+    /// The density MIS needs for a ray from (near) `reference` along `direction` that hit the
+    /// sphere ([`sphere_hit_pdf`]).
     #[inline(always)]
-    pub fn solid_angle_pdf(&self, reference: Vec3A, direction: Vec3A) -> f32 {
-        sphere_solid_angle_pdf(
+    pub fn hit_pdf(&self, reference: Vec3A, direction: Vec3A) -> f32 {
+        sphere_hit_pdf(
             self.center.into(),
             self.radius,
             reference.into(),
@@ -279,8 +279,28 @@ pub fn sample_sphere_solid_angle(
 }
 
 /// Density over solid angle at `reference` of [`sample_sphere_solid_angle`] producing `direction`
-/// (need not be normalised). 0 when the direction misses the sphere.
+/// (need not be normalised). 0 when the direction misses the sphere. (The renderer asks only for
+/// directions whose rays hit the sphere, [`sphere_hit_pdf`]; the tests check the sampler against
+/// this.)
+#[cfg(test)]
 pub fn sphere_solid_angle_pdf(center: Vec3, radius: f32, reference: Vec3, direction: Vec3) -> f32 {
+    sphere_pdf(center, radius, reference, direction, true)
+}
+
+/// [`sphere_solid_angle_pdf`] for a direction whose ray is known to have hit the sphere: the
+/// density of the cone seen from `reference` outside the sphere, without testing whether
+/// `direction` lies in that cone, as Mitsuba's `Sphere::pdf_direction` computes it. A BSDF-sampled
+/// ray leaves from the shading point moved off the surface ([`crate::ray::offset_origin`]), not
+/// from the point itself, so a ray that hit a sphere near its silhouette can lie just outside
+/// the cone seen from the point: there the cone test gave 0, multiple importance sampling then
+/// gave the hit weight 1, and one such sample of a small, bright sphere made a firefly
+/// (issue 34: a diffuse wall pixel at 6.0 where Mitsuba has 0.079).
+pub fn sphere_hit_pdf(center: Vec3, radius: f32, reference: Vec3, direction: Vec3) -> f32 {
+    sphere_pdf(center, radius, reference, direction, false)
+}
+
+#[inline]
+fn sphere_pdf(center: Vec3, radius: f32, reference: Vec3, direction: Vec3, test_cone: bool) -> f32 {
     if !valid_sphere(center, radius, reference) {
         return 0.0;
     }
@@ -310,12 +330,14 @@ pub fn sphere_solid_angle_pdf(center: Vec3, radius: f32, reference: Vec3, direct
     }
     let sin2_max = radius * radius / dist2;
     let one_minus_cos_max = cone_one_minus_cos(sin2_max);
-    // Inside the cone iff 1 - cos(angle to axis) <= 1 - cos(theta_max); computed via the chord so
-    // tiny cones keep their precision: 1 - cos = |d - w|^2 / 2.
-    let w = to_center / dist2.sqrt();
-    let one_minus_cos = 0.5 * (d - w).length_squared();
-    if one_minus_cos > one_minus_cos_max * (1.0 + 1e-4) {
-        return 0.0;
+    if test_cone {
+        // Inside the cone iff 1 - cos(angle to axis) <= 1 - cos(theta_max); computed via the
+        // chord so tiny cones keep their precision: 1 - cos = |d - w|^2 / 2.
+        let w = to_center / dist2.sqrt();
+        let one_minus_cos = 0.5 * (d - w).length_squared();
+        if one_minus_cos > one_minus_cos_max * (1.0 + 1e-4) {
+            return 0.0;
+        }
     }
     1.0 / (2.0 * PI * one_minus_cos_max)
 }
