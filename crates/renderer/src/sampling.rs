@@ -10,7 +10,7 @@
 
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI, TAU};
-use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth, swap_if};
+use torrey_fastmath::{sin_cos_2pi, sin_cos_eighth, swap_if};
 
 /// Maps the unit square to the unit disk with Shirley and Chiu's concentric mapping, which keeps
 /// strata compact (unlike the polar map) so stratified samples stay well spread on the disk.
