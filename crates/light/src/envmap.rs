@@ -30,10 +30,10 @@
 //! (docs/performance.md, design decisions).
 
 use crate::alias::{self, AliasSlot};
-use crate::fastmath;
 use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
+use torrey_fastmath as fastmath;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};
 
 mod sample_lanes;

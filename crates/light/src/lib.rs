@@ -8,7 +8,6 @@
 
 pub mod alias;
 pub mod envmap;
-pub mod fastmath;
 pub mod unit;
 
 pub use alias::AliasTable;

@@ -10,7 +10,7 @@
 
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI, TAU};
-use torrey_light::fastmath::{sin_cos_2pi, sin_cos_eighth, swap_if};
+use torrey_fastmath::{expm1, ln, powf, sin_cos_2pi, sin_cos_eighth, swap_if};
 
 /// Maps the unit square to the unit disk with Shirley and Chiu's concentric mapping, which keeps
 /// strata compact (unlike the polar map) so stratified samples stay well spread on the disk.
@@ -66,8 +66,8 @@ pub fn uniform_sphere_pdf() -> f32 {
 /// ([`cosine_power_pdf`]). Written so that large exponents keep their precision near the pole.
 pub fn square_to_cosine_power(u: Vec2, exponent: f32) -> Vec3A {
     // cos θ = u^(1/(n+1)); 1 − cos θ computed with expm1 so sin θ stays accurate for sharp lobes.
-    let log_cos = u.x.ln() / (exponent + 1.0);
-    let one_minus_cos = -log_cos.exp_m1();
+    let log_cos = ln(u.x) / (exponent + 1.0);
+    let one_minus_cos = -expm1(log_cos);
     let cos_theta = 1.0 - one_minus_cos;
     let sin_theta = (one_minus_cos * (1.0 + cos_theta)).max(0.0).sqrt();
     let (sin, cos) = sin_cos_2pi(u.y);
@@ -77,7 +77,7 @@ pub fn square_to_cosine_power(u: Vec2, exponent: f32) -> Vec3A {
 /// Solid-angle density of [`square_to_cosine_power`]; zero below the horizon.
 pub fn cosine_power_pdf(cos_theta: f32, exponent: f32) -> f32 {
     if cos_theta > 0.0 {
-        (exponent + 1.0) / TAU * cos_theta.powf(exponent)
+        (exponent + 1.0) / TAU * powf(cos_theta, exponent)
     } else {
         0.0
     }

@@ -11,9 +11,9 @@
 
 use super::{row_v, sample_linear, BatchSimd, EnvMap, EnvSample, BATCH_LANES};
 use crate::alias::AliasSlot;
-use crate::fastmath;
 use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
 use glam::{Vec2, Vec3};
+use torrey_fastmath as fastmath;
 
 const LANES: usize = BATCH_LANES;
 

@@ -7,6 +7,7 @@ use crate::sampling::{cosine_power_pdf, square_to_cosine_power};
 use crate::textures::{ColorSource, FloatSource, TextureQuery};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::{PI, TAU};
+use torrey_fastmath::{exp2, powf};
 
 /// The material's parameters: `reflectance` (Schlick's F0; colour or texture) and the
 /// `exponent`.
@@ -35,7 +36,7 @@ pub struct Blinn {
 
 /// Blinn-Phong normalisation (Gotanda 2010), as the course gives it: (n+2)/(4π(2−2^(−n/2))).
 pub(super) fn blinn_norm(exponent: f32) -> f32 {
-    (exponent + 2.0) / (4.0 * PI * (2.0 - (-0.5 * exponent).exp2()))
+    (exponent + 2.0) / (4.0 * PI * (2.0 - exp2(-0.5 * exponent)))
 }
 
 /// Density of the half vector h ∝ (n·h)^n that blinn and blinn_microfacet sample, as the course
@@ -88,7 +89,7 @@ impl Blinn {
             return Vec3A::ZERO;
         };
         let fresnel = schlick_fresnel(self.reflectance, h.dot(wi));
-        fresnel * (blinn_norm(self.exponent) * h.z.powf(self.exponent))
+        fresnel * (blinn_norm(self.exponent) * powf(h.z, self.exponent))
     }
 
     #[inline(always)]

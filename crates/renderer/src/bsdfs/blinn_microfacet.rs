@@ -8,6 +8,7 @@ use super::{BsdfFlags, BsdfSample};
 use crate::textures::{ColorSource, FloatSource, TextureQuery};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::TAU;
+use torrey_fastmath::powf;
 
 /// The material's parameters: `reflectance` (Schlick's F0; colour or texture) and the Blinn
 /// `exponent` of the normal distribution.
@@ -63,7 +64,7 @@ impl BlinnMicrofacet {
         let Some(h) = (wo + wi).try_normalize() else {
             return Vec3A::ZERO;
         };
-        let d = (exponent + 2.0) / TAU * h.z.powf(exponent);
+        let d = (exponent + 2.0) / TAU * powf(h.z, exponent);
         // wo·h = wi·h > 0 for two directions above the surface, so G1's ω·h test holds.
         let g = smith_g1_walter(wo.z, exponent) * smith_g1_walter(wi.z, exponent);
         let fresnel = schlick_fresnel(self.reflectance, h.dot(wi));

@@ -6,6 +6,7 @@ use crate::sampling::{cosine_power_pdf, square_to_cosine_power, Frame};
 use crate::textures::{ColorSource, FloatSource, TextureQuery};
 use glam::{Vec2, Vec3A};
 use std::f32::consts::TAU;
+use torrey_fastmath::powf;
 
 /// The material's parameters: `reflectance` (colour or texture) and the Phong `exponent`.
 #[derive(Clone, Copy, Debug)]
@@ -43,7 +44,7 @@ impl Phong {
         if c <= 0.0 {
             return Vec3A::ZERO;
         }
-        self.reflectance * ((self.exponent + 1.0) / TAU * c.powf(self.exponent))
+        self.reflectance * ((self.exponent + 1.0) / TAU * powf(c, self.exponent))
     }
 
     /// The density of [`Phong::sample`]; directions it proposes below the surface are rejected,

@@ -118,6 +118,19 @@ impl PartialEq for PrincipledParams {
     }
 }
 
+/// The half vector of a pair of directions and what depends on it alone (see
+/// [`Principled::geometry`]).
+struct Geometry {
+    wh: Vec3A,
+    reflect: bool,
+    eta_path: f32,
+    oh: f32,
+    ih: f32,
+    f_diel: f32,
+    d: f32,
+    distr: Microfacet,
+}
+
 /// Probabilities of the lobes (diffuse, clearcoat, specular reflection, specular
 /// transmission), normalised.
 struct LobeProbs {
@@ -201,23 +214,51 @@ impl Principled<'_> {
         (if h.z < 0.0 { -h } else { h }, reflect, eta_path)
     }
 
+    /// What `eval` and `pdf` share for a pair of directions: the half vector and its Fresnel
+    /// term, the distribution and D there.
+    #[inline(always)]
+    fn geometry(&self, wo: Vec3A, wi: Vec3A) -> Geometry {
+        let (wh, reflect, eta_path) = self.half_vector(wo, wi);
+        let oh = wo.dot(wh);
+        let distr = self.distr();
+        Geometry {
+            wh,
+            reflect,
+            eta_path,
+            oh,
+            ih: wi.dot(wh),
+            f_diel: fresnel_dielectric(oh, self.p.eta).0,
+            d: distr.d(wh),
+            distr,
+        }
+    }
+
     /// f(wo, wi)·|cos θi| (Mitsuba's `eval`).
     #[inline(never)]
     pub fn eval(&self, wo: Vec3A, wi: Vec3A) -> Vec3A {
-        let cos_o = wo.z;
-        let cos_i = wi.z;
-        if cos_o == 0.0 || !(cos_o * cos_i != 0.0) {
+        if wo.z == 0.0 || !(wo.z * wi.z != 0.0) {
             return Vec3A::ZERO;
         }
+        self.eval_at(wo, wi, &self.geometry(wo, wi))
+    }
+
+    #[inline(always)]
+    fn eval_at(&self, wo: Vec3A, wi: Vec3A, geo: &Geometry) -> Vec3A {
+        let cos_o = wo.z;
+        let cos_i = wi.z;
         let (brdf, bsdf) = self.weights();
         let front = cos_o > 0.0;
-        let (wh, reflect, eta_path) = self.half_vector(wo, wi);
+        let Geometry {
+            wh,
+            reflect,
+            eta_path,
+            oh,
+            ih,
+            f_diel,
+            d,
+            ref distr,
+        } = *geo;
         let eta = self.p.eta;
-        let oh = wo.dot(wh);
-        let ih = wi.dot(wh);
-        let f_diel = fresnel_dielectric(oh, eta).0;
-        let distr = self.distr();
-        let d = distr.d(wh);
         let g = distr.g(wo, wi, wh);
         let mut value = Vec3A::ZERO;
         if reflect {
@@ -272,7 +313,9 @@ impl Principled<'_> {
             let denom = oh + eta_path * ih;
             let t = scale * (1.0 - f_diel) * d * g * eta_path * eta_path * oh * ih
                 / (cos_o * denom * denom);
-            value += self.base_color.max(Vec3A::ZERO).powf(0.5) * (bsdf * t.abs());
+            let c = self.base_color.max(Vec3A::ZERO);
+            let sqrt_color = Vec3A::new(c.x.sqrt(), c.y.sqrt(), c.z.sqrt());
+            value += sqrt_color * (bsdf * t.abs());
         }
         value
     }
@@ -280,17 +323,28 @@ impl Principled<'_> {
     /// The solid-angle density of [`Principled::sample`] (Mitsuba's `pdf`).
     #[inline(never)]
     pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
-        let cos_o = wo.z;
-        let cos_i = wi.z;
-        if cos_o == 0.0 {
+        if wo.z == 0.0 {
             return 0.0;
         }
+        self.pdf_at(wo, wi, &self.geometry(wo, wi))
+    }
+
+    #[inline(always)]
+    fn pdf_at(&self, wo: Vec3A, wi: Vec3A, geo: &Geometry) -> f32 {
+        let cos_o = wo.z;
+        let cos_i = wi.z;
         let front = cos_o > 0.0;
-        let (wh, reflect, eta_path) = self.half_vector(wo, wi);
+        let Geometry {
+            wh,
+            reflect,
+            eta_path,
+            oh,
+            ih,
+            f_diel: f,
+            d,
+            ref distr,
+        } = *geo;
         let refract = cos_o * cos_i < 0.0;
-        let oh = wo.dot(wh);
-        let ih = wi.dot(wh);
-        let f = fresnel_dielectric(oh, self.p.eta).0;
         let probs = self.probs(front, f);
         let jacobian = if reflect {
             1.0 / (4.0 * ih)
@@ -303,7 +357,7 @@ impl Principled<'_> {
         let mut pdf = 0.0;
         if reflect {
             if mac_mic_compatible(wh, wo, wi, cos_o, true) {
-                pdf += probs.reflect * self.distr().pdf_visible(wo_up, wh) * jacobian;
+                pdf += probs.reflect * distr.pdf_given_d(wo_up, wh, d) * jacobian;
                 if probs.clearcoat > 0.0 {
                     pdf +=
                         probs.clearcoat * Gtr1::clearcoat(self.clearcoat_gloss).pdf(wh) * jacobian;
@@ -311,7 +365,7 @@ impl Principled<'_> {
             }
             pdf += probs.diffuse * cosine_pdf(wi);
         } else if refract && probs.trans > 0.0 && mac_mic_compatible(wh, wo, wi, cos_o, false) {
-            pdf += probs.trans * self.distr().pdf_visible(wo_up, wh) * jacobian;
+            pdf += probs.trans * distr.pdf_given_d(wo_up, wh, d) * jacobian;
         }
         pdf
     }
@@ -360,13 +414,16 @@ impl Principled<'_> {
             }
             (wi, 1.0, BsdfFlags::GLOSSY_REFLECTION)
         };
-        let pdf = self.pdf(wo, wi);
+        // `pdf` and `eval` on one shared geometry (every branch above rejected the wi.z = 0 for
+        // which `eval` returns zero).
+        let geo = self.geometry(wo, wi);
+        let pdf = self.pdf_at(wo, wi, &geo);
         if !(pdf > 0.0) {
             return None;
         }
         Some(BsdfSample {
             wi,
-            weight: self.eval(wo, wi) / pdf,
+            weight: self.eval_at(wo, wi, &geo) / pdf,
             pdf,
             eta,
             lobe,

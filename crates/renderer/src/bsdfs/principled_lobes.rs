@@ -8,6 +8,7 @@
 use super::fresnel::schlick_weight;
 use glam::Vec3A;
 use std::f32::consts::{FRAC_1_PI, PI};
+use torrey_fastmath::{ln, powf, sin_cos_2pi};
 
 /// Luminance of a linear sRGB colour (Mitsuba's `luminance` in its RGB variants).
 #[inline]
@@ -99,7 +100,7 @@ impl Gtr1 {
     pub fn d(&self, m: Vec3A) -> f32 {
         let a2 = self.alpha * self.alpha;
         let c2 = m.z * m.z;
-        let v = (a2 - 1.0) / (PI * a2.ln() * (1.0 + (a2 - 1.0) * c2));
+        let v = (a2 - 1.0) / (PI * ln(a2) * (1.0 + (a2 - 1.0) * c2));
         if v * m.z > 1e-20 {
             v
         } else {
@@ -119,9 +120,9 @@ impl Gtr1 {
 
     #[inline]
     pub fn sample(&self, u: glam::Vec2) -> Vec3A {
-        let (sin_phi, cos_phi) = (2.0 * PI * u.x).sin_cos();
+        let (sin_phi, cos_phi) = sin_cos_2pi(u.x);
         let a2 = self.alpha * self.alpha;
-        let cos2 = (1.0 - a2.powf(1.0 - u.y)) / (1.0 - a2);
+        let cos2 = (1.0 - powf(a2, 1.0 - u.y)) / (1.0 - a2);
         let sin_t = (1.0 - cos2).max(0.0).sqrt();
         let cos_t = cos2.max(0.0).sqrt();
         Vec3A::new(cos_phi * sin_t, sin_phi * sin_t, cos_t)

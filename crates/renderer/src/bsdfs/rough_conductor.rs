@@ -61,13 +61,36 @@ impl RoughConductor {
             return Vec3A::ZERO;
         }
         let h = (wo + wi).normalize();
-        let d = self.distr.d(h);
+        self.eval_at(wo, wi, h, self.distr.d(h))
+    }
+
+    /// [`RoughConductor::eval`] at the half vector `h` with D(h) = `d`.
+    #[inline(always)]
+    fn eval_at(&self, wo: Vec3A, wi: Vec3A, h: Vec3A, d: f32) -> Vec3A {
         if d == 0.0 {
             return Vec3A::ZERO;
         }
         let g = self.distr.g(wo, wi, h);
         let f = fresnel_conductor(wo.dot(h), self.eta, self.k);
         self.specular_reflectance * f * (d * g / (4.0 * wo.z))
+    }
+
+    /// [`RoughConductor::eval`] and [`RoughConductor::pdf`] together, sharing the half vector
+    /// and D: what `sample` weighs with (the same bits as the two calls).
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return (Vec3A::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize();
+        let d = self.distr.d(h);
+        let c = wo.dot(h);
+        let pdf = if c > 0.0 {
+            self.distr.pdf_given_d(wo, h, d) / (4.0 * c)
+        } else {
+            0.0
+        };
+        (self.eval_at(wo, wi, h, d), pdf)
     }
 
     /// Visible-normal density over the reflection Jacobian 1 / (4 wo·h).
@@ -94,16 +117,11 @@ impl RoughConductor {
         if !(wi.z > 0.0) {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
+        let (f, pdf) = self.eval_pdf(wo, wi);
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample::reflection(
-            wi,
-            self.eval(wo, wi) / pdf,
-            pdf,
-            Self::FLAGS,
-        ))
+        Some(BsdfSample::reflection(wi, f / pdf, pdf, Self::FLAGS))
     }
 
     /// About the lobe's angular width.

@@ -82,10 +82,27 @@ impl RoughDielectric {
             return Vec3A::ZERO;
         };
         let d = self.distr.d(m);
+        let f = fresnel_dielectric(wo.dot(m), self.eta).0;
+        self.eval_at(wo, wi, m, reflect, eta_o, d, f)
+    }
+
+    /// [`RoughDielectric::eval`] at the half vector `m` (of [`half_vector`]) with D(m) = `d` and
+    /// F(wo·m) = `f`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn eval_at(
+        &self,
+        wo: Vec3A,
+        wi: Vec3A,
+        m: Vec3A,
+        reflect: bool,
+        eta_o: f32,
+        d: f32,
+        f: f32,
+    ) -> Vec3A {
         if d == 0.0 {
             return Vec3A::ZERO;
         }
-        let f = fresnel_dielectric(wo.dot(m), self.eta).0;
         let g = self.distr.g(wo, wi, m);
         if reflect {
             self.specular_reflectance * (f * d * g / (4.0 * wo.z.abs()))
@@ -102,6 +119,25 @@ impl RoughDielectric {
         let Some((m, reflect, eta_o)) = half_vector(self.eta, wo, wi) else {
             return 0.0;
         };
+        let wo_up = if wo.z < 0.0 { -wo } else { wo };
+        let f = fresnel_dielectric(wo.dot(m), self.eta).0;
+        self.pdf_at(wo, wi, m, reflect, eta_o, self.distr.pdf(wo_up, m), f)
+    }
+
+    /// [`RoughDielectric::pdf`] at the half vector `m` with the density of m `pm` and F(wo·m) =
+    /// `f`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn pdf_at(
+        &self,
+        wo: Vec3A,
+        wi: Vec3A,
+        m: Vec3A,
+        reflect: bool,
+        eta_o: f32,
+        pm: f32,
+        f: f32,
+    ) -> f32 {
         let (om, im) = (wo.dot(m), wi.dot(m));
         let jacobian = if reflect {
             1.0 / (4.0 * im)
@@ -109,10 +145,25 @@ impl RoughDielectric {
             let denom = om + eta_o * im;
             eta_o * eta_o * im / (denom * denom)
         };
-        let wo_up = if wo.z < 0.0 { -wo } else { wo };
-        let f = fresnel_dielectric(om, self.eta).0;
-        let p = self.distr.pdf(wo_up, m) * if reflect { f } else { 1.0 - f };
+        let p = pm * if reflect { f } else { 1.0 - f };
         (p * jacobian).abs()
+    }
+
+    /// [`RoughDielectric::eval`] and [`RoughDielectric::pdf`] together, sharing the half
+    /// vector, D and F: what `sample` weighs with (the same bits as the two calls).
+    #[inline]
+    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+        let Some((m, reflect, eta_o)) = half_vector(self.eta, wo, wi) else {
+            return (Vec3A::ZERO, 0.0);
+        };
+        let d = self.distr.d(m);
+        let f = fresnel_dielectric(wo.dot(m), self.eta).0;
+        let wo_up = if wo.z < 0.0 { -wo } else { wo };
+        let pm = self.distr.pdf_given_d(wo_up, m, d);
+        (
+            self.eval_at(wo, wi, m, reflect, eta_o, d, f),
+            self.pdf_at(wo, wi, m, reflect, eta_o, pm, f),
+        )
     }
 
     /// A normal (visible from wo's side unless `sample_visible` is false), then reflection with probability F, else refraction.
@@ -143,13 +194,13 @@ impl RoughDielectric {
             (wi, eta_it, BsdfFlags::GLOSSY_TRANSMISSION)
         };
         let wi = wi.normalize();
-        let pdf = self.pdf(wo, wi);
+        let (value, pdf) = self.eval_pdf(wo, wi);
         if !(pdf > 0.0) {
             return None;
         }
         Some(BsdfSample {
             wi,
-            weight: self.eval(wo, wi) / pdf,
+            weight: value / pdf,
             pdf,
             eta,
             lobe,

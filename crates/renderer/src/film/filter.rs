@@ -8,6 +8,7 @@
 //! its value to every pixel whose centre lies within the radius (docs/conventions.md says why).
 
 use glam::Vec2;
+use torrey_fastmath::{ln, sin_cos_2pi};
 use torrey_parser::PixelFilter;
 
 /// A reconstruction filter, ready to place samples and weigh splats.
@@ -65,9 +66,9 @@ impl Filter {
             PixelFilter::Tent { radius } => Vec2::new(sample_tent(u.x), sample_tent(u.y)) * radius,
             PixelFilter::Gaussian { stddev } => {
                 // Box-Muller, truncated at Mitsuba's radius of 4 standard deviations.
-                let r = (-2.0 * (1.0 - u.x).max(1e-12).ln()).sqrt().min(4.0);
-                let phi = 2.0 * std::f32::consts::PI * u.y;
-                Vec2::new(phi.cos(), phi.sin()) * (r * stddev)
+                let r = (-2.0 * ln((1.0 - u.x).max(1e-12))).sqrt().min(4.0);
+                let (sin_phi, cos_phi) = sin_cos_2pi(u.y);
+                Vec2::new(cos_phi, sin_phi) * (r * stddev)
             }
         }
     }

@@ -16,6 +16,7 @@ use crate::shapes::cylinder::Cylinder;
 use crate::shapes::disk::Disk;
 use glam::{Mat3, Vec2, Vec3A};
 use std::f32::consts::PI;
+use torrey_fastmath::sin_cos_2pi;
 use torrey_light::{luminance, AliasTable};
 use torrey_texture::Image;
 
@@ -61,8 +62,8 @@ impl UvMap {
                 radius,
                 to_world,
             } => {
-                let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-                let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+                let (sin_phi, cos_phi) = sin_cos_2pi(uv.x);
+                let (sin_theta, cos_theta) = sin_cos_2pi(0.5 * uv.y);
                 let local = glam::Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta);
                 let n = Vec3A::from(to_world * local);
                 (
@@ -81,7 +82,9 @@ impl UvMap {
     pub fn jacobian(&self, uv: Vec2) -> f32 {
         match *self {
             UvMap::Rectangle { ax, ay, .. } => 4.0 * ax.cross(ay).length(),
-            UvMap::Sphere { radius, .. } => 2.0 * PI * PI * radius * radius * (PI * uv.y).sin(),
+            UvMap::Sphere { radius, .. } => {
+                2.0 * PI * PI * radius * radius * sin_cos_2pi(0.5 * uv.y).0
+            }
             UvMap::Disk(ref disk) => disk.uv_jacobian(uv),
             UvMap::Cylinder(ref cylinder) => cylinder.uv_jacobian(uv),
         }

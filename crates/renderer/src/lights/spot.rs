@@ -6,6 +6,7 @@ use super::light_bounds::{luminance, DirectionCone, LightBounds};
 use super::LightSample;
 use crate::textures::Texture;
 use glam::{Mat3A, Vec2, Vec3A};
+use torrey_fastmath::acos;
 use torrey_texture::Footprint;
 
 /// A spot light: position, world-to-light frame, axis intensity and falloff angles.
@@ -81,8 +82,7 @@ impl SpotLight {
         } else if cos_theta >= self.cos_beam {
             1.0
         } else {
-            ((self.cutoff - cos_theta.clamp(-1.0, 1.0).acos()) * self.inv_transition)
-                .clamp(0.0, 1.0)
+            ((self.cutoff - acos(cos_theta.clamp(-1.0, 1.0))) * self.inv_transition).clamp(0.0, 1.0)
         }
     }
 

@@ -11,6 +11,7 @@ use crate::ray::Ray;
 use crate::sampling::Frame;
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI};
+use torrey_fastmath::{atan2, sin_cos_2pi};
 
 /// A cylinder in world space.
 #[derive(Clone, Copy, Debug)]
@@ -90,7 +91,7 @@ impl Cylinder {
         let p = self.to_world.transform_point3a(Vec3A::new(x, y, z));
         let n = self.normal_at(x, y);
         let (uv, dpdu, dpdv) = if needs_uv {
-            let mut u = y.atan2(x) * (0.5 * FRAC_1_PI);
+            let mut u = atan2(y, x) * (0.5 * FRAC_1_PI);
             if u < 0.0 {
                 u += 1.0;
             }
@@ -121,7 +122,7 @@ impl Cylinder {
     /// (before `flip_normals`); the area density is 1 / [`Cylinder::area`], as in Mitsuba.
     #[inline]
     pub fn sample_point(&self, u: Vec2) -> (Vec3A, Vec3A) {
-        let (s, c) = (2.0 * PI * u.y).sin_cos();
+        let (s, c) = sin_cos_2pi(u.y);
         let p = self.to_world.transform_point3a(Vec3A::new(c, s, u.x));
         (p, self.normal_at(c, s))
     }
@@ -131,7 +132,7 @@ impl Cylinder {
     /// sampling a textured emitter by its texture.
     #[inline]
     pub fn point_at_uv(&self, uv: Vec2) -> (Vec3A, Vec3A, f32) {
-        let (s, c) = (2.0 * PI * uv.x).sin_cos();
+        let (s, c) = sin_cos_2pi(uv.x);
         (
             self.to_world.transform_point3a(Vec3A::new(c, s, uv.y)),
             self.normal_at(c, s),
@@ -142,7 +143,7 @@ impl Cylinder {
     /// |dp/du × dp/dv| at `uv` (see [`Cylinder::point_at_uv`]).
     #[inline]
     pub fn uv_jacobian(&self, uv: Vec2) -> f32 {
-        let (s, c) = (2.0 * PI * uv.x).sin_cos();
+        let (s, c) = sin_cos_2pi(uv.x);
         let dpdu = self
             .to_world
             .transform_vector3a(2.0 * PI * Vec3A::new(-s, c, 0.0));

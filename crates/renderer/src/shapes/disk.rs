@@ -10,6 +10,7 @@ use crate::ray::ClosestHit;
 use crate::ray::Ray;
 use glam::{Affine3A, Mat4, Vec2, Vec3A};
 use std::f32::consts::{FRAC_1_PI, PI};
+use torrey_fastmath::{atan2, sin_cos_2pi};
 
 /// A disk in world space.
 #[derive(Clone, Copy, Debug)]
@@ -109,7 +110,7 @@ impl Disk {
     /// `eval_parameterization`, for sampling a textured emitter by its texture.
     #[inline]
     pub fn point_at_uv(&self, uv: Vec2) -> (Vec3A, Vec3A, f32) {
-        let (sin_phi, cos_phi) = (2.0 * std::f32::consts::PI * uv.y).sin_cos();
+        let (sin_phi, cos_phi) = sin_cos_2pi(uv.y);
         let local = Vec3A::new(uv.x * cos_phi, uv.x * sin_phi, 0.0);
         (
             self.to_world.transform_point3a(local),
@@ -146,7 +147,7 @@ impl Disk {
 /// [0, 1); dp/du = (cos φ, sin φ, 0), dp/dv = 2π (−y, x, 0), in object space.
 pub fn disk_uv(local: Vec3A) -> (Vec2, Vec3A, Vec3A) {
     let r = (local.x * local.x + local.y * local.y).sqrt();
-    let mut v = local.y.atan2(local.x) * (0.5 * FRAC_1_PI);
+    let mut v = atan2(local.y, local.x) * (0.5 * FRAC_1_PI);
     if v < 0.0 {
         v += 1.0;
     }
@@ -162,20 +163,10 @@ pub fn disk_uv(local: Vec3A) -> (Vec2, Vec3A, Vec3A) {
     )
 }
 
-/// Shirley and Chiu's concentric map from the unit square to the unit disk.
+/// Shirley and Chiu's concentric map from the unit square to the unit disk (the sampling
+/// module's, whose sines and cosines are branch-free polynomials).
 fn square_to_disk_concentric(u: Vec2) -> Vec2 {
-    let x = 2.0 * u.x - 1.0;
-    let y = 2.0 * u.y - 1.0;
-    if x == 0.0 && y == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, phi) = if x.abs() > y.abs() {
-        (x, (PI / 4.0) * (y / x))
-    } else {
-        (y, PI / 2.0 - (PI / 4.0) * (x / y))
-    };
-    let (s, c) = phi.sin_cos();
-    Vec2::new(r * c, r * s)
+    crate::sampling::square_to_concentric_disk(u)
 }
 
 /// Ray/disk intersection in the disk's object space (where it is the unit disk at z = 0): the

@@ -9,6 +9,7 @@ use crate::ray::Ray;
 use crate::sampling::Frame;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec3A};
 use std::f32::consts::PI;
+use torrey_fastmath::{acos, atan2, sin_cos_2pi};
 
 /// A sphere in world space, and the world-to-object rotation that fixes its uv poles.
 #[derive(Clone, Copy, Debug)]
@@ -146,17 +147,17 @@ pub fn intersect_sphere(
 /// Returns (uv, dp/du, dp/dv) with the derivatives in the same (unit-sphere, object) frame.
 pub fn sphere_uv(local: Vec3A) -> (Vec2, Vec3A, Vec3A) {
     let (x, y, z) = (local.x, local.y, local.z.clamp(-1.0, 1.0));
-    let mut phi = y.atan2(x);
+    let mut phi = atan2(y, x);
     if phi < 0.0 {
         phi += 2.0 * std::f32::consts::PI;
     }
-    let theta = z.acos();
+    let theta = acos(z);
     let uv = Vec2::new(
         phi / (2.0 * std::f32::consts::PI),
         theta / std::f32::consts::PI,
     );
     let dpdu = 2.0 * std::f32::consts::PI * Vec3A::new(-y, x, 0.0);
-    let (sin_phi, cos_phi) = phi.sin_cos();
+    let (sin_phi, cos_phi) = sin_cos_2pi(uv.x);
     let rxy = (x * x + y * y).sqrt();
     let dpdv = std::f32::consts::PI * Vec3A::new(z * cos_phi, z * sin_phi, -rxy);
     (uv, dpdu, dpdv)
@@ -232,8 +233,8 @@ pub fn sample_sphere_solid_angle(
         // Inside (or on) the sphere: uniform by area, converted to solid angle at `reference`.
         let z = 1.0 - 2.0 * u.x;
         let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let normal = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        let (sin_phi, cos_phi) = sin_cos_2pi(u.y);
+        let normal = Vec3::new(r * cos_phi, r * sin_phi, z);
         let point = center + radius * normal;
         let d = point - reference;
         let len2 = d.length_squared();
@@ -269,10 +270,10 @@ pub fn sample_sphere_solid_angle(
     let cos_alpha =
         sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
     let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
+    let (sin_phi, cos_phi) = sin_cos_2pi(u.y);
     let frame = Frame::from_normal(w.into());
     let (t1, t2) = (Vec3::from(frame.s), Vec3::from(frame.t));
-    let normal = (-w * cos_alpha + (t1 * phi.cos() + t2 * phi.sin()) * sin_alpha).normalize();
+    let normal = (-w * cos_alpha + (t1 * cos_phi + t2 * sin_phi) * sin_alpha).normalize();
     let point = center + radius * normal;
     let pdf = 1.0 / (2.0 * PI * one_minus_cos_max);
     (pdf.is_finite() && normal.is_finite()).then_some(SphereSample { point, normal, pdf })

@@ -181,7 +181,7 @@ pub fn sample_triangle_uniform(u: Vec2) -> (f32, f32) {
     // from min and max, without a branch that mispredicts half the time.
     let half = 0.5 * u.x.min(u.y);
     let rest = u.x.max(u.y) - half;
-    let (b0, b1) = torrey_light::fastmath::swap_if(u.x < u.y, rest, half);
+    let (b0, b1) = torrey_fastmath::swap_if(u.x < u.y, rest, half);
     let b2 = (1.0 - b0 - b1).max(0.0);
     (b1, b2)
 }
