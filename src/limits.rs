@@ -29,6 +29,7 @@ pub const NAMES: &[(&str, &str)] = &[
     ("mesh_vertices", "vertices of all meshes together"),
     ("scene_bytes", "size of the scene file"),
     ("nesting_depth", "how deep XML elements may nest"),
+    ("volume_values", "values of all grid volumes (.vol files) together"),
     ("threads", "the most --threads may ask for"),
 ];
 
@@ -79,6 +80,7 @@ impl Limits {
                 "mesh_vertices" => l.parser.mesh_vertices = v,
                 "scene_bytes" => l.parser.scene_bytes = v,
                 "nesting_depth" => l.parser.nesting_depth = v.min(u32::MAX as u64) as u32,
+                "volume_values" => l.parser.volume_values = v,
                 "threads" => l.threads = v,
                 _ => return Err(format!("unknown limit '{name}'")),
             }

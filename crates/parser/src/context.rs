@@ -19,9 +19,8 @@ pub(crate) enum IdTarget {
     /// Index into [`Ctx::area_emitters`]: an `area` emitter declared outside a shape, attached
     /// by a `<ref>` inside one.
     AreaEmitter(usize),
-    /// A medium: accepted by `<ref>` in a shape's `interior`/`exterior`, then ignored with the
-    /// media warning.
-    Medium,
+    /// Index into [`Ctx::media`]: a shape's `interior`/`exterior`, a sensor's medium.
+    Medium(crate::media::MediumId),
     /// Shapes, sensors, emitters...: may carry ids but cannot be referenced here.
     Other,
 }
@@ -38,6 +37,10 @@ pub(crate) struct Ctx {
     pub instances: Vec<crate::scene::Instance>,
     /// Area emitters declared with an id outside shapes: radiance (1 with a texture) and texture.
     pub area_emitters: Vec<(glam::Vec3, Option<TextureId>)>,
+    /// Every `<medium>`, in the order read.
+    pub media: Vec<crate::media::Medium>,
+    /// Values of the grid volumes read so far, against `limits.volume_values`.
+    pub volume_values: u64,
     /// Every file name resolved so far, in order: [`crate::Scene::files`].
     pub files: std::cell::RefCell<Vec<PathBuf>>,
     ids: HashMap<String, (IdTarget, Pos, String)>,
@@ -66,6 +69,8 @@ impl Ctx {
             shape_groups: Vec::new(),
             instances: Vec::new(),
             area_emitters: Vec::new(),
+            media: Vec::new(),
+            volume_values: 0,
             texture_uses: Vec::new(),
             bsdf_textures: HashMap::new(),
             files: Default::default(),
@@ -83,8 +88,8 @@ impl Ctx {
         self.sources.err(pos, message)
     }
 
-    /// Media (`<medium>`, `<phase>`, `<volume>`, `<subsurface>`) are not rendered: the first
-    /// one gives one warning, the others are dropped silently.
+    /// `<subsurface>` (and a `<phase>` or `<volume>` outside a medium) is not rendered: the
+    /// first one gives one warning, the others are dropped silently.
     pub fn warn_media(&mut self, elem: &Element, owner: Option<&str>) {
         if self.media_warned {
             return;
@@ -94,7 +99,7 @@ impl Ctx {
         let place = owner.map_or(String::new(), |o| format!(" in {o}"));
         self.warn(
             elem.pos,
-            format!("{what}{place} is not supported; ignored, with every other medium, phase function and volume of the scene (media are not rendered)"),
+            format!("{what}{place} is not supported; ignored, with every other such element of the scene"),
         );
     }
 

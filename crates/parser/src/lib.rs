@@ -11,6 +11,7 @@ mod error;
 mod files;
 mod include;
 mod limits;
+pub mod media;
 mod mesh;
 mod plugins;
 mod props;
@@ -18,10 +19,12 @@ pub mod scene;
 mod spectrum;
 mod transform;
 mod values;
+pub mod vol;
 mod xml;
 
 pub use error::ParseError;
 pub use limits::Limits;
+pub use media::{GridVolume, Medium, MediumId, Phase, Volume};
 pub use mesh::smooth_normals;
 pub use scene::*;
 

@@ -1,5 +1,5 @@
 //! Caps on what a scene may make torrey allocate. Scene files come from strangers: every count
-//! a file declares (film size, mesh sizes, nesting depth) is checked against these before
+//! a file declares (film size, mesh sizes, grid volume sizes, nesting depth) is checked against these before
 //! anything of that size is allocated. The defaults keep a render of any accepted scene well
 //! under 2 GB; `torrey --limit name=value` raises or lowers them (docs/robustness.md).
 
@@ -16,6 +16,9 @@ pub struct Limits {
     pub scene_bytes: u64,
     /// How deep XML elements may nest: 64 (real scenes nest less than 10 deep).
     pub nesting_depth: u32,
+    /// Values of all grid volumes (`.vol` files) of a scene together: 2^26 = 67,108,864
+    /// (256 MiB of floats; a 400^3 grid).
+    pub volume_values: u64,
 }
 
 impl Default for Limits {
@@ -26,6 +29,7 @@ impl Default for Limits {
             mesh_vertices: 1 << 24,
             scene_bytes: 256 << 20,
             nesting_depth: 64,
+            volume_values: 1 << 26,
         }
     }
 }

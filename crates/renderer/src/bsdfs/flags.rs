@@ -20,6 +20,10 @@ impl BsdfFlags {
     pub const GLOSSY: Self = Self(8);
     /// A Dirac delta (perfect mirror or refraction): light sampling cannot hit it.
     pub const DELTA: Self = Self(16);
+    /// Index-matched passage: the ray goes on unchanged (Mitsuba's `Null`: `null`, a
+    /// `thindielectric`'s transmission). The volumetric path tracer does not count it as a
+    /// bounce, and its shadow rays pass such surfaces.
+    pub const NULL: Self = Self(32);
 
     pub const DIFFUSE_REFLECTION: Self = Self::DIFFUSE.union(Self::REFLECTION);
     pub const GLOSSY_REFLECTION: Self = Self::GLOSSY.union(Self::REFLECTION);

@@ -10,7 +10,7 @@ use glam::Vec3A;
 pub struct Null;
 
 impl Null {
-    pub const FLAGS: BsdfFlags = BsdfFlags::DELTA_TRANSMISSION;
+    pub const FLAGS: BsdfFlags = BsdfFlags::DELTA_TRANSMISSION.union(BsdfFlags::NULL);
 
     #[inline(always)]
     pub fn eval(&self, _wo: Vec3A, _wi: Vec3A) -> Vec3A {

@@ -163,7 +163,7 @@ pub fn radiance(
             }
             Some(h) => match hit_emission(scene, &h, wi) {
                 Some((radiance, light)) => {
-                    radiance * weight(emission_pdf(light, hit.p, wi, &h, light_select_pdf))
+                    radiance * weight(emission_pdf(light, hit.p, wi, h.t, &h, light_select_pdf))
                 }
                 None => Vec3A::ZERO,
             },

@@ -50,6 +50,13 @@ pub fn radiance(
         Integrator::Direct(d) => {
             direct::radiance(scene, d, dir, cone, settings, sampler, rays, first_hit)
         }
+        Integrator::VolPath(_) => super::volpath::trace_volpath(
+            &PathContext::volumetric(scene, settings),
+            PathState::camera(origin, dir, cone),
+            sampler,
+            rays,
+            first_hit,
+        ),
     }
 }
 

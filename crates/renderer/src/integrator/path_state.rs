@@ -29,6 +29,7 @@
 
 use super::shading::{choose_light, emission_pdf, hit_emission, light_select_pdf, ShadingPoint};
 use super::{EnvStrategy, PathSettings};
+use crate::bsdfs::BsdfFlags;
 use crate::lights::LightDraw;
 use crate::ray::{offset_origin, Ray};
 use crate::sampling::power_heuristic;
@@ -48,6 +49,9 @@ pub struct PathContext<'a> {
     light_count_f32: f32,
     /// Cones only matter where they filter: textures (mip-mapping) and environment maps.
     track_cones: bool,
+    /// The volumetric path tracer's rules at surfaces (Mitsuba's `volpath`): index-matched
+    /// (null) crossings are not bounces and carry the path's medium across the surface.
+    pub volumetric: bool,
 }
 
 impl<'a> PathContext<'a> {
@@ -58,6 +62,15 @@ impl<'a> PathContext<'a> {
             light_select_pdf: light_select_pdf(scene.lights.len()),
             light_count_f32: scene.lights.len() as f32,
             track_cones: settings.mipmapping && scene.uses_cones,
+            volumetric: false,
+        }
+    }
+
+    /// The context of the volumetric path tracer.
+    pub fn volumetric(scene: &'a RenderScene, settings: PathSettings) -> Self {
+        Self {
+            volumetric: true,
+            ..Self::new(scene, settings)
         }
     }
 
@@ -137,6 +150,12 @@ pub struct PathState {
     pub eta: f32,
     /// Segments traced before `ray`.
     pub depth: u32,
+    /// The medium `ray` travels in (volumetric path tracer; None: vacuum).
+    pub medium: Option<u32>,
+    /// How far `ray`'s origin lies from `prev_p` along `ray` (past index-matched crossings;
+    /// always 0 in the path tracer): emission found on `ray` is `travelled` + t away from the
+    /// scattering event whose sample produced it.
+    pub travelled: f32,
 }
 
 impl PathState {
@@ -158,6 +177,8 @@ impl PathState {
             specular_chain: true,
             eta: 1.0,
             depth: 0,
+            medium: None,
+            travelled: 0.0,
         }
     }
 
@@ -226,13 +247,17 @@ impl PathState {
                 let w = if self.prev_delta {
                     1.0
                 } else {
-                    let pdf = emission_pdf(light, self.prev_p, dir, hit, ctx.light_select_pdf);
+                    let t = self.travelled + hit.t;
+                    let pdf = emission_pdf(light, self.prev_p, dir, t, hit, ctx.light_select_pdf);
                     power_heuristic(self.prev_bsdf_pdf, pdf)
                 };
                 self.result += self.throughput * radiance * w;
             }
         }
-        if self.last_segment(ctx) {
+        let last_segment = self.last_segment(ctx);
+        // The volumetric path tracer goes on through index-matched surfaces on its last segment
+        // (they are no bounce), as Mitsuba's `volpath` does.
+        if last_segment && !(ctx.volumetric && self.may_pass(ctx, hit)) {
             return (None, false);
         }
 
@@ -246,7 +271,8 @@ impl PathState {
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
 
         let mut shadow = None;
-        if let (true, Some((index, draw))) = (sp.bsdf.flags().has_smooth(), draws.light) {
+        let light = draws.light.filter(|_| !last_segment);
+        if let (true, Some((index, draw))) = (sp.bsdf.flags().has_smooth(), light) {
             let light = &scene.lights[index];
             let uniform_env = ctx.settings.env_strategy == EnvStrategy::Uniform;
             if let Some(c) = sp.connect(scene, hit, light, draw, uniform_env) {
@@ -273,6 +299,23 @@ impl PathState {
         }
         self.throughput *= bs.weight;
         let wi = sp.frame.to_world(bs.wi);
+        if ctx.volumetric {
+            self.medium = scene.media.after_crossing(self.medium, hit.shape, hit.ng, wi);
+            if bs.lobe.contains(BsdfFlags::NULL) {
+                // Index-matched: the same ray goes on; not a bounce.
+                self.travelled += hit.t;
+                self.ray = Ray {
+                    origin: offset_origin(hit.p, hit.ng, wi),
+                    dir: wi,
+                    tmax: f32::INFINITY,
+                };
+                return (shadow, true);
+            }
+            if last_segment {
+                return (shadow, false);
+            }
+            self.travelled = 0.0;
+        }
         if !bs.is_delta() {
             if ctx.track_cones {
                 self.cone.spread += sp.bsdf.roughness() * ctx.settings.footprint_scale;
@@ -290,15 +333,62 @@ impl PathState {
         };
         self.depth += 1;
 
-        // Russian roulette, as Mitsuba: survive with probability min(max throughput · η², 0.95).
+        (shadow, self.roulette(ctx, draws.u_rr))
+    }
+
+    /// Russian roulette after a bounce, as Mitsuba's: from `rr_depth` on the path survives with
+    /// probability min(max throughput · η², 0.95) (`u` decides). Returns whether it goes on.
+    #[inline(always)]
+    pub fn roulette(&mut self, ctx: &PathContext, u: f32) -> bool {
         if self.depth as i32 >= ctx.settings.rr_depth {
             let q = (self.throughput.max_element() * self.eta * self.eta).min(0.95);
-            if draws.u_rr >= q {
-                return (shadow, false);
+            if u >= q {
+                return false;
             }
             self.throughput /= q;
         }
-        (shadow, true)
+        true
+    }
+
+    /// The path scattered in a medium at `p`, `t` along its ray, into `wi` with density `pdf`
+    /// (the phase function's); `count_fully`: emitters the new ray finds are not weighed by MIS
+    /// (the medium samples no emitters).
+    pub fn scattered_in_medium(
+        &mut self,
+        ctx: &PathContext,
+        t: f32,
+        p: Vec3A,
+        wi: Vec3A,
+        pdf: f32,
+        count_fully: bool,
+    ) {
+        if ctx.track_cones {
+            // Like a diffuse bounce: the widest lobe.
+            self.cone = self.cone.at_distance(t);
+            self.cone.spread += ctx.settings.footprint_scale;
+        }
+        self.specular_chain = false;
+        self.prev_bsdf_pdf = pdf;
+        self.prev_delta = count_fully;
+        self.prev_p = p;
+        self.travelled = 0.0;
+        self.ray = Ray {
+            origin: p,
+            dir: wi,
+            tmax: f32::INFINITY,
+        };
+    }
+}
+
+impl PathState {
+    /// Whether the surface at `hit` may let the ray pass straight through (a `null`, a thin
+    /// dielectric, a mask).
+    #[inline]
+    pub fn may_pass(&self, ctx: &PathContext, hit: &SurfaceHit) -> bool {
+        let scene = ctx.scene;
+        scene.materials[scene.shapes[hit.shape as usize].material as usize]
+            .bsdf
+            .may_pass()
     }
 }
 
