@@ -20,6 +20,8 @@ mod path;
 mod path_state;
 mod shading;
 mod volpath;
+#[cfg(test)]
+mod volpath_tests;
 pub mod wavefront;
 
 pub use direct::DirectIntegrator;
