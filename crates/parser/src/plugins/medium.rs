@@ -14,8 +14,8 @@
 //!
 //! Phase functions: `isotropic`; `hg` (`g`, float in (-1, 1), default 0.8); `rayleigh`;
 //! `blendphase` (`weight`, float in [0, 1], default 0.5; two nested `<phase>`s:
-//! (1 - weight) · first + weight · second, the two ordered by their `name`s as Mitsuba orders
-//! them; unnamed ones in document order).
+//! (1 - weight) · first + weight · second, in document order whatever their names, as
+//! Mitsuba 3.9.1 takes them).
 //!
 //! Volumes: `constvolume` (`value`: float, rgb or spectrum, default 1); `gridvolume`:
 //!
@@ -262,13 +262,8 @@ pub(crate) fn parse_phase(ctx: &mut Ctx, elem: &Element) -> Result<Phase> {
         _ => {
             let weight =
                 props.float_where(ctx, &["weight"], 0.5, "in [0, 1]", |w| (0.0..=1.0).contains(&w))?;
-            // Mitsuba orders the two by their names (unnamed ones in document order, after
-            // uppercase and before lowercase names, as its generated `_arg_N` names sort).
-            let mut nested = props.take_tag("phase");
-            nested.sort_by_cached_key(|e| match e.attr_value("name") {
-                Some(n) => n.to_string(),
-                None => format!("_arg_{:020}", e.pos.line as u64 * 1_000_000 + e.pos.column as u64),
-            });
+            // In document order, whatever their names (as Mitsuba 3.9.1 reads them).
+            let nested = props.take_tag("phase");
             if nested.len() != 2 {
                 return Err(ctx.err(
                     elem.pos,

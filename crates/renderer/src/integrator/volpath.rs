@@ -58,16 +58,22 @@ pub(super) fn trace_volpath(
     let mut first = Some(first_hit);
     loop {
         let draws = BounceDraws::new(ctx, std::array::from_fn(|_| sampler.next_2d()));
+        let medium = path.medium.map(|m| &scene.media.list[m as usize]);
+        // In a homogeneous medium the ray is traced only as far as the drawn free flight.
+        let drawn = medium.and_then(|m| m.draw_distance(path.throughput, &mut || sampler.next_1d()));
         rays.closest += 1;
         let hit = match first.take() {
             Some(h) => h,
-            None => scene.intersect(&path.ray),
+            None => scene.intersect(&Ray {
+                tmax: drawn.unwrap_or(f32::INFINITY),
+                ..path.ray
+            }),
         };
-        if let Some(m) = path.medium {
-            let medium = &scene.media.list[m as usize];
+        if let (Some(m), Some(medium)) = (path.medium, medium) {
             let tmax = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
             let (o, d) = (path.ray.origin, path.ray.dir);
-            match medium.sample(o, d, tmax, &mut path.throughput, &mut || sampler.next_1d()) {
+            let u = &mut || sampler.next_1d();
+            match medium.sample(o, d, tmax, drawn, &mut path.throughput, u) {
                 Flight::Scatter(t) => {
                     if !scatter_in_medium(ctx, &mut path, medium, m, t, &draws, sampler, rays) {
                         break;

@@ -95,18 +95,54 @@ impl Medium {
         }
     }
 
+    /// In a homogeneous medium, the tentative free-flight distance of a path with `throughput`,
+    /// drawn before its ray is traced so that the ray need only be traced that far (a dense
+    /// medium's short rays stop early, as Mitsuba traces them); [`Medium::sample`] then weighs
+    /// it. None in a grid medium (its flights are drawn along the traced segment).
+    pub fn draw_distance(&self, throughput: Vec3A, u: &mut impl FnMut() -> f32) -> Option<f32> {
+        let Density::Homogeneous(sigma) = &self.density else {
+            return None;
+        };
+        let total = throughput.element_sum();
+        if !(sigma.max_element() > 0.0 && total > 0.0) {
+            return Some(f32::INFINITY);
+        }
+        // The channel, in proportion to the throughput.
+        let pick = u() * total;
+        let c = if pick < throughput.x {
+            0
+        } else if pick < throughput.x + throughput.y {
+            1
+        } else {
+            2
+        };
+        Some(if sigma[c] > 0.0 {
+            -(1.0 - u()).ln() / sigma[c]
+        } else {
+            f32::INFINITY
+        })
+    }
+
     /// Samples the next interaction along `o + t d` for t in [0, `tmax`] (`tmax` may be
-    /// infinite), weighting `throughput`; `u` draws numbers.
+    /// infinite), weighting `throughput`; `drawn` is [`Medium::draw_distance`]'s distance (with
+    /// the same throughput), `u` draws numbers.
     pub fn sample(
         &self,
         o: Vec3A,
         d: Vec3A,
         tmax: f32,
+        drawn: Option<f32>,
         throughput: &mut Vec3A,
         u: &mut impl FnMut() -> f32,
     ) -> Flight {
         match &self.density {
-            Density::Homogeneous(sigma) => self.sample_homogeneous(*sigma, o, d, tmax, throughput, u),
+            Density::Homogeneous(sigma) => {
+                let t = drawn.unwrap_or_else(|| {
+                    self.draw_distance(*throughput, u)
+                        .expect("homogeneous media draw distances")
+                });
+                self.weigh_homogeneous(*sigma, o, d, t, tmax, throughput)
+            }
             Density::Grid {
                 grid,
                 majorants,
@@ -151,38 +187,23 @@ impl Medium {
         }
     }
 
-    fn sample_homogeneous(
+    /// Weighs a homogeneous medium's drawn distance `t` (a scattering event before `tmax`, else
+    /// the segment's end) by the mixture of the channels' densities.
+    fn weigh_homogeneous(
         &self,
         sigma: Vec3A,
         o: Vec3A,
         d: Vec3A,
+        t: f32,
         tmax: f32,
         throughput: &mut Vec3A,
-        u: &mut impl FnMut() -> f32,
     ) -> Flight {
-        if !(sigma.max_element() > 0.0) {
-            return Flight::Pass;
-        }
         let w = *throughput;
         let total = w.element_sum();
-        if !(total > 0.0) {
+        if !(sigma.max_element() > 0.0 && total > 0.0) {
             return Flight::Pass;
         }
-        // The channel, in proportion to the throughput.
         let probs = w / total;
-        let pick = u() * total;
-        let c = if pick < w.x {
-            0
-        } else if pick < w.x + w.y {
-            1
-        } else {
-            2
-        };
-        let t = if sigma[c] > 0.0 {
-            -(1.0 - u()).ln() / sigma[c]
-        } else {
-            f32::INFINITY
-        };
         if t < tmax {
             let tr = (-sigma * t).exp();
             let pdf = (probs * sigma * tr).element_sum();
@@ -295,7 +316,7 @@ mod tests {
             let mut tr_est = Vec3A::ZERO;
             for _ in 0..n {
                 let mut w = Vec3A::ONE;
-                match m.sample(o, dir, d, &mut w, &mut || rng.f32()) {
+                match m.sample(o, dir, d, None, &mut w, &mut || rng.f32()) {
                     Flight::Pass => pass += w,
                     Flight::Scatter(_) => scatter += w,
                 }
