@@ -29,7 +29,10 @@ pub const NAMES: &[(&str, &str)] = &[
     ("mesh_vertices", "vertices of all meshes together"),
     ("scene_bytes", "size of the scene file"),
     ("nesting_depth", "how deep XML elements may nest"),
-    ("volume_values", "values of all grid volumes (.vol files) together"),
+    (
+        "volume_values",
+        "values of all grid volumes (.vol files) together",
+    ),
     ("threads", "the most --threads may ask for"),
 ];
 

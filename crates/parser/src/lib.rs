@@ -31,7 +31,8 @@ pub use scene::*;
 use std::path::Path;
 
 /// Every plugin type the parser accepts, per element kind (`bsdf`, `shape`, `emitter`,
-/// `texture`, `sensor`, `film`, `rfilter`, `sampler`, `integrator`): what docs/scene-format.md
+/// `texture`, `sensor`, `film`, `rfilter`, `sampler`, `integrator`, `medium`, `phase`,
+/// `volume`): what docs/scene-format.md
 /// must document.
 pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
     vec![
@@ -44,6 +45,9 @@ pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
         ("rfilter", plugins::sensor::RFILTERS),
         ("sampler", plugins::sensor::SAMPLERS),
         ("integrator", plugins::integrator::INTEGRATORS),
+        ("medium", plugins::medium::MEDIA),
+        ("phase", plugins::medium::PHASES),
+        ("volume", plugins::medium::VOLUMES),
     ]
 }
 

@@ -116,10 +116,7 @@ fn clamp_albedo(ctx: &mut Ctx, elem: &Element, albedo: &mut Volume) {
         Volume::Constant(c) if c.max_element() > 1.0 => {
             ctx.warn(
                 pos,
-                format!(
-                    "albedo {} {} {} is above 1; clamped to 1",
-                    c.x, c.y, c.z
-                ),
+                format!("albedo {} {} {} is above 1; clamped to 1", c.x, c.y, c.z),
             );
             *c = c.min(Vec3::ONE);
         }
@@ -128,7 +125,10 @@ fn clamp_albedo(ctx: &mut Ctx, elem: &Element, albedo: &mut Volume) {
             let over = g.data.iter().filter(|&&v| v > 1.0).count();
             ctx.warn(
                 pos,
-                format!("{over} albedo values of the grid are above 1 (up to {}); clamped to 1", g.max),
+                format!(
+                    "{over} albedo values of the grid are above 1 (up to {}); clamped to 1",
+                    g.max
+                ),
             );
             g.data.iter_mut().for_each(|v| *v = v.min(1.0));
             g.max = 1.0;
@@ -178,8 +178,16 @@ fn parse_grid(
         ));
     };
     let path = input_file(ctx, file, "volume")?;
-    let grid = crate::vol::read_vol_file(&path, ctx.limits.volume_values.saturating_sub(ctx.volume_values))
-        .map_err(|e| ctx.err(file.value_pos, format!("in volume file '{}': {e}", file.value)))?;
+    let grid = crate::vol::read_vol_file(
+        &path,
+        ctx.limits.volume_values.saturating_sub(ctx.volume_values),
+    )
+    .map_err(|e| {
+        ctx.err(
+            file.value_pos,
+            format!("in volume file '{}': {e}", file.value),
+        )
+    })?;
     ctx.volume_values += grid.data.len() as u64;
     if grid.channels != 1 && grid.channels != 3 {
         return Err(ctx.err(
@@ -195,7 +203,10 @@ fn parse_grid(
     if negative > 0 {
         ctx.warn(
             file.value_pos,
-            format!("volume file '{}': {negative} negative values clamped to 0", file.value),
+            format!(
+                "volume file '{}': {negative} negative values clamped to 0",
+                file.value
+            ),
         );
         data.iter_mut().for_each(|v| *v = v.max(0.0));
     }
@@ -256,18 +267,22 @@ pub(crate) fn parse_phase(ctx: &mut Ctx, elem: &Element) -> Result<Phase> {
     let phase = match ty {
         "isotropic" => Phase::Isotropic,
         "rayleigh" => Phase::Rayleigh,
-        "hg" => Phase::Hg(props.float_where(ctx, &["g"], 0.8, "in (-1, 1)", |g| {
-            g > -1.0 && g < 1.0
-        })?),
+        "hg" => {
+            Phase::Hg(props.float_where(ctx, &["g"], 0.8, "in (-1, 1)", |g| g > -1.0 && g < 1.0)?)
+        }
         _ => {
-            let weight =
-                props.float_where(ctx, &["weight"], 0.5, "in [0, 1]", |w| (0.0..=1.0).contains(&w))?;
+            let weight = props.float_where(ctx, &["weight"], 0.5, "in [0, 1]", |w| {
+                (0.0..=1.0).contains(&w)
+            })?;
             // In document order, whatever their names (as Mitsuba 3.9.1 reads them).
             let nested = props.take_tag("phase");
             if nested.len() != 2 {
                 return Err(ctx.err(
                     elem.pos,
-                    format!("phase 'blendphase' needs two nested phase functions, found {}", nested.len()),
+                    format!(
+                        "phase 'blendphase' needs two nested phase functions, found {}",
+                        nested.len()
+                    ),
                 ));
             }
             let first = parse_phase(ctx, nested[0])?;

@@ -4,8 +4,8 @@
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::files::input_file;
-use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::media::MediumId;
+use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::{color_param, parse_bsdf};
 use crate::plugins::medium::parse_medium;
 use crate::props::Props;

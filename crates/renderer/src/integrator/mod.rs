@@ -15,6 +15,9 @@
 //! ([`shading::ShadingPoint`]: footprint, frame, BSDF at a hit) and the light connection are
 //! shared with `direct` too.
 
+// Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 mod direct;
 mod path;
 mod path_state;

@@ -300,7 +300,9 @@ impl PathState {
         self.throughput *= bs.weight;
         let wi = sp.frame.to_world(bs.wi);
         if ctx.volumetric {
-            self.medium = scene.media.after_crossing(self.medium, hit.shape, hit.ng, wi);
+            self.medium = scene
+                .media
+                .after_crossing(self.medium, hit.shape, hit.ng, wi);
             if bs.lobe.contains(BsdfFlags::NULL) {
                 // Index-matched: the same ray goes on; not a bounce.
                 self.travelled += hit.t;

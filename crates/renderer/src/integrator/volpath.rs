@@ -60,7 +60,8 @@ pub(super) fn trace_volpath(
         let draws = BounceDraws::new(ctx, std::array::from_fn(|_| sampler.next_2d()));
         let medium = path.medium.map(|m| &scene.media.list[m as usize]);
         // In a homogeneous medium the ray is traced only as far as the drawn free flight.
-        let drawn = medium.and_then(|m| m.draw_distance(path.throughput, &mut || sampler.next_1d()));
+        let drawn =
+            medium.and_then(|m| m.draw_distance(path.throughput, &mut || sampler.next_1d()));
         rays.closest += 1;
         let hit = match first.take() {
             Some(h) => h,
@@ -91,7 +92,9 @@ pub(super) fn trace_volpath(
         let medium_in = path.medium;
         let (shadow, continues) = path.scatter(ctx, &hit, &draws);
         if let Some(s) = shadow {
-            let m = scene.media.after_crossing(medium_in, hit.shape, hit.ng, s.dir);
+            let m = scene
+                .media
+                .after_crossing(medium_in, hit.shape, hit.ng, s.dir);
             let tr = transmittance(ctx, s.origin, s.dir, s.tmax, m, sampler, rays);
             path.result += s.contribution * tr;
         }

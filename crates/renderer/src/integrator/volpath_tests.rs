@@ -53,7 +53,10 @@ fn assert_furnace(name: &str, medium: &str) {
     for m in mean {
         assert!((m - 1.0).abs() < 0.01, "{name}: mean {mean:?}");
     }
-    assert!(worst < 5.0, "{name}: a pixel {worst} standard errors from 1");
+    assert!(
+        worst < 5.0,
+        "{name}: a pixel {worst} standard errors from 1"
+    );
 }
 
 #[test]
@@ -80,7 +83,11 @@ fn white_furnace_grid() {
         .collect();
     let path = dir.join("furnace.vol");
     let bbox = [[0.0; 3], [1.0; 3]];
-    std::fs::write(&path, torrey_parser::vol::write_vol([n, n, n], 3, bbox, &data)).unwrap();
+    std::fs::write(
+        &path,
+        torrey_parser::vol::write_vol([n, n, n], 3, bbox, &data),
+    )
+    .unwrap();
     let medium = format!(
         r#"<medium type="heterogeneous" name="interior">
             <volume type="gridvolume" name="sigma_t"><string name="filename" value="{}"/>

@@ -56,7 +56,11 @@ impl Grid {
     /// The value at a point of the grid's local space.
     #[inline]
     pub fn eval_local(&self, p: Vec3A) -> Vec3A {
-        let n = Vec3A::new(self.size[0] as f32, self.size[1] as f32, self.size[2] as f32);
+        let n = Vec3A::new(
+            self.size[0] as f32,
+            self.size[1] as f32,
+            self.size[2] as f32,
+        );
         if self.nearest {
             let i = (p * n).floor();
             return self.at(i.x as i32, i.y as i32, i.z as i32);
@@ -285,8 +289,16 @@ mod tests {
         });
         let m = MajorantGrid::new(&g);
         for _ in 0..2000 {
-            let o = Vec3A::new(rng.range(-1.0, 2.0), rng.range(-1.0, 2.0), rng.range(-1.0, 2.0));
-            let d = Vec3A::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+            let o = Vec3A::new(
+                rng.range(-1.0, 2.0),
+                rng.range(-1.0, 2.0),
+                rng.range(-1.0, 2.0),
+            );
+            let d = Vec3A::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
             let Some((t0, t1)) = unit_cube_span(o, d) else {
                 continue;
             };

@@ -165,7 +165,8 @@ impl Medium {
                         if !(t < tb) {
                             break;
                         }
-                        let sigma_t = (grid.eval_local(o_l + d_l * t) * *scale).min(Vec3A::splat(mu));
+                        let sigma_t =
+                            (grid.eval_local(o_l + d_l * t) * *scale).min(Vec3A::splat(mu));
                         let sigma_n = Vec3A::splat(mu) - sigma_t;
                         let w = *throughput;
                         let (a, n) = ((w * sigma_t).element_sum(), (w * sigma_n).element_sum());
@@ -208,17 +209,31 @@ impl Medium {
             let tr = (-sigma * t).exp();
             let pdf = (probs * sigma * tr).element_sum();
             let sigma_s = sigma * self.albedo.eval(o + d * t);
-            *throughput *= if pdf > 0.0 { tr * sigma_s / pdf } else { Vec3A::ZERO };
+            *throughput *= if pdf > 0.0 {
+                tr * sigma_s / pdf
+            } else {
+                Vec3A::ZERO
+            };
             return Flight::Scatter(t);
         }
         let tr = (-sigma * tmax).exp();
         let p_pass = (probs * tr).element_sum();
-        *throughput *= if p_pass > 0.0 { tr / p_pass } else { Vec3A::ZERO };
+        *throughput *= if p_pass > 0.0 {
+            tr / p_pass
+        } else {
+            Vec3A::ZERO
+        };
         Flight::Pass
     }
 
     /// An unbiased estimate of the transmittance of `o + t d`, t in [0, `tmax`].
-    pub fn transmittance(&self, o: Vec3A, d: Vec3A, tmax: f32, u: &mut impl FnMut() -> f32) -> Vec3A {
+    pub fn transmittance(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        tmax: f32,
+        u: &mut impl FnMut() -> f32,
+    ) -> Vec3A {
         match &self.density {
             Density::Homogeneous(sigma) => {
                 if sigma.max_element() > 0.0 {
@@ -250,7 +265,8 @@ impl Medium {
                         if !(t < tb) {
                             break;
                         }
-                        let sigma_t = (grid.eval_local(o_l + d_l * t) * *scale).min(Vec3A::splat(mu));
+                        let sigma_t =
+                            (grid.eval_local(o_l + d_l * t) * *scale).min(Vec3A::splat(mu));
                         tr *= (Vec3A::splat(mu) - sigma_t) / mu;
                         let m = tr.max_element();
                         if m < 0.05 {
@@ -309,7 +325,10 @@ mod tests {
         };
         let o = Vec3A::new(0.2, 0.5, 0.5);
         let dir = Vec3A::X;
-        for (name, m) in [("homogeneous", homogeneous(sigma, albedo)), ("grid", heterogeneous)] {
+        for (name, m) in [
+            ("homogeneous", homogeneous(sigma, albedo)),
+            ("grid", heterogeneous),
+        ] {
             let mut rng = Rng::new(11);
             let n = 400_000;
             let (mut pass, mut scatter) = (Vec3A::ZERO, Vec3A::ZERO);
@@ -326,7 +345,11 @@ mod tests {
             let scattered = albedo * (Vec3A::ONE - tr);
             for c in 0..3 {
                 let check = |what: &str, got: f32, want: f32| {
-                    assert!((got / n as f32 - want).abs() < 0.01, "{name} {what} channel {c}: {} vs {want}", got / n as f32);
+                    assert!(
+                        (got / n as f32 - want).abs() < 0.01,
+                        "{name} {what} channel {c}: {} vs {want}",
+                        got / n as f32
+                    );
                 };
                 check("passing", pass[c], tr[c]);
                 check("scattered", scatter[c], scattered[c]);

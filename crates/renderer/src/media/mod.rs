@@ -6,6 +6,9 @@
 //! along the geometric normal, the interior against it; an undeclared side is vacuum); crossing
 //! a shape that declares neither keeps the ray's medium (a glass sphere inside fog).
 
+// Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 mod grid;
 mod medium;
 pub mod phase;
@@ -57,7 +60,13 @@ impl Media {
     /// The medium of a ray that leaves a hit on `shape` (geometric normal `ng`) along `dir`,
     /// having arrived in `current`.
     #[inline]
-    pub fn after_crossing(&self, current: Option<u32>, shape: u32, ng: Vec3A, dir: Vec3A) -> Option<u32> {
+    pub fn after_crossing(
+        &self,
+        current: Option<u32>,
+        shape: u32,
+        ng: Vec3A,
+        dir: Vec3A,
+    ) -> Option<u32> {
         match self.sides.get(shape as usize) {
             Some(&[None, None]) | None => current,
             Some(&[interior, exterior]) => {

@@ -26,10 +26,9 @@ impl PhaseFunction {
             desc::Phase::Isotropic => PhaseFunction::Isotropic,
             desc::Phase::Hg(g) => PhaseFunction::Hg(*g),
             desc::Phase::Rayleigh => PhaseFunction::Rayleigh,
-            desc::Phase::Blend(w, a, b) => PhaseFunction::Blend(
-                *w,
-                Box::new([Self::from_desc(a), Self::from_desc(b)]),
-            ),
+            desc::Phase::Blend(w, a, b) => {
+                PhaseFunction::Blend(*w, Box::new([Self::from_desc(a), Self::from_desc(b)]))
+            }
         }
     }
 
@@ -46,9 +45,7 @@ impl PhaseFunction {
                 INV_4PI * (1.0 - g * g) / (denom * denom.max(0.0).sqrt())
             }
             PhaseFunction::Rayleigh => 3.0 / (16.0 * PI) * (1.0 + cos * cos),
-            PhaseFunction::Blend(w, p) => {
-                (1.0 - w) * p[0].eval_cos(cos) + w * p[1].eval_cos(cos)
-            }
+            PhaseFunction::Blend(w, p) => (1.0 - w) * p[0].eval_cos(cos) + w * p[1].eval_cos(cos),
         }
     }
 
@@ -141,7 +138,10 @@ mod tests {
             let mut observed = vec![0.0f64; nc * np];
             for _ in 0..samples {
                 let (d, pdf) = p.sample(d_in, rng.vec2(), rng.f32());
-                assert!((pdf - p.eval(d_in, d)).abs() <= 1e-4 * pdf.max(1.0), "{name}");
+                assert!(
+                    (pdf - p.eval(d_in, d)).abs() <= 1e-4 * pdf.max(1.0),
+                    "{name}"
+                );
                 let l = frame.to_local(d);
                 let c = (((l.z + 1.0) * 0.5 * nc as f32) as usize).min(nc - 1);
                 let phi = l.y.atan2(l.x).rem_euclid(2.0 * PI);
@@ -154,7 +154,9 @@ mod tests {
                 let a = -1.0 + 2.0 * c as f64 / nc as f64;
                 let h = 2.0 / nc as f64 / 256.0;
                 let f = |x: f64| p.eval_cos(x as f32) as f64;
-                let mass: f64 = (0..256).map(|i| f(a + (i as f64 + 0.5) * h) * h).sum::<f64>()
+                let mass: f64 = (0..256)
+                    .map(|i| f(a + (i as f64 + 0.5) * h) * h)
+                    .sum::<f64>()
                     * 2.0
                     * std::f64::consts::PI;
                 for k in 0..np {

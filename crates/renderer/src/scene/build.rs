@@ -384,7 +384,9 @@ impl RenderScene {
         }
         let passable = materials.iter().any(|m| m.bsdf.may_pass());
         let media = crate::media::Media::build(scene, passable);
-        if !media.is_empty() && !matches!(scene.integrator.kind, desc::IntegratorKind::VolPath { .. }) {
+        if !media.is_empty()
+            && !matches!(scene.integrator.kind, desc::IntegratorKind::VolPath { .. })
+        {
             warnings.push(format!("integrator '{}' renders the scene's media as vacuum, as Mitsuba's does: use 'volpath' or 'volpathmis'", scene.integrator.type_name));
         }
         Ok(Self {
