@@ -259,19 +259,6 @@ impl Bsdf<'_> {
         }
     }
 
-    /// What passes straight through towards `wo`, index-matched (Mitsuba's
-    /// `eval_null_transmission`): 1 for `null`, a thin dielectric's transmission, a blend's
-    /// mix; 0 for every other model. Shadow rays of the volumetric path tracer are weighted by
-    /// it at each surface they cross.
-    pub fn null_transmission(&self, wo: Vec3A) -> Vec3A {
-        match self {
-            Bsdf::Null(_) => Vec3A::ONE,
-            Bsdf::ThinDielectric(b) => b.null_transmission(wo),
-            Bsdf::Blend(b) => b.null_transmission(wo),
-            _ => Vec3A::ZERO,
-        }
-    }
-
     /// A rough measure of the angular width (radians, at most 1) of the widest non-delta lobe,
     /// for growing ray-cone spread: 0 for a mirror, 1 for diffuse and plastic's diffuse base,
     /// about the lobe's standard deviation for the glossy ones. Callers use 0 after a sample
@@ -323,15 +310,6 @@ pub enum BsdfParams {
 }
 
 impl BsdfParams {
-    /// Whether a ray may pass straight through (see [`Bsdf::null_transmission`]).
-    pub fn may_pass(&self) -> bool {
-        match self {
-            BsdfParams::Null | BsdfParams::ThinDielectric(_) => true,
-            BsdfParams::Blend(b) => b.children.iter().any(BsdfParams::may_pass),
-            _ => false,
-        }
-    }
-
     /// The parser's description with its textures resolved to the scene's texture indices;
     /// `torrey_dialect` picks the course's `plastic` over Mitsuba's.
     pub fn from_desc(kind: &BsdfKind, torrey_dialect: bool) -> Self {

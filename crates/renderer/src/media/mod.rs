@@ -34,8 +34,8 @@ pub struct Media {
 
 impl Media {
     /// The media of `scene`; `passable`: whether any of its materials may let light straight
-    /// through.
-    pub fn build(scene: &desc::Scene, passable: bool) -> Self {
+    /// through. A scene with media and an integrator that ignores them gets a warning.
+    pub fn build(scene: &desc::Scene, passable: bool, warnings: &mut Vec<String>) -> Self {
         let groups = scene.shape_groups.iter().flat_map(|g| &g.shapes);
         let sides: Vec<[Option<u32>; 2]> = scene
             .shapes
@@ -44,17 +44,19 @@ impl Media {
             .map(|s| [s.interior.map(|m| m as u32), s.exterior.map(|m| m as u32)])
             .collect();
         let any = sides.iter().any(|s| s[0].is_some() || s[1].is_some());
+        let volumetric = matches!(scene.integrator.kind, desc::IntegratorKind::VolPath { .. });
+        if (any || scene.camera.medium.is_some()) && !volumetric {
+            warnings.push(format!(
+                "integrator '{}' renders the scene's media as vacuum, as Mitsuba's does: use 'volpath' or 'volpathmis'",
+                scene.integrator.type_name
+            ));
+        }
         Media {
             list: scene.media.iter().map(Medium::from_desc).collect(),
             sides: if any { sides } else { Vec::new() },
             camera: scene.camera.medium.map(|m| m as u32),
             passable,
         }
-    }
-
-    /// Whether the scene has any medium for a ray to be in.
-    pub fn is_empty(&self) -> bool {
-        self.sides.is_empty() && self.camera.is_none()
     }
 
     /// The medium of a ray that leaves a hit on `shape` (geometric normal `ng`) along `dir`,

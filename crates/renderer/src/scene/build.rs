@@ -383,12 +383,7 @@ impl RenderScene {
             }
         }
         let passable = materials.iter().any(|m| m.bsdf.may_pass());
-        let media = crate::media::Media::build(scene, passable);
-        if !media.is_empty()
-            && !matches!(scene.integrator.kind, desc::IntegratorKind::VolPath { .. })
-        {
-            warnings.push(format!("integrator '{}' renders the scene's media as vacuum, as Mitsuba's does: use 'volpath' or 'volpathmis'", scene.integrator.type_name));
-        }
+        let media = crate::media::Media::build(scene, passable, &mut warnings);
         Ok(Self {
             camera,
             accel,
