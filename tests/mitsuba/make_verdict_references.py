@@ -22,8 +22,8 @@ the lobe's weight), so that Mitsuba's own renders would fail the test there. For
 <name>_var.exr is the spread of VARIANCE_RENDERS independent Mitsuba renders at the test's spp
 (seeds 1000...), times that spp: the per-sample variance the verdict's z-test divides by the spp.
 Also (re)writes the scenes' own textures tests/scenes/mitsuba/textures/gradient_sky.exr,
-sun_sky.exr, emission_pattern.exr (radiance) and spot_pattern.png, and the sdfgrid scene's
-grids tests/scenes/mitsuba/volumes/*.vol (sdf_volumes.py).
+sun_sky.exr, emission_pattern.exr (radiance) and spot_pattern.png, the sdfgrid scene's grids
+tests/scenes/mitsuba/volumes/*.vol (sdf_volumes.py) and the grid medium cloud.vol.
 Variant llvm_ad_rgb (scalar_rgb as fallback). Seed 0, as Mitsuba's reference renders.
 """
 import argparse
@@ -126,6 +126,24 @@ def emission_pattern(path, width=16, height=8):
     write_exr_zip(path, img)
 
 
+def cloud_volume(path, n=24):
+    """A sparse cloud of our own for the grid-medium scene: a few soft blobs (about 10% of the
+    voxels above 1% of the peak) in an n^3 grid, one channel, Mitsuba's .vol layout
+    (x fastest; bounding box the unit cube)."""
+    import struct
+    z, y, x = np.meshgrid(*(3 * [(np.arange(n) + 0.5) / n]), indexing="ij")
+    density = np.zeros((n, n, n))
+    for cx, cy, cz, r, a in [(0.35, 0.4, 0.45, 0.18, 1.0), (0.62, 0.55, 0.5, 0.14, 0.8),
+                             (0.5, 0.3, 0.65, 0.1, 1.2), (0.45, 0.68, 0.35, 0.09, 0.6)]:
+        d2 = ((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / r ** 2
+        density += a * np.exp(-2.0 * d2) * (d2 < 2.5)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "wb") as f:
+        f.write(b"VOL" + bytes([3]) + struct.pack("<iiiii", 1, n, n, n, 1))
+        f.write(struct.pack("<6f", 0, 0, 0, 1, 1, 1))
+        f.write(density.astype("<f4").tobytes())
+
+
 def render(path, spp):
     scene = mi.load_file(path, spp=spp)
     t0 = time.time()
@@ -183,6 +201,7 @@ def main():
     emission_pattern(os.path.join(SCENES, "textures", "emission_pattern.exr"))
     import sdf_volumes
     sdf_volumes.write_all(os.path.join(SCENES, "volumes"))
+    cloud_volume(os.path.join(SCENES, "textures", "cloud.vol"))
     os.makedirs(OUT, exist_ok=True)
     manifest_path = os.path.join(OUT, "manifest.json")
     manifest = {}

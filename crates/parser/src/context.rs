@@ -25,9 +25,8 @@ pub(crate) enum IdTarget {
     /// Index into [`Ctx::area_emitters`]: an `area` emitter declared outside a shape, attached
     /// by a `<ref>` inside one.
     AreaEmitter(usize),
-    /// A medium: accepted by `<ref>` in a shape's `interior`/`exterior`, then ignored with the
-    /// media warning.
-    Medium,
+    /// Index into [`Ctx::media`]: a shape's `interior`/`exterior`, a sensor's medium.
+    Medium(crate::media::MediumId),
     /// Shapes, sensors, emitters...: may carry ids but cannot be referenced here.
     Other,
 }
@@ -44,6 +43,8 @@ pub(crate) struct Ctx<'a> {
     pub instances: Vec<crate::scene::Instance>,
     /// Area emitters declared with an id outside shapes: radiance (1 with a texture) and texture.
     pub area_emitters: Vec<(glam::Vec3, Option<TextureId>)>,
+    /// Every `<medium>`, in the order read.
+    pub media: Vec<crate::media::Medium>,
     /// Every file name resolved so far, in order: [`crate::Scene::files`].
     pub files: std::cell::RefCell<Vec<PathBuf>>,
     /// Every id and alias of the document: the element it names (an alias: its source's).
@@ -98,6 +99,7 @@ impl<'a> Ctx<'a> {
             shape_groups: Vec::new(),
             instances: Vec::new(),
             area_emitters: Vec::new(),
+            media: Vec::new(),
             texture_uses: Vec::new(),
             bsdf_textures: HashMap::new(),
             files: Default::default(),
@@ -119,8 +121,8 @@ impl<'a> Ctx<'a> {
         self.sources.err(pos, message)
     }
 
-    /// Media (`<medium>`, `<phase>`, `<volume>`, `<subsurface>`) are not rendered: the first
-    /// one gives one warning, the others are dropped silently.
+    /// `<subsurface>` (and a `<phase>` or `<volume>` outside a medium) is not rendered: the
+    /// first one gives one warning, the others are dropped silently.
     pub fn warn_media(&mut self, elem: &Element, owner: Option<&str>) {
         if self.media_warned {
             return;
@@ -130,7 +132,7 @@ impl<'a> Ctx<'a> {
         let place = owner.map_or(String::new(), |o| format!(" in {o}"));
         self.warn(
             elem.pos,
-            format!("{what}{place} is not supported; ignored, with every other medium, phase function and volume of the scene (media are not rendered)"),
+            format!("{what}{place} is not supported; ignored, with every other such element of the scene"),
         );
     }
 
@@ -284,7 +286,7 @@ impl<'a> Ctx<'a> {
 
     /// Parses an element a `<ref>` names before its place in the document. Only what a ref can
     /// use is parsed (bsdfs, textures, shapegroups, area emitters declared outside shapes);
-    /// media are accepted as such, the rest is [`IdTarget::Other`].
+    /// media too; the rest is [`IdTarget::Other`].
     fn define(&mut self, elem: &'a Element) -> Result<IdTarget> {
         let ty = elem.attr_value("type");
         Ok(match elem.tag.as_str() {
@@ -297,7 +299,7 @@ impl<'a> Ctx<'a> {
             "emitter" if ty == Some("area") && self.top_level.contains(&elem.pos) => {
                 crate::plugins::shape::define_area_emitter(self, elem)?
             }
-            "medium" => IdTarget::Medium,
+            "medium" => IdTarget::Medium(crate::plugins::medium::parse_medium(self, elem)?),
             _ => IdTarget::Other,
         })
     }

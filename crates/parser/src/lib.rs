@@ -11,6 +11,7 @@ mod error;
 mod files;
 mod include;
 mod limits;
+pub mod media;
 mod mesh;
 mod plugins;
 mod props;
@@ -23,13 +24,15 @@ mod xml;
 
 pub use error::ParseError;
 pub use limits::Limits;
+pub use media::{GridVolume, Medium, MediumId, Phase, Volume};
 pub use mesh::smooth_normals;
 pub use scene::*;
 
 use std::path::Path;
 
 /// Every plugin type the parser accepts, per element kind (`bsdf`, `shape`, `emitter`,
-/// `texture`, `sensor`, `film`, `rfilter`, `sampler`, `integrator`): what docs/scene-format.md
+/// `texture`, `sensor`, `film`, `rfilter`, `sampler`, `integrator`, `medium`, `phase`,
+/// `volume`): what docs/scene-format.md
 /// must document.
 pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
     vec![
@@ -42,6 +45,9 @@ pub fn accepted_plugins() -> Vec<(&'static str, &'static [&'static str])> {
         ("rfilter", plugins::sensor::RFILTERS),
         ("sampler", plugins::sensor::SAMPLERS),
         ("integrator", plugins::integrator::INTEGRATORS),
+        ("medium", plugins::medium::MEDIA),
+        ("phase", plugins::medium::PHASES),
+        ("volume", plugins::medium::VOLUMES),
     ]
 }
 

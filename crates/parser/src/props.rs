@@ -35,9 +35,12 @@ const OBJECT_TAGS: &[&str] = &[
     "shape",
     "sensor",
     "integrator",
+    "medium",
+    "phase",
+    "volume",
 ];
 /// Things a scene may carry that we do not render: warned about and skipped.
-pub(crate) const SKIPPED_TAGS: &[&str] = &["medium", "phase", "volume", "subsurface"];
+pub(crate) const SKIPPED_TAGS: &[&str] = &["phase", "volume", "subsurface"];
 
 struct Item<'a> {
     name: Option<String>,
@@ -73,7 +76,7 @@ pub(crate) fn describe(elem: &Element) -> String {
 
 impl<'a> Props<'a> {
     /// Sorts `elem`'s children into named values and nested objects. Unknown tags are errors;
-    /// unsupported-but-harmless ones (media) are warned about and dropped.
+    /// unsupported-but-harmless ones (`<subsurface>`) are warned about and dropped.
     pub fn new(ctx: &mut Ctx, elem: &'a Element, owner: String) -> Result<Self> {
         let mut items: Vec<Item<'a>> = Vec::new();
         // First position of each value name: a hash, so that a plugin with 100,000 parameters

@@ -86,6 +86,8 @@ pub struct Scene {
     pub instances: Vec<Instance>,
     /// Point lights, environment maps and constant backgrounds. Area lights live on their shapes.
     pub lights: Vec<Light>,
+    /// Participating media, referred to by shapes and the camera.
+    pub media: Vec<crate::media::Medium>,
     /// Every file the scene refers to (meshes, images), resolved, in the order named: what a
     /// copy of the scene must carry along, and what its content hash covers.
     pub files: Vec<PathBuf>,
@@ -107,6 +109,8 @@ pub struct Camera {
     /// Mitsuba's `principal_point_offset_x/_y`: the image centre moved by these fractions of the
     /// film size (perspective and thin lens).
     pub principal_point_offset: Vec2,
+    /// The medium the camera sits in (a `<medium>` or medium `<ref>` in the sensor).
+    pub medium: Option<crate::media::MediumId>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -200,6 +204,9 @@ pub enum IntegratorKind {
     Path(PathParams),
     /// Mitsuba's `direct`.
     Direct(DirectParams),
+    /// Mitsuba's `volpath` (`mis` false) and `volpathmis` (true): the path tracer with
+    /// participating media; both converge to the same image.
+    VolPath { params: PathParams, mis: bool },
 }
 
 /// The path tracer's parameters.
@@ -227,7 +234,7 @@ impl Integrator {
     /// Path segments followed: `direct` follows two (the camera ray and one bounce).
     pub fn max_depth(&self) -> i32 {
         match self.kind {
-            IntegratorKind::Path(p) => p.max_depth,
+            IntegratorKind::Path(p) | IntegratorKind::VolPath { params: p, .. } => p.max_depth,
             IntegratorKind::Direct(_) => 2,
         }
     }
@@ -235,14 +242,14 @@ impl Integrator {
     /// Where Russian roulette starts (`direct` never reaches it).
     pub fn rr_depth(&self) -> i32 {
         match self.kind {
-            IntegratorKind::Path(p) => p.rr_depth,
+            IntegratorKind::Path(p) | IntegratorKind::VolPath { params: p, .. } => p.rr_depth,
             IntegratorKind::Direct(_) => 5,
         }
     }
 
     pub fn hide_emitters(&self) -> bool {
         match self.kind {
-            IntegratorKind::Path(p) => p.hide_emitters,
+            IntegratorKind::Path(p) | IntegratorKind::VolPath { params: p, .. } => p.hide_emitters,
             IntegratorKind::Direct(d) => d.hide_emitters,
         }
     }
@@ -529,6 +536,10 @@ pub struct Shape {
     /// uv, is the emitted radiance.
     pub emitter_texture: Option<TextureId>,
     pub flip_normals: bool,
+    /// The media inside (against the geometric normal) and outside the surface; None: the
+    /// crossing keeps the ray's medium when neither is given, else vacuum on that side.
+    pub interior: Option<crate::media::MediumId>,
+    pub exterior: Option<crate::media::MediumId>,
     /// Where the shape was declared, for renderer-side diagnostics.
     pub location: SourceLocation,
 }

@@ -19,6 +19,7 @@ mod cameras;
 mod film;
 mod integrator;
 mod lights;
+mod media;
 mod ray;
 mod render;
 mod sampler;

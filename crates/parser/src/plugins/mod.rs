@@ -4,11 +4,12 @@ pub(crate) mod bsdf;
 pub(crate) mod dialect;
 pub(crate) mod emitter;
 pub(crate) mod integrator;
+pub(crate) mod medium;
 pub(crate) mod sensor;
 pub(crate) mod shape;
 pub(crate) mod texture;
 
-use crate::context::{Ctx, IdTarget};
+use crate::context::Ctx;
 use crate::error::{ParseError, Result};
 use crate::include;
 use crate::props::SKIPPED_TAGS;
@@ -92,12 +93,10 @@ pub(crate) fn parse_scene(
                 lights.push(emitter::parse_background(&mut ctx, child)?);
                 has_background = true;
             }
-            t if SKIPPED_TAGS.contains(&t) => {
-                if t == "medium" {
-                    ctx.register_id(child, IdTarget::Medium)?;
-                }
-                ctx.warn_media(child, None)
+            "medium" => {
+                medium::parse_medium(&mut ctx, child)?;
             }
+            t if SKIPPED_TAGS.contains(&t) => ctx.warn_media(child, None),
             t @ ("film" | "sampler" | "rfilter") => {
                 return Err(ctx.err(child.pos, format!("<{t}> must be inside a <sensor>")));
             }
@@ -135,6 +134,7 @@ pub(crate) fn parse_scene(
         shape_groups: ctx.shape_groups,
         instances: ctx.instances,
         lights,
+        media: ctx.media,
         files: ctx.files.into_inner(),
         warnings,
     })

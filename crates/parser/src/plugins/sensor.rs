@@ -103,6 +103,7 @@ pub(crate) fn default_camera(dialect: Dialect) -> Camera {
         near_clip: 1e-2,
         far_clip: 1e4,
         principal_point_offset: Vec2::ZERO,
+        medium: None,
     }
 }
 
@@ -322,6 +323,7 @@ fn parse_sampler(ctx: &mut Ctx, elem: &Element) -> Result<Sampler> {
 /// | all | `to_world` (`toWorld`) | transform | identity |
 /// | all | `near_clip`, `far_clip` (`nearClip`, `farClip`) | float | 0.01, 10000; camera rays see geometry between these depths along the view axis (perspective, thinlens: t = clip / cos to the axis, as Mitsuba starts rays on the near plane; orthographic: rays start on the near plane and end far - near later) |
 /// | all | nested `<film>`, `<sampler>` | | see film and sampler |
+/// | all | nested `<medium>` or medium `<ref>` | medium | none: the medium the camera sits in |
 pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Film, Sampler)> {
     let ty = plugin_type(ctx, elem)?;
     if !SENSORS.contains(&ty) {
@@ -422,6 +424,16 @@ pub(crate) fn parse_sensor(ctx: &mut Ctx, elem: &Element) -> Result<(Camera, Fil
         Some(s) => parse_sampler(ctx, s)?,
         None => default_sampler(),
     };
+    let mut media = props.take_tag("medium");
+    for r in props.take_tag("ref") {
+        media.push(r);
+    }
+    if let Some(second) = media.get(1) {
+        return Err(ctx.err(second.pos, "a sensor sits in one medium"));
+    }
+    if let Some(m) = media.first() {
+        camera.medium = Some(super::medium::medium_of(ctx, m, &props.owner)?);
+    }
     props.ignore(&["srf", "shutter_open", "shutter_close", "shutter_open_time"]);
     props.finish(ctx);
     Ok((camera, film, sampler))

@@ -4,8 +4,10 @@
 use crate::context::{plugin_type, unknown_type, Ctx, IdTarget};
 use crate::error::Result;
 use crate::files::input_file;
+use crate::media::MediumId;
 use crate::mesh::{obj, ply, serialized, smooth_normals, validate, Budget};
 use crate::plugins::bsdf::{color_param, parse_bsdf};
+use crate::plugins::medium::parse_medium;
 use crate::props::Props;
 use crate::scene::{
     Bsdf, BsdfId, BsdfKind, ColorParam, Dialect, Geometry, Instance, Shape, ShapeGroup,
@@ -649,12 +651,16 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
 
     let mut candidates: Vec<&Element> = props.take_tag("bsdf");
     let mut emitters = props.take_tag("emitter");
+    let (mut interior, mut exterior) = (None, None);
+    for m in props.take_tag("medium") {
+        *media_slot(ctx, m, &mut interior, &mut exterior)? = Some(parse_medium(ctx, m)?);
+    }
     for r in props.take_tag("ref") {
         // Mitsuba resolves a shape's refs by what they name: a bsdf, an area emitter, a medium.
         match ctx.lookup(r)? {
             IdTarget::Bsdf(_) => candidates.push(r),
             IdTarget::AreaEmitter(_) => emitters.push(r),
-            IdTarget::Medium => ctx.warn_media(r, Some(&props.owner)),
+            IdTarget::Medium(id) => *media_slot(ctx, r, &mut interior, &mut exterior)? = Some(id),
             _ => {
                 return Err(ctx.err(
                     r.pos,
@@ -745,6 +751,34 @@ pub(crate) fn parse_shape(ctx: &mut Ctx, elem: &Element) -> Result<Vec<Shape>> {
         emitter,
         emitter_texture,
         flip_normals,
+        interior,
+        exterior,
         location: ctx.location(elem.pos),
     }])
+}
+
+/// Where a shape's `<medium>` or medium `<ref>` goes: its `name`, `interior` or `exterior`.
+fn media_slot<'s>(
+    ctx: &Ctx,
+    elem: &Element,
+    interior: &'s mut Option<MediumId>,
+    exterior: &'s mut Option<MediumId>,
+) -> Result<&'s mut Option<MediumId>> {
+    let slot = match elem.attr_value("name") {
+        Some("interior") => interior,
+        Some("exterior") => exterior,
+        other => {
+            return Err(ctx.err(
+                elem.pos,
+                format!(
+                    "a shape's medium must be named 'interior' or 'exterior', found {}",
+                    other.map_or("no name".to_string(), |n| format!("'{n}'"))
+                ),
+            ))
+        }
+    };
+    if slot.is_some() {
+        return Err(ctx.err(elem.pos, "a shape has one interior and one exterior medium"));
+    }
+    Ok(slot)
 }

@@ -111,6 +111,12 @@ impl<'a> Blend<'a> {
         })
     }
 
+    /// The mix of the children's straight-through transmission (a `mask`: 1 − opacity of it).
+    pub fn null_transmission(&self, wo: Vec3A) -> Vec3A {
+        let w = self.weight;
+        self.child(0).null_transmission(wo) * (1.0 - w) + self.child(1).null_transmission(wo) * w
+    }
+
     pub fn roughness(&self) -> f32 {
         self.child(0).roughness().max(self.child(1).roughness())
     }

@@ -99,7 +99,16 @@ impl ThinDielectricParams {
 }
 
 impl ThinDielectric {
-    pub const FLAGS: BsdfFlags = BsdfFlags::DELTA_REFLECTION.union(BsdfFlags::DELTA_TRANSMISSION);
+    pub const FLAGS: BsdfFlags = BsdfFlags::DELTA_REFLECTION
+        .union(BsdfFlags::DELTA_TRANSMISSION)
+        .union(BsdfFlags::NULL);
+
+    /// What passes straight through the slab towards `wo` (Mitsuba's
+    /// `eval_null_transmission`): (1 − its reflectance) times the transmittance tint.
+    #[inline]
+    pub fn null_transmission(&self, wo: Vec3A) -> Vec3A {
+        self.specular_transmittance * (1.0 - self.reflectance(wo.z))
+    }
 
     /// Reflectance of the slab: R + T²R/(1 − R²) with R the single interface's.
     #[inline]
@@ -142,7 +151,8 @@ impl ThinDielectric {
                 weight: self.specular_transmittance,
                 pdf: f32::INFINITY,
                 eta: 1.0,
-                lobe: BsdfFlags::DELTA_TRANSMISSION,
+                // Straight through: index-matched, as Mitsuba flags it.
+                lobe: BsdfFlags::DELTA_TRANSMISSION.union(BsdfFlags::NULL),
             }
         })
     }

@@ -20,9 +20,11 @@ impl BsdfFlags {
     pub const GLOSSY: Self = Self(8);
     /// A Dirac delta (perfect mirror or refraction): light sampling cannot hit it.
     pub const DELTA: Self = Self(16);
-    /// A pass-through of Mitsuba's `null` (alone or as a `mask`'s transparent part), marked on
-    /// top of its delta transmission, as Mitsuba's `BSDFFlags::Null`: the path loops tell a
-    /// crossing from a scattering by it.
+    /// A pass-through, as Mitsuba's `BSDFFlags::Null`: `null` (alone or as a `mask`'s
+    /// transparent part) and a `thindielectric`'s transmission, marked on top of their delta
+    /// transmission. The path loops tell a crossing from a scattering by it (Mitsuba's
+    /// `valid_ray`); the volumetric path tracer does not count it as a bounce, and its shadow
+    /// rays pass such surfaces.
     pub const NULL: Self = Self(32);
 
     pub const DIFFUSE_REFLECTION: Self = Self::DIFFUSE.union(Self::REFLECTION);

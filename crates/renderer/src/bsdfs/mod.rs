@@ -807,4 +807,9 @@ impl SidedBsdf<'_> {
     pub fn roughness(&self) -> f32 {
         self.bsdf.roughness()
     }
+
+    /// [`Bsdf::null_transmission`] of the side `wo` sees.
+    pub fn null_transmission(&self, wo: Vec3A) -> Vec3A {
+        self.bsdf.null_transmission(self.local(wo))
+    }
 }

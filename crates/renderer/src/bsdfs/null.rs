@@ -3,7 +3,7 @@
 //! sampling skips it and shadow rays are blocked by it, as Mitsuba's `path` integrator does.
 //! `mask` is a blend of `null` and its nested BSDF.
 
-use super::{BsdfFlags, BsdfSample};
+use super::{Bsdf, BsdfFlags, BsdfParams, BsdfSample};
 use glam::Vec3A;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,6 +31,32 @@ impl Null {
             eta: 1.0,
             lobe: Self::FLAGS,
         })
+    }
+}
+
+impl Bsdf<'_> {
+    /// What passes straight through towards `wo`, index-matched (Mitsuba's
+    /// `eval_null_transmission`): 1 for `null`, a thin dielectric's transmission, a blend's
+    /// mix; 0 for every other model. Shadow rays of the volumetric path tracer are weighted by
+    /// it at each surface they cross.
+    pub fn null_transmission(&self, wo: Vec3A) -> Vec3A {
+        match self {
+            Bsdf::Null(_) => Vec3A::ONE,
+            Bsdf::ThinDielectric(b) => b.null_transmission(wo),
+            Bsdf::Blend(b) => b.null_transmission(wo),
+            _ => Vec3A::ZERO,
+        }
+    }
+}
+
+impl BsdfParams {
+    /// Whether a ray may pass straight through (see [`Bsdf::null_transmission`]).
+    pub fn may_pass(&self) -> bool {
+        match self {
+            BsdfParams::Null | BsdfParams::ThinDielectric(_) => true,
+            BsdfParams::Blend(b) => b.children.iter().any(BsdfParams::may_pass),
+            _ => false,
+        }
     }
 }
 

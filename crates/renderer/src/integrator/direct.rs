@@ -175,7 +175,7 @@ pub fn radiance(
                 Some((radiance, index)) => {
                     let select = selection.pmf(index, hit.p, sp.frame.n);
                     let light = &scene.lights[index];
-                    radiance * weight(emission_pdf(light, hit.p, wi, &h, select))
+                    radiance * weight(emission_pdf(light, hit.p, wi, h.t, &h, select))
                 }
                 None => Vec3A::ZERO,
             },

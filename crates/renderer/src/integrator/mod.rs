@@ -6,21 +6,30 @@
 //!
 //! The path tracer's step at a surface (emission with MIS, the shading point, next-event
 //! estimation, the BSDF sample that continues the path, Russian roulette) is written once, on a
-//! [`path_state::PathState`] ([`path_state::PathState::scatter`]); two drivers advance that state:
+//! [`path_state::PathState`] ([`path_state::PathState::scatter`]); three drivers advance that state:
 //! the scalar loop ([`path::radiance`]), one path to its end after another, and the wavefront
 //! ([`wavefront::Wavefront`]), a batch of paths a bounce at a time with each stage's rays and
-//! lookups done together. Both give the same image, bit for bit. The shading point
+//! lookups done together (both give the same image, bit for bit), and the volumetric path
+//! tracer ([`volpath`], Mitsuba's `volpath`/`volpathmis`), which adds free flights through
+//! participating media between surfaces and transmittance on its shadow rays. The shading point
 //! ([`shading::ShadingPoint`]: footprint, frame, BSDF at a hit) and the light connection are
 //! shared with `direct` too.
+
+// Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod direct;
 mod path;
 mod path_state;
 mod shading;
+mod volpath;
+#[cfg(test)]
+mod volpath_tests;
 pub mod wavefront;
 
 pub use direct::DirectIntegrator;
 pub use path::{radiance, PathIntegrator};
+pub use volpath::VolPathIntegrator;
 
 use torrey_parser as desc;
 
@@ -29,6 +38,8 @@ use torrey_parser as desc;
 pub enum Integrator {
     Path(PathIntegrator),
     Direct(DirectIntegrator),
+    /// Mitsuba's `volpath` and `volpathmis`: the path tracer with participating media.
+    VolPath(VolPathIntegrator),
 }
 
 impl Integrator {
@@ -53,6 +64,14 @@ impl Integrator {
                 bsdf_samples: p.bsdf_samples,
                 hide_emitters: p.hide_emitters,
             }),
+            desc::IntegratorKind::VolPath { params: p, mis } => {
+                Integrator::VolPath(VolPathIntegrator {
+                    max_depth: p.max_depth,
+                    rr_depth: p.rr_depth,
+                    hide_emitters: p.hide_emitters,
+                    mis,
+                })
+            }
         }
     }
 
@@ -61,6 +80,7 @@ impl Integrator {
     pub fn with_max_depth(self, max_depth: i32) -> Self {
         match self {
             Integrator::Path(p) => Integrator::Path(PathIntegrator { max_depth, ..p }),
+            Integrator::VolPath(p) => Integrator::VolPath(VolPathIntegrator { max_depth, ..p }),
             direct => direct,
         }
     }
@@ -69,6 +89,7 @@ impl Integrator {
     pub fn max_depth(&self) -> i32 {
         match self {
             Integrator::Path(p) => p.max_depth,
+            Integrator::VolPath(p) => p.max_depth,
             Integrator::Direct(_) => 2,
         }
     }
@@ -77,6 +98,7 @@ impl Integrator {
     pub fn rr_depth(&self) -> i32 {
         match self {
             Integrator::Path(p) => p.rr_depth,
+            Integrator::VolPath(p) => p.rr_depth,
             Integrator::Direct(_) => 5,
         }
     }
@@ -85,6 +107,7 @@ impl Integrator {
     pub fn hide_emitters(&self) -> bool {
         match self {
             Integrator::Path(p) => p.hide_emitters,
+            Integrator::VolPath(p) => p.hide_emitters,
             Integrator::Direct(d) => d.hide_emitters,
         }
     }

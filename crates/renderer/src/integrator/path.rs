@@ -50,6 +50,13 @@ pub fn radiance(
         Integrator::Direct(d) => {
             direct::radiance(scene, d, dir, cone, settings, sampler, rays, first_hit)
         }
+        Integrator::VolPath(_) => super::volpath::trace_volpath(
+            &PathContext::volumetric(scene, settings),
+            PathState::camera(origin, dir, cone),
+            sampler,
+            rays,
+            first_hit,
+        ),
     }
 }
 
@@ -123,9 +130,9 @@ mod tests {
     #[test]
     fn null_emitters_count_only_as_mitsubas_path_counts_them() {
         use crate::integrator::{Integrator, PathIntegrator, PathLoop};
-        use glam::Vec3;
         use crate::render::{render, RenderSettings};
         use crate::sampler::SamplerKind;
+        use glam::Vec3;
         use torrey_parser::PixelFilter;
         let scene = |bsdf: &str, wall: f32, env: bool| {
             let env = if env {

@@ -29,6 +29,7 @@
 
 use super::shading::{emission_pdf, hit_emission, ShadingPoint};
 use super::{EnvStrategy, PathSettings};
+use crate::bsdfs::BsdfFlags;
 use crate::lights::{EarlyChoice, LightDraw};
 use crate::ray::{offset_origin, Ray};
 use crate::sampling::power_heuristic;
@@ -49,6 +50,9 @@ pub struct PathContext<'a> {
     /// Every sample counts from the start ([`PathState::radiance`]): the camera sees a light at
     /// infinity.
     valid_at_start: bool,
+    /// The volumetric path tracer's rules at surfaces (Mitsuba's `volpath`): index-matched
+    /// (null) crossings are not bounces and carry the path's medium across the surface.
+    pub volumetric: bool,
 }
 
 impl<'a> PathContext<'a> {
@@ -59,6 +63,15 @@ impl<'a> PathContext<'a> {
             infinite_select_pdf: scene.light_selection.pmf_unbounded(),
             track_cones: settings.mipmapping && scene.uses_cones,
             valid_at_start: !settings.hide_emitters && !scene.infinite_lights.is_empty(),
+            volumetric: false,
+        }
+    }
+
+    /// The context of the volumetric path tracer.
+    pub fn volumetric(scene: &'a RenderScene, settings: PathSettings) -> Self {
+        Self {
+            volumetric: true,
+            ..Self::new(scene, settings)
         }
     }
 
@@ -186,6 +199,12 @@ pub struct PathState {
     /// The path met a surface that is not a `null` crossing (Mitsuba's `valid_ray`; see
     /// [`PathState::radiance`]).
     pub valid: bool,
+    /// The medium `ray` travels in (volumetric path tracer; None: vacuum).
+    pub medium: Option<u32>,
+    /// How far `ray`'s origin lies from `prev_p` along `ray` (past index-matched crossings;
+    /// always 0 in the path tracer): emission found on `ray` is `travelled` + t away from the
+    /// scattering event whose sample produced it.
+    pub travelled: f32,
 }
 
 impl PathState {
@@ -209,6 +228,8 @@ impl PathState {
             eta: 1.0,
             depth: 0,
             valid: false,
+            medium: None,
+            travelled: 0.0,
         }
     }
 
@@ -297,13 +318,17 @@ impl PathState {
                     1.0
                 } else {
                     let select = scene.light_selection.pmf(index, self.prev_p, self.prev_n);
-                    let pdf = emission_pdf(&scene.lights[index], self.prev_p, dir, hit, select);
+                    let t = self.travelled + hit.t;
+                    let pdf = emission_pdf(&scene.lights[index], self.prev_p, dir, t, hit, select);
                     power_heuristic(self.prev_bsdf_pdf, pdf)
                 };
                 self.result += self.throughput * radiance * w;
             }
         }
-        if self.last_segment(ctx) {
+        let last_segment = self.last_segment(ctx);
+        // The volumetric path tracer goes on through index-matched surfaces on its last segment
+        // (they are no bounce), as Mitsuba's `volpath` does.
+        if last_segment && !(ctx.volumetric && self.may_pass(ctx, hit)) {
             let material = scene.shapes[hit.shape as usize].material;
             self.valid |= !scene.materials[material as usize].passes_through();
             return (None, false);
@@ -328,7 +353,7 @@ impl PathState {
         self.valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
 
         let mut shadow = None;
-        let light = match sp.bsdf.flags().has_smooth() {
+        let light = match sp.bsdf.flags().has_smooth() && !last_segment {
             true => draws.light_at(scene, hit.p, sp.frame.n),
             false => None,
         };
@@ -359,6 +384,25 @@ impl PathState {
         }
         self.throughput *= bs.weight;
         let wi = sp.frame.to_world(bs.wi);
+        if ctx.volumetric {
+            self.medium = scene
+                .media
+                .after_crossing(self.medium, hit.shape, hit.ng, wi);
+            if bs.lobe.contains(BsdfFlags::NULL) {
+                // Index-matched: the same ray goes on; not a bounce.
+                self.travelled += hit.t;
+                self.ray = Ray {
+                    origin: offset_origin(hit.p, hit.ng, wi),
+                    dir: wi,
+                    tmax: f32::INFINITY,
+                };
+                return (shadow, true);
+            }
+            if last_segment {
+                return (shadow, false);
+            }
+            self.travelled = 0.0;
+        }
         if !bs.is_delta() {
             if ctx.track_cones {
                 self.cone.spread += sp.bsdf.roughness() * ctx.settings.footprint_scale;
@@ -377,15 +421,66 @@ impl PathState {
         };
         self.depth += 1;
 
-        // Russian roulette, as Mitsuba: survive with probability min(max throughput · η², 0.95).
+        (shadow, self.roulette(ctx, draws.u_rr))
+    }
+
+    /// Russian roulette after a bounce, as Mitsuba's: from `rr_depth` on the path survives with
+    /// probability min(max throughput · η², 0.95) (`u` decides). Returns whether it goes on.
+    #[inline(always)]
+    pub fn roulette(&mut self, ctx: &PathContext, u: f32) -> bool {
         if self.depth as i32 >= ctx.settings.rr_depth {
             let q = (self.throughput.max_element() * self.eta * self.eta).min(0.95);
-            if draws.u_rr >= q {
-                return (shadow, false);
+            if u >= q {
+                return false;
             }
             self.throughput /= q;
         }
-        (shadow, true)
+        true
+    }
+
+    /// The path scattered in a medium at `p`, `t` along its ray, into `wi` with density `pdf`
+    /// (the phase function's); `count_fully`: emitters the new ray finds are not weighed by MIS
+    /// (the medium samples no emitters).
+    pub fn scattered_in_medium(
+        &mut self,
+        ctx: &PathContext,
+        t: f32,
+        p: Vec3A,
+        wi: Vec3A,
+        pdf: f32,
+        count_fully: bool,
+    ) {
+        if ctx.track_cones {
+            // Like a diffuse bounce: the widest lobe.
+            self.cone = self.cone.at_distance(t);
+            self.cone.spread += ctx.settings.footprint_scale;
+        }
+        self.specular_chain = false;
+        self.prev_bsdf_pdf = pdf;
+        self.prev_delta = count_fully;
+        self.prev_p = p;
+        // No surface: the light choice's probability there has no orientation to weigh.
+        self.prev_n = Vec3A::ZERO;
+        self.travelled = 0.0;
+        // Mitsuba's `volpath`: a scattering in a medium makes the sample count.
+        self.valid = true;
+        self.ray = Ray {
+            origin: p,
+            dir: wi,
+            tmax: f32::INFINITY,
+        };
+    }
+}
+
+impl PathState {
+    /// Whether the surface at `hit` may let the ray pass straight through (a `null`, a thin
+    /// dielectric, a mask).
+    #[inline]
+    pub fn may_pass(&self, ctx: &PathContext, hit: &SurfaceHit) -> bool {
+        let scene = ctx.scene;
+        scene.materials[scene.shapes[hit.shape as usize].material as usize]
+            .bsdf
+            .may_pass()
     }
 }
 

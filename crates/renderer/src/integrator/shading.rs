@@ -128,16 +128,18 @@ pub fn hit_emission(scene: &RenderScene, hit: &SurfaceHit, dir: Vec3A) -> Option
 }
 
 /// The solid-angle density with which light sampling from `from` (the light chosen with
-/// probability `select_pdf`) would produce the direction `dir` that reached `hit` on `light`.
+/// probability `select_pdf`) would produce the direction `dir` that reached `hit` on `light`,
+/// `t` away from `from`.
 #[inline(always)]
 pub fn emission_pdf(
     light: &Light,
     from: Vec3A,
     dir: Vec3A,
+    t: f32,
     hit: &SurfaceHit,
     select_pdf: f32,
 ) -> f32 {
-    light.pdf_area_hit(from, dir, hit.t, hit.ng, hit.uv) * select_pdf
+    light.pdf_area_hit(from, dir, t, hit.ng, hit.uv) * select_pdf
 }
 
 /// The shadow ray of light sample `ls` from `p` (geometric normal `ng`): origin, direction and

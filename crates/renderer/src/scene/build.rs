@@ -131,6 +131,8 @@ impl RenderScene {
                 ));
             }
         }
+        let passable = materials.iter().any(|m| m.bsdf.may_pass());
+        let media = crate::media::Media::build(scene, passable, &mut warnings);
         Ok(Self {
             camera,
             accel,
@@ -144,6 +146,7 @@ impl RenderScene {
             light_selection: crate::lights::LightSelection::new(&lights),
             lights,
             infinite_lights,
+            media,
             has_area_lights,
             uses_cones,
             any_uv,

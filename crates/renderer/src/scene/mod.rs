@@ -45,6 +45,8 @@ pub struct RenderScene {
     pub(crate) light_selection: crate::lights::LightSelection,
     /// Indices of lights at infinity (constant background, environment maps).
     pub(crate) infinite_lights: Vec<u32>,
+    /// Participating media, the media on the shapes' sides and the camera's.
+    pub(crate) media: crate::media::Media,
     /// Whether any shape emits. Without area lights, a surface hit never adds emission, so a
     /// path's last segment only needs to know whether it escapes (an any-hit query).
     pub(crate) has_area_lights: bool,

@@ -6,7 +6,8 @@
 //! | --- | --- |
 //! | `path` | the path tracer |
 //! | `direct` | direct illumination with several emitter and BSDF samples |
-//! | `ptracer`, `volpath`, `volpathmis`, `prb`, `prb_basic` | the path tracer (one warning; the same expected image without media) |
+//! | `volpath`, `volpathmis` | the volumetric path tracer (the parameters of `path`) |
+//! | `ptracer`, `prb`, `prb_basic` | the path tracer (one warning; the same expected image) |
 //! | `moment` | its first nested `<integrator>` |
 //! | `aov` | its nested `<integrator>` (`path` without one); `aovs` is not written (warning) |
 
@@ -34,7 +35,7 @@ pub(crate) const INTEGRATORS: &[&str] = &[
 
 /// Types rendered by the path tracer, with a warning (their estimators converge to the path
 /// tracer's image where the scene has no media).
-const READ_AS_PATH: &[&str] = &["ptracer", "volpath", "volpathmis", "prb", "prb_basic"];
+const READ_AS_PATH: &[&str] = &["ptracer", "prb", "prb_basic"];
 
 /// The integrator of a scene without an `<integrator>`: Mitsuba's default, `path`.
 pub(crate) fn default_integrator() -> Integrator {
@@ -57,13 +58,15 @@ pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrat
     if READ_AS_PATH.contains(&ty) {
         ctx.warn(
             elem.pos,
-            format!(
-                "integrator '{ty}' is rendered by the path tracer (the same image without media)"
-            ),
+            format!("integrator '{ty}' is rendered by the path tracer (the same expected image)"),
         );
     }
     let kind = match ty {
         "direct" => IntegratorKind::Direct(direct::parse(ctx, elem, &mut props)?),
+        "volpath" | "volpathmis" => IntegratorKind::VolPath {
+            params: path::parse(ctx, &mut props)?,
+            mis: ty == "volpathmis",
+        },
         _ => IntegratorKind::Path(path::parse(ctx, &mut props)?),
     };
     props.finish(ctx);

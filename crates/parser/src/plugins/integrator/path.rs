@@ -1,4 +1,5 @@
-//! Mitsuba's `path` integrator (and the types rendered by the path tracer):
+//! Mitsuba's `path` integrator (and `volpath`, `volpathmis` and the types rendered by the path
+//! tracer):
 //!
 //! | name | type | default |
 //! | --- | --- | --- |
