@@ -54,6 +54,7 @@ fn lookat_frame_matches_mitsuba() {
                 rr_depth: 5,
                 hide_emitters: false,
             }),
+            aovs: None,
         }
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
