@@ -13,6 +13,7 @@
 //! ([`shading::ShadingPoint`]: footprint, frame, BSDF at a hit) and the light connection are
 //! shared with `direct` too.
 
+pub mod aov;
 mod direct;
 mod path;
 mod path_state;
@@ -120,6 +121,8 @@ pub struct PathSettings {
     pub footprint_scale: f32,
     /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
     pub env_strategy: EnvStrategy,
+    /// Take the denoiser's guides along each path ([`path_state::Guides`]).
+    pub guides: bool,
 }
 
 /// Strategies for lights at infinity, kept selectable so their noise can be compared (issue: env

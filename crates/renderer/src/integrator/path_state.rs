@@ -179,8 +179,22 @@ pub struct PathState {
     pub eta: f32,
     /// Segments traced before `ray`.
     pub depth: u32,
+    /// The denoiser's guides, taken at the path's first non-delta hit when
+    /// [`PathSettings::guides`] asks for them.
+    pub guides: Guides,
 }
 
+/// A path's guides for the denoiser, taken at its first hit whose BSDF has a non-delta lobe
+/// (through mirrors and glass, as Cycles takes them): the albedo, the weight of the BSDF sample
+/// drawn there (an unbiased estimate of the directional albedo: exactly the reflectance of a
+/// diffuse surface) times the delta chain's throughput, clamped to [0, 1]; and the shading
+/// normal. Zero where the path escapes or ends before such a hit.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Guides {
+    pub albedo: Vec3A,
+    pub normal: Vec3A,
+    pub taken: bool,
+}
 impl PathState {
     /// A path starting with the camera ray from `origin` along `dir`.
     #[inline(always)]
@@ -201,6 +215,7 @@ impl PathState {
             specular_chain: true,
             eta: 1.0,
             depth: 0,
+            guides: Guides::default(),
         }
     }
 
@@ -296,6 +311,14 @@ impl PathState {
         // used after it: it depends only on this hit, so its dependent chain of a division, a
         // polynomial and square roots overlaps the light connection instead of waiting for it.
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
+        if ctx.settings.guides && !self.guides.taken && sp.bsdf.flags().has_smooth() {
+            let weight = bsdf_sample.map_or(Vec3A::ZERO, |s| s.weight);
+            self.guides = Guides {
+                albedo: (self.throughput * weight).clamp(Vec3A::ZERO, Vec3A::ONE),
+                normal: sp.frame.n,
+                taken: true,
+            };
+        }
 
         let mut shadow = None;
         let light = match sp.bsdf.flags().has_smooth() {

@@ -51,6 +51,9 @@ fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
         sampler,
         packets,
         path_loop: PathLoop::Scalar,
+        channels: Default::default(),
+        noise_threshold: None,
+        time_limit: None,
     }
 }
 
@@ -538,6 +541,7 @@ fn cameras_keep_sampler_dimensions_aligned() {
                 mipmapping: true,
                 footprint_scale: spp_scale(12),
                 env_strategy: EnvStrategy::default(),
+                guides: false,
             };
             let mut rays = RayCount::default();
             let set = settings(12, SamplerKind::Sobol, packets);
@@ -551,6 +555,7 @@ fn cameras_keep_sampler_dimensions_aligned() {
                 &mut recorder,
                 &mut rays,
                 &mut film.tile((12, 10, 13, 11)),
+                None,
             );
             let mut next = vec![0u32; 12];
             for &(sample, dimension) in &recorder.draws {
