@@ -141,7 +141,10 @@ impl Film {
                     self.values[out + col] = tile.means[src + col].finish();
                 }
                 let (o, t) = ((out + col) * ch, (src + col) * ch);
-                for (a, b) in self.extras[o..o + ch].iter_mut().zip(&tile.extras[t..t + ch]) {
+                for (a, b) in self.extras[o..o + ch]
+                    .iter_mut()
+                    .zip(&tile.extras[t..t + ch])
+                {
                     *a += b;
                 }
             }

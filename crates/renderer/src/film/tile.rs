@@ -178,7 +178,10 @@ impl TileFilm {
             }
         };
         if !self.filter.splats() {
-            add((pixel.1 - wy) as usize * ww as usize + (pixel.0 - wx) as usize, 1.0);
+            add(
+                (pixel.1 - wy) as usize * ww as usize + (pixel.0 - wx) as usize,
+                1.0,
+            );
             return;
         }
         // The pixels and weights of `add_sample`'s splat.

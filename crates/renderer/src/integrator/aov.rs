@@ -55,6 +55,11 @@ impl SampleChannels {
         names
     }
 
+    /// Whether the first channels are the wrapped integrator's image (`<name>.R/G/B/A`).
+    pub fn writes_inner_image(&self) -> bool {
+        self.aovs.as_ref().is_some_and(|a| a.inner.is_some())
+    }
+
     pub fn len(&self) -> usize {
         self.names().len()
     }

@@ -14,6 +14,8 @@ mod pixel;
 mod settings;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_passes;
 mod wavefront_pixel;
 
 pub use adaptive::relative_error;
@@ -170,7 +172,14 @@ pub fn render_slice_reporting(
         film.add_tile(tile);
     }
     let nonfinite = film.nonfinite();
-    let (pixels, extras) = film.finish();
+    let (pixels, mut extras) = film.finish();
+    let channels = settings.channels.names();
+    if settings.channels.writes_inner_image() {
+        // The wrapped integrator's image is the image (its running mean, not the channel sums).
+        for (p, e) in pixels.iter().zip(extras.chunks_exact_mut(channels.len())) {
+            e[..3].copy_from_slice(&p.mean.to_array());
+        }
+    }
     let image = Image::new(cw, ch, pixels.iter().map(|p| p.mean.into()).collect());
     let variance = Image::new(cw, ch, pixels.iter().map(|p| p.variance.into()).collect());
     let counts = pixels.iter().map(|p| p.count).collect();
@@ -189,7 +198,7 @@ pub fn render_slice_reporting(
             shadow: tracer.shadow_rays.into_inner(),
         },
         first_tile: Duration::from_nanos(tracer.first_tile_ns.into_inner()).min(elapsed),
-        channels: settings.channels.names(),
+        channels,
         extras,
         passes: summary.passes,
     })

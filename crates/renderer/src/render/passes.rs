@@ -86,7 +86,16 @@ pub(super) fn run(
         if first > 0 || last < n0 {
             // The image does not hold the pilot: render it apart, for the decisions only.
             let (window, values) = adaptive::pilot(tracer, crop, n0, None, start, progress);
-            decide(&mut caps, window, &values, crop, t, n0, settings.spp, first..last);
+            decide(
+                &mut caps,
+                window,
+                &values,
+                crop,
+                t,
+                n0,
+                settings.spp,
+                first..last,
+            );
             pilot = None;
         }
     }
@@ -112,7 +121,9 @@ pub(super) fn run(
         next = next.min(top);
         if let (Some(deadline), true) = (deadline, passes > 0) {
             let per_sample = start.elapsed().as_secs_f64() / rendered.max(1) as f64;
-            let left = deadline.saturating_duration_since(Instant::now()).as_secs_f64();
+            let left = deadline
+                .saturating_duration_since(Instant::now())
+                .as_secs_f64();
             let cost = |to: u32| added(&caps, level, to) as f64 * per_sample;
             if cost(level + 1) > left {
                 break;
@@ -151,7 +162,16 @@ pub(super) fn run(
             if level == n0 {
                 let (window, all) =
                     adaptive::pilot(tracer, crop, n0, Some((rects, tiles)), start, progress);
-                decide(&mut caps, window, &all, crop, t, n0, settings.spp, first..last);
+                decide(
+                    &mut caps,
+                    window,
+                    &all,
+                    crop,
+                    t,
+                    n0,
+                    settings.spp,
+                    first..last,
+                );
                 pilot = None;
             }
         }
@@ -201,7 +221,10 @@ fn pass_report(
     start: Instant,
     deadline: Option<Instant>,
 ) -> PassReport {
-    let mut errors: Vec<f32> = values.iter().map(adaptive::relative_error).collect();
+    let mut errors: Vec<f32> = values
+        .iter()
+        .map(|p| adaptive::relative_error(p.mean.into(), p.variance.into()))
+        .collect();
     errors.sort_by(f32::total_cmp);
     let median_error = errors.get(errors.len() / 2).copied().unwrap_or(0.0);
     PassReport {
@@ -209,9 +232,8 @@ fn pass_report(
         samples,
         pixels: values.len() as u64,
         median_error,
-        under_threshold: threshold.map(|t| {
-            errors.iter().filter(|&&e| e < t).count() as f32 / errors.len().max(1) as f32
-        }),
+        under_threshold: threshold
+            .map(|t| errors.iter().filter(|&&e| e < t).count() as f32 / errors.len().max(1) as f32),
         elapsed: start.elapsed(),
         time_left: deadline.map(|d| d.saturating_duration_since(Instant::now())),
     }

@@ -12,7 +12,7 @@ use torrey_parser::PixelFilter;
 use torrey_texture::spp_scale;
 
 /// A small scene with meshes, a sphere and an area light (24x20).
-fn packet_scene() -> RenderScene {
+pub(super) fn packet_scene() -> RenderScene {
     let xml = r#"<scene version="0.6.0">
         <integrator type="path"><integer name="maxDepth" value="5"/></integrator>
         <sensor type="perspective">
@@ -35,7 +35,7 @@ fn packet_scene() -> RenderScene {
     crate::scene::scene_from_xml(xml, 24, 20)
 }
 
-fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
+pub(super) fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
     RenderSettings {
         spp,
         integrator: Integrator::Path(crate::integrator::PathIntegrator {
@@ -57,7 +57,7 @@ fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
     }
 }
 
-fn assert_bits_eq(a: &Image, b: &Image, what: &str) {
+pub(super) fn assert_bits_eq(a: &Image, b: &Image, what: &str) {
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         assert_eq!(

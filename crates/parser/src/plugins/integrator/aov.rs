@@ -64,7 +64,9 @@ pub(super) fn parse(ctx: &mut Ctx, elem: &Element, mut props: Props) -> Result<I
             if integrator.aovs.is_some() {
                 return Err(ctx.err(i.pos, "integrator 'aov' inside another 'aov'"));
             }
-            let name = i.attr_value("name").map_or("_arg_0".to_string(), str::to_string);
+            let name = i
+                .attr_value("name")
+                .map_or("_arg_0".to_string(), str::to_string);
             integrator.aovs = Some(Aovs {
                 inner: Some(name),
                 list,
@@ -90,9 +92,7 @@ mod tests {
     use crate::scene::AovKind;
 
     fn load(integrator: &str) -> Result<crate::Scene, crate::ParseError> {
-        let xml = format!(
-            r#"<scene version="3.0.0">{integrator}<shape type="sphere"/></scene>"#
-        );
+        let xml = format!(r#"<scene version="3.0.0">{integrator}<shape type="sphere"/></scene>"#);
         crate::parse_scene_str(&xml, std::path::Path::new("aov.xml"), &[])
     }
 
@@ -113,7 +113,12 @@ mod tests {
         let kinds: Vec<_> = aovs.list.iter().map(|a| a.kind).collect();
         assert_eq!(
             kinds,
-            [AovKind::Depth, AovKind::ShNormal, AovKind::Albedo, AovKind::PrimIndex]
+            [
+                AovKind::Depth,
+                AovKind::ShNormal,
+                AovKind::Albedo,
+                AovKind::PrimIndex
+            ]
         );
         assert_eq!(
             aovs.channel_names(),
@@ -123,7 +128,8 @@ mod tests {
 
         let s = load(r#"<integrator type="aov"><string name="aovs" value="u:uv"/><integrator type="direct"/></integrator>"#).unwrap();
         assert_eq!(s.integrator.aovs.unwrap().inner.as_deref(), Some("_arg_0"));
-        let s = load(r#"<integrator type="aov"><string name="aovs" value="u:uv"/></integrator>"#).unwrap();
+        let s = load(r#"<integrator type="aov"><string name="aovs" value="u:uv"/></integrator>"#)
+            .unwrap();
         assert_eq!(s.integrator.aovs.as_ref().unwrap().inner, None);
         assert_eq!(s.integrator.max_depth(), 0);
     }
