@@ -1,7 +1,6 @@
 //! `torrey`: render a Mitsuba-style XML scene to a linear EXR and a tonemapped PNG.
 
 mod compare;
-mod denoise;
 mod limits;
 mod merge;
 mod output;
@@ -323,7 +322,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
 
     let mut part = torrey_parts::Part::from_output(meta, &out);
     if args.denoise {
-        let seconds = pool.install(|| denoise::denoise_part(&mut part))?;
+        let seconds = pool.install(|| torrey_parts::denoise_part(&mut part))?;
         eprintln!("denoised in {seconds:.2} s");
     }
     let png = slicing::write_outputs(&output, &part)?;

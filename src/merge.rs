@@ -27,7 +27,7 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         .collect::<Result<Vec<_>, String>>()?;
     let mut merged = torrey_parts::merge(&parts)?;
     if args.denoise {
-        let seconds = crate::denoise::denoise_part(&mut merged)?;
+        let seconds = torrey_parts::denoise_part(&mut merged)?;
         eprintln!("denoised in {seconds:.2} s");
     }
     let png = crate::slicing::write_outputs(&args.output, &merged)?;

@@ -1,10 +1,10 @@
-//! `--denoise` and `torrey merge --denoise`: a part's mean denoised by Intel Open Image Denoise
-//! with its albedo and normal guides (the `albedo.*` and `normal.*` channels the render took at
-//! each path's first non-delta hit), in HDR mode.
+//! Denoising a part (`--denoise`, `torrey merge --denoise`, Python's `denoise=True`): its mean
+//! denoised by Intel Open Image Denoise with its albedo and normal guides (the `albedo.*` and
+//! `normal.*` channels the render took at each path's first non-delta hit), in HDR mode.
 
+use crate::Part;
 use glam::Vec3;
 use std::time::Instant;
-use torrey_parts::Part;
 use torrey_renderer::GUIDE_CHANNELS;
 
 /// Denoises `part` (its `denoised` image; the mean stays as the noisy one); returns the seconds
@@ -13,7 +13,7 @@ pub fn denoise_part(part: &mut Part) -> Result<f64, String> {
     let (w, h) = (part.meta.crop.2 as usize, part.meta.crop.3 as usize);
     let guide = |names: &[&str]| {
         part.channel_values(names).ok_or_else(|| {
-            "--denoise: the image has no albedo.R/G/B and normal.X/Y/Z guides (render it with --denoise)".to_string()
+            "cannot denoise: the image has no albedo.R/G/B and normal.X/Y/Z guides (render it with --denoise)".to_string()
         })
     };
     let albedo = guide(&GUIDE_CHANNELS[..3])?;
