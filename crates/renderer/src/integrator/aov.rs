@@ -183,8 +183,8 @@ impl<'a> AovWriter<'a> {
                 (Some(h), true) => {
                     let (albedo, normal) = self.albedo(ray, h);
                     Guides {
-                        albedo: albedo.clamp(Vec3A::ZERO, Vec3A::ONE),
-                        normal,
+                        albedo: albedo.clamp(Vec3A::ZERO, Vec3A::ONE).into(),
+                        normal: normal.into(),
                         taken: true,
                     }
                 }

@@ -34,7 +34,7 @@ use crate::ray::{offset_origin, Ray};
 use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
-use glam::{Vec2, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
 use torrey_texture::RayCone;
 
 /// What a render's paths share: the scene and the settings.
@@ -188,11 +188,12 @@ pub struct PathState {
 /// (through mirrors and glass, as Cycles takes them): the albedo, the weight of the BSDF sample
 /// drawn there (an unbiased estimate of the directional albedo: exactly the reflectance of a
 /// diffuse surface) times the delta chain's throughput, clamped to [0, 1]; and the shading
-/// normal. Zero where the path escapes or ends before such a hit.
+/// normal. Zero where the path escapes or ends before such a hit. (Unaligned vectors: the
+/// path state, which every wavefront stage reads, stays small.)
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Guides {
-    pub albedo: Vec3A,
-    pub normal: Vec3A,
+    pub albedo: Vec3,
+    pub normal: Vec3,
     pub taken: bool,
 }
 impl PathState {
@@ -314,8 +315,8 @@ impl PathState {
         if ctx.settings.guides && !self.guides.taken && sp.bsdf.flags().has_smooth() {
             let weight = bsdf_sample.map_or(Vec3A::ZERO, |s| s.weight);
             self.guides = Guides {
-                albedo: (self.throughput * weight).clamp(Vec3A::ZERO, Vec3A::ONE),
-                normal: sp.frame.n,
+                albedo: (self.throughput * weight).clamp(Vec3A::ZERO, Vec3A::ONE).into(),
+                normal: sp.frame.n.into(),
                 taken: true,
             };
         }
