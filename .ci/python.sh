@@ -15,5 +15,9 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$venv/.pins" 2>/dev/null)" != "$pins
 fi
 export PATH="$venv/bin:$PATH"
 cargo build -q --profile ci -p torrey
+# With the project's OIDN installed (crates/denoise/install-oidn.sh), the package denoises.
+if [ -e .oidn/pyoidn/oidn/lib/libOpenImageDenoise.so ]; then
+    export MATURIN_PEP517_ARGS="--features denoise"
+fi
 pip install -q --disable-pip-version-check --no-build-isolation --no-deps --force-reinstall ./python
 python -m pytest -q python/tests "$@"

@@ -103,6 +103,27 @@ struct RenderArgs {
     /// `torrey merge`; the EXR records the range).
     #[arg(long, value_parser = slicing::parse_sample_range)]
     sample_range: Option<(u32, u32)>,
+    /// Denoise with Intel Open Image Denoise (albedo and normal guides from the first non-delta
+    /// hit): the EXR's RGB and the PNG are the denoised image; the noisy image (noisy.R/G/B),
+    /// albedo.R/G/B and normal.X/Y/Z stay in the EXR.
+    #[arg(long)]
+    denoise: bool,
+    /// Adaptive sampling: each pixel stops once its relative standard error is predicted under
+    /// T (judged from a uniform pilot of its neighbours); --spp is the cap. The EXR's `count`
+    /// channel holds each pixel's samples.
+    #[arg(long, value_name = "T", value_parser = parse_positive)]
+    noise_threshold: Option<f32>,
+    /// Render in passes until SECONDS have gone, stopping at a pass boundary (--spp, or the
+    /// scene's, is the cap); with --noise-threshold the time left goes to the noisiest pixels.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_positive)]
+    time_limit: Option<f32>,
+}
+
+fn parse_positive(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a positive number, got '{s}'")),
+    }
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -178,6 +199,9 @@ fn main() -> ExitCode {
 
 fn render_command(args: &RenderArgs) -> Result<(), String> {
     let scene_path = args.scene.as_ref().ok_or("no scene file given")?;
+    if args.denoise && !torrey_denoise::AVAILABLE {
+        return Err(format!("--denoise: {}", torrey_denoise::HOW_TO_GET));
+    }
     let limits = limits::Limits::from_args(&args.limits)?;
     torrey_texture::set_image_pixel_limit(limits.image_pixels);
     if let Some((w, h)) = args.size {
@@ -244,6 +268,11 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
                 PathLoopArg::Wavefront => torrey_renderer::PathLoop::Wavefront,
             }),
             tile_size: None,
+            guides: Some(args.denoise),
+            noise_threshold: args.noise_threshold,
+            time_limit: args
+                .time_limit
+                .map(|t| std::time::Duration::from_secs_f32(t)),
         },
     );
     let output = output_path(
@@ -258,7 +287,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         let bar = ProgressBar::new(1);
         bar.set_style(
             ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} {percent}% eta {eta}",
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent}% eta {eta} {msg}",
             )
             .expect("valid progress template"),
         );
@@ -268,6 +297,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         bar.set_length(total);
         bar.set_position(done);
     };
+    let report = |r: &torrey_renderer::PassReport| bar.set_message(pass_message(r));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
@@ -279,16 +309,29 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     slice.validate(width, height, settings.spp)?;
     let meta = slicing::part_meta(&scene, &args.define, &settings, (width, height), &slice)?;
     let cpu_before = process_cpu_seconds();
-    let out = pool
-        .install(|| torrey_renderer::render_slice(&render_scene, &settings, &slice, &progress))?;
+    let out = pool.install(|| {
+        torrey_renderer::render_slice_reporting(
+            &render_scene,
+            &settings,
+            &slice,
+            &progress,
+            &report,
+        )
+    })?;
     let render_cpu = process_cpu_seconds().zip(cpu_before).map(|(a, b)| a - b);
     bar.finish_and_clear();
 
+    let mut part = torrey_parts::Part::from_output(meta, &out);
+    if args.denoise {
+        let seconds = pool.install(|| torrey_parts::denoise_part(&mut part))?;
+        eprintln!("denoised in {seconds:.2} s");
+    }
     let write_start = Instant::now();
-    let png = slicing::write_outputs(&output, &torrey_parts::Part::from_output(meta, &out))?;
+    let png = slicing::write_outputs(&output, &part)?;
     let write_time = write_start.elapsed();
 
-    let samples = out.image.width as u64 * out.image.height as u64 * out.spp as u64;
+    // Samples that counted (adaptive sampling and time limits give pixels their own counts).
+    let samples: u64 = out.counts.iter().map(|&c| c as u64).sum();
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
         "{}: {} dialect ({}); {}x{} px, {} spp, max depth {}, {} triangles{}; load {:.2} s, build {:.2} s, render {:.2} s, {:.2} M samples/s, {:.2} M rays/s ({} closest + {} shadow), first tile after {:.3} s, {}-wide BVH, SIMD {}{}, write {:.2} s",
@@ -317,6 +360,9 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         render_cpu.map_or(String::new(), |s| format!(", render CPU {s:.2} s")),
         write_time.as_secs_f64(),
     );
+    if out.passes > 1 || settings.noise_threshold.is_some() {
+        eprintln!("{}", passes_summary(&out, settings.noise_threshold));
+    }
     if out.nonfinite_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN or infinite and were dropped",
@@ -336,6 +382,52 @@ pub(crate) fn clamped_warning(pixels: u64) -> String {
         "warning: {pixels} pixels had a mean or variance beyond the largest 32-bit float \
          (3.4e38) and were clamped to it"
     )
+}
+
+/// The progress bar's message after a pass: samples per pixel so far, the noise estimate and
+/// the time left.
+fn pass_message(r: &torrey_renderer::PassReport) -> String {
+    let mut m = format!(
+        "pass {}: {:.1} spp, median error {:.3}",
+        r.pass,
+        r.samples as f64 / r.pixels.max(1) as f64,
+        r.median_error
+    );
+    if let Some(u) = r.under_threshold {
+        m += &format!(", {:.0}% under the threshold", u * 100.0);
+    }
+    if let Some(t) = r.time_left {
+        m += &format!(", {:.1} s left", t.as_secs_f64());
+    }
+    m
+}
+
+/// One line on a render in passes: passes, samples per pixel (mean and range) and, with a noise
+/// threshold, the share of pixels under it.
+fn passes_summary(out: &torrey_renderer::RenderOutput, threshold: Option<f32>) -> String {
+    let n = out.counts.len().max(1);
+    let total: u64 = out.counts.iter().map(|&c| c as u64).sum();
+    let (lo, hi) = out
+        .counts
+        .iter()
+        .fold((u32::MAX, 0), |(a, b), &c| (a.min(c), b.max(c)));
+    let mut line = format!(
+        "{} passes, {:.1} spp on average ({lo} to {hi})",
+        out.passes,
+        total as f64 / n as f64
+    );
+    if let Some(t) = threshold {
+        let under = (0..n)
+            .filter(|&i| {
+                torrey_renderer::relative_error(out.image.pixels[i], out.variance.pixels[i]) < t
+            })
+            .count();
+        line += &format!(
+            ", {:.1}% of pixels under the threshold {t}",
+            100.0 * under as f64 / n as f64
+        );
+    }
+    line
 }
 
 /// The output EXR: `-o`, else the film's filename (with .exr), else `<scene stem>.exr`, in the

@@ -10,15 +10,26 @@ pub struct MergeArgs {
     /// The merged EXR; a PNG is written beside it.
     #[arg(short, long)]
     output: PathBuf,
+    /// Denoise the merged image (parts rendered with --denoise carry the guides; a denoised
+    /// part's own denoised image is not merged: denoising does not commute with averaging).
+    #[arg(long)]
+    denoise: bool,
 }
 
 pub fn run(args: &MergeArgs) -> Result<(), String> {
+    if args.denoise && !torrey_denoise::AVAILABLE {
+        return Err(format!("--denoise: {}", torrey_denoise::HOW_TO_GET));
+    }
     let parts = args
         .parts
         .iter()
         .map(|p| Ok((p.display().to_string(), torrey_parts::read_part(p)?)))
         .collect::<Result<Vec<_>, String>>()?;
-    let merged = torrey_parts::merge(&parts)?;
+    let mut merged = torrey_parts::merge(&parts)?;
+    if args.denoise {
+        let seconds = torrey_parts::denoise_part(&mut merged)?;
+        eprintln!("denoised in {seconds:.2} s");
+    }
     let png = crate::slicing::write_outputs(&args.output, &merged)?;
     let m = &merged.meta;
     eprintln!(

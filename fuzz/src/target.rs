@@ -198,6 +198,17 @@ impl Harness {
                             torrey_renderer::PathLoop::Scalar
                         }),
                         tile_size: Some(4),
+                        guides: Some(variant % 7 == 3),
+                        // Adaptive sampling needs a filter that does not splat.
+                        noise_threshold: (variant % 6 == 5
+                            && !matches!(
+                                scene.film.filter,
+                                torrey_parser::PixelFilter::Mitchell { .. }
+                                    | torrey_parser::PixelFilter::CatmullRom
+                                    | torrey_parser::PixelFilter::Lanczos { .. }
+                            ))
+                        .then_some(0.2),
+                        time_limit: None,
                     },
                 );
                 let out = torrey_renderer::render(&built, &settings, &|_, _| {});

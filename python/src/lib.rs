@@ -176,6 +176,40 @@ impl PyPart {
     fn variance_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
         floats(py, &self.0.variance)
     }
+    /// The denoised image, float32 RGB, row by row (None if the part was not denoised).
+    fn denoised_bytes<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyBytes>> {
+        self.0.denoised.as_ref().map(|d| floats(py, d))
+    }
+    /// Samples per pixel (adaptive sampling and time limits give each pixel its own), uint32.
+    fn count_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        let bytes: Vec<u8> = self.0.count.iter().flat_map(|c| c.to_ne_bytes()).collect();
+        PyBytes::new(py, &bytes)
+    }
+    /// The names of the other values the samples wrote: Mitsuba's AOVs (`dd.y.T`, `nn.X`, ...),
+    /// the wrapped integrator's image, the denoiser's guides (`albedo.R`, `normal.X`, ...).
+    #[getter]
+    fn channels(&self) -> Vec<String> {
+        self.0.channels.clone()
+    }
+    /// One channel's per-pixel values, float32, row by row.
+    fn channel_bytes<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyBytes>> {
+        let values = self.0.channel_values(&[name]).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "no channel '{name}' (channels: {:?})",
+                self.0.channels
+            ))
+        })?;
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        Ok(PyBytes::new(py, &bytes))
+    }
+    /// A copy denoised with Intel Open Image Denoise (the part must carry the guides: render it
+    /// with `denoise=True`); errors if this build has no OIDN.
+    fn denoised(&self, py: Python<'_>) -> PyResult<Self> {
+        let mut part = self.0.clone();
+        py.detach(|| torrey_parts::denoise_part(&mut part))
+            .map_err(PyRuntimeError::new_err)?;
+        Ok(PyPart(part))
+    }
     /// The metadata: scene, scene_hash, settings, width, height, spp, sample_range, crop,
     /// nonfinite_samples, clamped_pixels.
     #[getter]
@@ -255,7 +289,7 @@ fn merge(py: Python<'_>, parts: Vec<Py<PyPart>>, names: Vec<String>) -> PyResult
 /// Renders a slice of the scene with the command line's settings; `None` takes the scene's
 /// value. `progress(done, total)` is called with the GIL after each tile.
 #[pyfunction]
-#[pyo3(signature = (scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler, progress, label))]
+#[pyo3(signature = (scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler, progress, label, denoise = false, noise_threshold = None, time_limit = None))]
 #[allow(clippy::too_many_arguments)]
 fn render(
     py: Python<'_>,
@@ -270,8 +304,25 @@ fn render(
     sampler: &str,
     progress: Option<Py<PyAny>>,
     label: Option<String>,
+    denoise: bool,
+    noise_threshold: Option<f32>,
+    time_limit: Option<f64>,
 ) -> PyResult<PyPart> {
     let desc = &scene.desc;
+    if denoise && !torrey_denoise::AVAILABLE {
+        return Err(PyRuntimeError::new_err(format!(
+            "denoise=True: {}",
+            torrey_denoise::HOW_TO_GET
+        )));
+    }
+    if noise_threshold.is_some_and(|t| !(t > 0.0 && t.is_finite())) {
+        return Err(PyValueError::new_err("noise_threshold must be positive"));
+    }
+    let time_limit = match time_limit {
+        Some(t) if t > 0.0 && t.is_finite() => Some(std::time::Duration::from_secs_f64(t)),
+        Some(_) => return Err(PyValueError::new_err("time_limit must be positive")),
+        None => None,
+    };
     let (width, height) = size.unwrap_or((desc.film.width, desc.film.height));
     if width == 0 || height == 0 {
         return Err(PyValueError::new_err("film size must be positive"));
@@ -293,6 +344,9 @@ fn render(
             max_depth,
             seed,
             sampler: Some(sampler),
+            guides: Some(denoise),
+            noise_threshold,
+            time_limit,
             ..Overrides::default()
         },
     );
@@ -344,7 +398,12 @@ fn render(
         return Err(e);
     }
     meta.nonfinite = result.nonfinite_samples;
-    Ok(PyPart(Part::from_output(meta, &result)))
+    let mut part = Part::from_output(meta, &result);
+    if denoise {
+        py.detach(|| torrey_parts::denoise_part(&mut part))
+            .map_err(PyRuntimeError::new_err)?;
+    }
+    Ok(PyPart(part))
 }
 
 /// Writes a linear float32 RGB EXR from `data` (float32, row by row, `width * height * 3`).

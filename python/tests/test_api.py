@@ -131,3 +131,44 @@ def test_bad_arguments_raise_value_errors():
         torrey.render(scene, size=(8, 8), spp=4, sample_range=(2, 6))
     with pytest.raises(ValueError, match="sampler must be"):
         torrey.render(scene, size=(8, 8), spp=1, sampler="halton")
+
+
+def test_aovs_come_back_with_mitsubas_names(torrey_bin, tmp_path):
+    """The aov integrator's channels, as the command line writes them, bit for bit."""
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "tests", "scenes", "aov", "aov.xml")
+    scene = torrey.load_file(path)
+    part = torrey.render_part(scene, spp=8, seed=2)
+    layers = torrey.aovs(part)
+    for name in ["my_image.A", "dd.y.T", "nn.X", "aa.R", "ux.U", "pi.I", "si.I"]:
+        assert layers[name].shape == (36, 48) and layers[name].dtype == np.float32
+    assert layers["dd.y.T"].max() > 3 and layers["dd.y.T"].min() == 0
+    out = str(tmp_path / "aov.exr")
+    run_cli(torrey_bin, path, "--spp", "8", "--seed", "2", "-o", out)
+    cli = torrey.aovs(torrey.Part.read(out))
+    assert sorted(cli) == sorted(layers)
+    for name in layers:
+        assert np.array_equal(cli[name], layers[name]), name
+
+
+def test_adaptive_sampling_and_time_limits():
+    scene = torrey.load_file(scene_path("cbox.xml"))
+    part = torrey.render_part(scene, spp=128, seed=1, size=(32, 24), noise_threshold=0.1)
+    n = torrey.counts(part)
+    assert n.dtype == np.uint32 and n.min() == 8 and n.max() == 128
+    assert "noise_threshold=0.1" in part.meta["settings"]
+    timed = torrey.render_part(scene, spp=1 << 20, size=(32, 24), time_limit=0.3)
+    n = torrey.counts(timed)
+    assert n.min() == n.max() > 1
+
+
+def test_denoise_or_a_clear_error():
+    scene = torrey.load_file(scene_path("cbox.xml"))
+    try:
+        image = torrey.render(scene, spp=4, size=(32, 24), denoise=True)
+    except RuntimeError as e:
+        assert "install-oidn.sh" in str(e)
+        return
+    part = torrey.render_part(scene, spp=4, size=(32, 24), denoise=True)
+    assert np.array_equal(torrey.part_to_array(part, denoised=True), image)
+    assert not np.array_equal(torrey.part_to_array(part), image)
+    assert {"albedo.R", "normal.Z"} <= set(part.channels)

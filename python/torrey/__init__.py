@@ -5,7 +5,10 @@
     image = torrey.render(scene, spp=64, seed=1, size=(320, 240))  # float32 (240, 320, 3)
     torrey.write_exr("cbox.exr", image)
 
-The pixels are the command line's for the same scene, settings and seed. Scene errors raise
+The pixels are the command line's for the same scene, settings and seed. `denoise=True` denoises
+with Intel Open Image Denoise (a build with the `denoise` feature), `noise_threshold=T` samples
+adaptively, `time_limit=SECONDS` renders in passes until the time is up; `aovs(part)` gives the
+AOVs of Mitsuba's `aov` integrator and the denoiser's guides as arrays. Scene errors raise
 `torrey.SceneError` (a ValueError) whose message starts with `file:line:column` and which has
 `file`, `line` and `column` attributes. `render` releases the GIL; `progress(done, total)` is called
 after each finished tile. Distributed rendering on Ray: `python -m torrey.distributed --help`.
@@ -22,7 +25,8 @@ from . import _native
 from ._native import Part, Scene, SceneError
 
 __all__ = [
-    "load_file", "render", "render_part", "part_to_array", "merge", "write_exr", "read_image",
+    "load_file", "render", "render_part", "part_to_array", "aovs", "counts", "merge", "write_exr",
+    "read_image",
     "Scene", "Part", "SceneError",
 ]
 
@@ -64,9 +68,15 @@ def render_part(
     sampler: str = "sobol",
     progress: Optional[Callable[[int, int], None]] = None,
     label: Optional[str] = None,
+    denoise: bool = False,
+    noise_threshold: Optional[float] = None,
+    time_limit: Optional[float] = None,
 ) -> Part:
-    """Renders a slice and returns it as a `Part` (mean, variance and the metadata `merge` checks).
-    `label` replaces the scene path recorded in the metadata."""
+    """Renders a slice and returns it as a `Part` (mean, variance, per-pixel counts, the AOV and
+    guide channels, and the metadata `merge` checks). `label` replaces the scene path recorded
+    in the metadata. denoise: take the guides and denoise (`part_to_array(part, denoised=True)`).
+    noise_threshold: adaptive sampling, each pixel until its relative standard error is under it
+    (spp the cap). time_limit: seconds, rendering in passes until they are up."""
     return _native.render(
         scene,
         spp,
@@ -79,14 +89,40 @@ def render_part(
         sampler,
         progress,
         label,
+        denoise,
+        None if noise_threshold is None else float(noise_threshold),
+        None if time_limit is None else float(time_limit),
     )
 
 
-def part_to_array(part: Part, variance: bool = False) -> np.ndarray:
-    """A part's mean (or variance of the mean) as float32 (height, width, 3)."""
+def part_to_array(part: Part, variance: bool = False, denoised: bool = False) -> np.ndarray:
+    """A part's mean (or variance of the mean, or its denoised image) as float32
+    (height, width, 3)."""
     w, h = part.shape
-    data = part.variance_bytes() if variance else part.mean_bytes()
+    if denoised:
+        data = part.denoised_bytes()
+        if data is None:
+            raise ValueError("the part was not denoised (render with denoise=True)")
+    else:
+        data = part.variance_bytes() if variance else part.mean_bytes()
     return np.frombuffer(data, dtype=np.float32).reshape(h, w, 3).copy()
+
+
+def aovs(part: Part) -> dict:
+    """The part's other channels (Mitsuba's AOVs under its names, e.g. `dd.y.T`, `nn.X`; the
+    wrapped integrator's image `<name>.R/G/B/A`; the denoiser's `albedo.R/G/B`, `normal.X/Y/Z`),
+    each float32 (height, width)."""
+    w, h = part.shape
+    return {
+        name: np.frombuffer(part.channel_bytes(name), dtype=np.float32).reshape(h, w).copy()
+        for name in part.channels
+    }
+
+
+def counts(part: Part) -> np.ndarray:
+    """Samples per pixel, uint32 (height, width)."""
+    w, h = part.shape
+    return np.frombuffer(part.count_bytes(), dtype=np.uint32).reshape(h, w).copy()
 
 
 def render(
@@ -100,17 +136,23 @@ def render(
     threads: Optional[int] = None,
     sampler: str = "sobol",
     progress: Optional[Callable[[int, int], None]] = None,
+    denoise: bool = False,
+    noise_threshold: Optional[float] = None,
+    time_limit: Optional[float] = None,
 ) -> np.ndarray:
-    """Renders `scene` and returns the mean radiance as float32 (height, width, 3).
+    """Renders `scene` and returns the mean radiance (with denoise=True the denoised image) as
+    float32 (height, width, 3).
 
     spp, seed, max_depth: default to the scene's. size: (width, height) of the whole film (the
     camera is kept). sample_range: (first, end) or range(first, end) of global sample indices
     (default all of 0..spp). crop: (x, y, width, height) window of the film; the array then has
     the window's size. threads: worker threads (default all cores). sampler: "sobol" or
-    "independent". progress(done, total): called after each tile, with the GIL.
+    "independent". progress(done, total): called after each tile, with the GIL. denoise,
+    noise_threshold, time_limit: see `render_part`.
     """
-    part = render_part(scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler, progress)
-    return part_to_array(part)
+    part = render_part(scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler,
+                       progress, None, denoise, noise_threshold, time_limit)
+    return part_to_array(part, denoised=denoise)
 
 
 def merge(parts: Sequence[Part], names: Optional[Sequence[str]] = None) -> Part:

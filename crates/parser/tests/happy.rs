@@ -54,6 +54,7 @@ fn lookat_frame_matches_mitsuba() {
                 rr_depth: 5,
                 hide_emitters: false,
             }),
+            aovs: None,
         }
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
@@ -346,7 +347,7 @@ fn lights_and_envmaps() {
 
 #[test]
 fn unknown_parameters_warn_with_position() {
-    let xml = "<scene version=\"0.6.0\">\n  <bsdf type=\"diffuse\">\n    <float name=\"roughness\" value=\"0.1\"/>\n  </bsdf>\n  <medium type=\"homogeneous\"/>\n</scene>";
+    let xml = "<scene version=\"0.6.0\">\n  <bsdf type=\"diffuse\">\n    <float name=\"roughness\" value=\"0.1\"/>\n  </bsdf>\n  <subsurface type=\"dipole\"/>\n</scene>";
     let s = parse_ok(xml);
     assert_eq!(s.warnings.len(), 2);
     assert_eq!(

@@ -385,12 +385,13 @@ fn integrators_and_samplers() {
     };
     assert_eq!((direct.emitter_samples, direct.bsdf_samples), (4, 1));
     assert_eq!(s.sampler.sample_count, 25);
-    for ty in ["ptracer", "volpath"] {
+    // ptracer is read as path, with a warning; volpath is rendered as itself.
+    for (ty, warnings) in [("ptracer", 1), ("volpath", 0)] {
         let s = parse_ok(&format!(
             r#"<scene version="3.0.0"><integrator type="{ty}"><integer name="max_depth" value="3"/></integrator></scene>"#
         ));
         assert_eq!(s.integrator.max_depth(), 3);
-        assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+        assert_eq!(s.warnings.len(), warnings, "{ty}: {:?}", s.warnings);
     }
 }
 
@@ -431,22 +432,27 @@ fn emitter_spectra_and_mitsuba06_names() {
         .any(|w| w.message.contains("roughdiffuse")));
 }
 
-/// Media are not rendered: one warning for the whole scene, at the first medium.
+/// Media are read (a top-level one and one nested in a shape); what torrey does not render (a
+/// `<phase>` outside a medium, a `<subsurface>`) gives one warning for the whole scene, at the
+/// first such element.
 #[test]
-fn media_give_one_warning() {
+fn unrendered_elements_give_one_warning() {
     let xml = r#"<scene version="3.0.0">
   <medium type="homogeneous" id="fog"/>
   <shape type="sphere"><medium name="interior" type="homogeneous"/></shape>
   <phase type="hg"/>
+  <subsurface type="dipole"/>
 </scene>"#;
     let s = parse_ok(xml);
+    assert_eq!(s.media.len(), 2);
+    assert_eq!(s.shapes[0].interior, Some(1));
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     let w = &s.warnings[0];
     assert_eq!(
         (w.location.line, w.location.column),
-        pos_of(xml, "<medium type")
+        pos_of(xml, "<phase type")
     );
-    assert!(w.message.contains("media are not rendered"), "{w}");
+    assert!(w.message.contains("is not supported"), "{w}");
 }
 
 /// Mitsuba's cube (its vertex layout and uvs, from Mitsuba 3.9.1), and shapegroups placed by
@@ -661,12 +667,9 @@ fn refs_resolve_every_kind_mitsuba_allows() {
             ..
         }
     ));
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(
-        s.warnings[0].message.contains("not supported"),
-        "{:?}",
-        s.warnings
-    );
+    // The sphere's interior is the medium it refers to.
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.shapes[0].interior, Some(0));
 
     let cases = [
         (

@@ -1,5 +1,8 @@
-//! Part EXRs: linear float RGB (the mean, so a part is an ordinary image to look at), the
-//! variance of the mean in `variance.R/G/B`, and the [`PartMeta`] as text header attributes.
+//! Part EXRs: linear float RGB (the mean, so a part is an ordinary image to look at; the
+//! denoised image when there is one, the mean then in `noisy.R/G/B`), the variance of the mean in
+//! `variance.R/G/B`, the sample count and weight sum per pixel, the other values the samples
+//! wrote (AOVs, guides) under their own channel names, and the [`PartMeta`] as text header
+//! attributes.
 
 use crate::meta::PartMeta;
 use crate::part::Part;
@@ -9,6 +12,8 @@ use std::io::Cursor;
 use std::path::Path;
 
 const CHANNELS: [&str; 6] = ["R", "G", "B", "variance.R", "variance.G", "variance.B"];
+/// The mean's channels in a denoised part (whose `R`, `G`, `B` are the denoised image).
+const NOISY: [&str; 3] = ["noisy.R", "noisy.G", "noisy.B"];
 /// The header attribute that holds the [`PartMeta`].
 const META_ATTRIBUTE: &str = "torrey";
 
@@ -45,14 +50,20 @@ fn text(s: &str) -> Text {
 fn image(part: &Part, encoding: Encoding) -> Image<Layer<AnyChannels<FlatSamples>>> {
     let (_, _, w, h) = part.meta.crop;
     let column = |data: &[Vec3], c: usize| FlatSamples::F32(data.iter().map(|p| p[c]).collect());
+    let rgb = part.denoised.as_ref().unwrap_or(&part.mean);
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = CHANNELS
         .iter()
         .enumerate()
         .map(|(i, name)| {
-            let data = if i < 3 { &part.mean } else { &part.variance };
+            let data = if i < 3 { rgb } else { &part.variance };
             AnyChannel::new(*name, column(data, i % 3))
         })
         .collect();
+    if part.denoised.is_some() {
+        for (c, name) in NOISY.iter().enumerate() {
+            channels.push(AnyChannel::new(*name, column(&part.mean, c)));
+        }
+    }
     channels.push(AnyChannel::new(
         COUNT,
         FlatSamples::F32(part.count.iter().map(|&n| n as f32).collect()),
@@ -61,6 +72,11 @@ fn image(part: &Part, encoding: Encoding) -> Image<Layer<AnyChannels<FlatSamples
         WEIGHT,
         FlatSamples::F32(part.weight.clone()),
     ));
+    let ch = part.channels.len();
+    for (k, name) in part.channels.iter().enumerate() {
+        let values = part.extras.iter().skip(k).step_by(ch).copied().collect();
+        channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
+    }
     let mut attributes = LayerAttributes::default();
     // One text attribute holding every field, one `name=value` line each (newlines and
     // backslashes escaped): the EXR crate keeps attributes in a hash map, whose order changes
@@ -183,11 +199,41 @@ pub fn read_part_bytes(bytes: &[u8], name: &str) -> std::result::Result<Part, St
         }
         Err(_) => count.iter().map(|&n| n as f32).collect(),
     };
+    let (mean, denoised) = match channel(NOISY[0]) {
+        Ok(_) => {
+            let noisy: Vec<Vec<f32>> = NOISY
+                .iter()
+                .map(|n| channel(n))
+                .collect::<std::result::Result<_, _>>()?;
+            let mean = (0..w * h)
+                .map(|i| Vec3::new(noisy[0][i], noisy[1][i], noisy[2][i]))
+                .collect();
+            (mean, Some(gather(0)))
+        }
+        Err(_) => (gather(0), None),
+    };
+    // Every other channel is a value the samples wrote (AOVs, guides), in the file's order.
+    let known = |n: &str| CHANNELS.contains(&n) || NOISY.contains(&n) || n == COUNT || n == WEIGHT;
+    let mut names = Vec::new();
+    let mut columns_extra = Vec::new();
+    for c in &layer.channel_data.list {
+        let name = String::from_utf8_lossy(c.name.as_slice()).into_owned();
+        if !known(&name) {
+            columns_extra.push(c.sample_data.values_as_f32().collect::<Vec<f32>>());
+            names.push(name);
+        }
+    }
+    let extras = (0..w * h)
+        .flat_map(|i| columns_extra.iter().map(move |col| col[i]))
+        .collect();
     Ok(Part {
         meta,
-        mean: gather(0),
+        mean,
         variance: gather(3),
         count,
         weight,
+        channels: names,
+        extras,
+        denoised,
     })
 }

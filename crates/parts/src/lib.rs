@@ -6,12 +6,14 @@
 //! sample-count-weighted mean and the parallel variance formula, so that a render split in any
 //! way and merged equals the one-piece render to float rounding.
 
+mod denoise;
 mod exr_io;
 mod hash;
 mod merge;
 mod meta;
 mod part;
 
+pub use denoise::denoise_part;
 pub use exr_io::{read_part, read_part_bytes, write_part, write_part_bytes};
 pub use hash::scene_hash;
 pub use merge::merge;

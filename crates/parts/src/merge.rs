@@ -117,6 +117,33 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
         ));
     }
 
+    // The other values the samples wrote: the same channels in every part (in any order).
+    let names = first.channels.clone();
+    let ch = names.len();
+    let mut order: Vec<Vec<usize>> = Vec::with_capacity(parts.len());
+    for (name, part) in parts {
+        let mut sorted = part.channels.clone();
+        sorted.sort();
+        let mut expected = names.clone();
+        expected.sort();
+        if sorted != expected {
+            return Err(format!(
+                "{name} does not belong with {first_name}: other channels ({} vs {})",
+                part.channels.join(","),
+                names.join(",")
+            ));
+        }
+        if part.extras.len() != part.mean.len() * ch {
+            return Err(format!("{name}: channel values do not match its pixels"));
+        }
+        order.push(
+            names
+                .iter()
+                .map(|n| part.channels.iter().position(|c| c == n).expect("same set"))
+                .collect(),
+        );
+    }
+
     let mut mean = vec![Vec3::ZERO; owner.len()];
     let mut variance = vec![Vec3::ZERO; owner.len()];
     let mut count = vec![0u32; owner.len()];
@@ -135,6 +162,8 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
         *hit |= c != v;
         Vec3::from_array(c.map(|x| x as f32))
     };
+    let mut extras = vec![0f32; owner.len() * ch];
+    let mut sums = vec![0f64; ch];
     for (&(x, y, w, h), members) in &by_crop {
         for i in 0..(w * h) as usize {
             let (px, py) = (x + i as u32 % w, y + i as u32 / w);
@@ -144,6 +173,31 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
                 let part = &parts[k].1;
                 part.weight[i] == part.count[i] as f32
             });
+            // Channel values: means weighted by the parts' sample counts (weight sums).
+            if ch > 0 {
+                sums.iter_mut().for_each(|s| *s = 0.0);
+                let mut total = 0.0f64;
+                for &k in members {
+                    let part = &parts[k].1;
+                    let wk = if unit_weights {
+                        part.count[i] as f64
+                    } else {
+                        part.weight[i] as f64
+                    };
+                    if part.count[i] == 0 || wk == 0.0 {
+                        continue;
+                    }
+                    total += wk;
+                    for (s, &c) in sums.iter_mut().zip(&order[k]) {
+                        *s += wk * part.extras[i * ch + c] as f64;
+                    }
+                }
+                if total != 0.0 {
+                    for (e, s) in extras[o * ch..(o + 1) * ch].iter_mut().zip(&sums) {
+                        *e = (s / total) as f32;
+                    }
+                }
+            }
             if !unit_weights {
                 let (mut n, mut wsum, mut s, mut v) = (0u64, 0.0f64, [0.0f64; 3], [0.0f64; 3]);
                 for &k in members {
@@ -208,6 +262,9 @@ pub fn merge(parts: &[(String, Part)]) -> Result<Part, String> {
         variance,
         count,
         weight,
+        channels: names,
+        extras,
+        denoised: None,
     })
 }
 
@@ -235,6 +292,9 @@ mod tests {
             variance: vec![Vec3::ZERO; n],
             count: vec![samples.1 - samples.0; n],
             weight: vec![(samples.1 - samples.0) as f32; n],
+            channels: Vec::new(),
+            extras: Vec::new(),
+            denoised: None,
         }
     }
 
@@ -362,6 +422,32 @@ mod tests {
         );
     }
 
+    /// Channel values (AOVs, guides) merge as count-weighted means, matched by name whatever
+    /// their order in each part; parts with other channels are refused.
+    #[test]
+    fn channels_merge_by_count_and_name() {
+        let mut a = part((0, 0, 4, 2), (0, 2), 1.0);
+        let mut b = part((0, 0, 4, 2), (2, 8), 1.0);
+        a.channels = vec!["dd.T".into(), "albedo.R".into()];
+        a.extras = [4.0, 0.5].repeat(8);
+        b.channels = vec!["albedo.R".into(), "dd.T".into()];
+        b.extras = [0.25, 8.0].repeat(8);
+        let m = merge(&named(vec![a.clone(), b])).unwrap();
+        assert_eq!(m.channels, ["dd.T", "albedo.R"]);
+        assert_eq!(
+            &m.extras[6..8],
+            &[
+                (2.0 * 4.0 + 6.0 * 8.0) / 8.0,
+                (2.0 * 0.5 + 6.0 * 0.25) / 8.0
+            ]
+        );
+        let mut c = part((0, 0, 4, 2), (2, 8), 1.0);
+        c.channels = vec!["dd.T".into()];
+        c.extras = vec![1.0; 8];
+        let err = merge(&named(vec![a, c])).unwrap_err();
+        assert!(err.contains("other channels"), "{err}");
+    }
+
     /// A part survives the EXR round trip: pixels bit for bit, metadata field for field.
     #[test]
     fn part_exr_round_trip() {
@@ -371,6 +457,9 @@ mod tests {
         p.weight[2] = -0.375;
         p.meta.scene = "/tmp/scènes/a b\\c\nd=e.xml".into();
         p.meta.clamped = 3;
+        p.channels = vec!["nn.X".into(), "dd.y.T".into()];
+        p.extras = (0..12).map(|i| i as f32 * 0.5).collect();
+        p.denoised = Some(vec![Vec3::splat(0.3); 6]);
         let bytes = crate::write_part_bytes(&p).unwrap();
         let q = crate::read_part_bytes(&bytes, "mem").unwrap();
         assert_eq!(q.meta, p.meta);
@@ -378,6 +467,10 @@ mod tests {
         assert_eq!(q.variance, p.variance);
         assert_eq!(q.count, p.count);
         assert_eq!(q.weight, p.weight);
+        assert_eq!(q.denoised, p.denoised);
+        // Channels come back in the file's (sorted) order.
+        assert_eq!(q.channels, ["dd.y.T", "nn.X"]);
+        assert_eq!(q.channel_values(&["nn.X", "dd.y.T"]).unwrap(), p.extras);
         let err = crate::read_part_bytes(b"not an exr", "junk.exr").unwrap_err();
         assert!(err.starts_with("junk.exr: not a readable EXR"), "{err}");
         // A part holding an infinite or NaN value was not written by torrey: refused, so that it

@@ -31,13 +31,14 @@ pub struct PartMeta {
 
 /// The render settings that decide pixels, as one canonical line (`key=value` pairs): parts
 /// whose lines differ do not belong together. Film size and spp are kept in their own fields;
-/// thread count, tile size, BVH width and ray packets do not change pixels and are left out.
+/// thread count, tile size, BVH width and ray packets do not change pixels and are left out (and
+/// so is a time limit: each part's per-pixel counts say what it holds).
 pub fn settings_text(s: &RenderSettings) -> String {
     let sampler = match s.sampler {
         SamplerKind::Sobol => "sobol",
         SamplerKind::Independent => "independent",
     };
-    format!(
+    let mut text = format!(
         "seed={} max_depth={} rr_depth={} sampler={} filter={:?} mipmap={} env={:?}",
         s.seed,
         s.integrator.max_depth(),
@@ -46,7 +47,13 @@ pub fn settings_text(s: &RenderSettings) -> String {
         s.filter,
         s.mipmapping,
         s.env_strategy
-    )
+    );
+    // Adaptive sampling decides which samples a pixel has (a time limit only how many passes
+    // ran, which the per-pixel counts record).
+    if let Some(t) = s.noise_threshold {
+        text += &format!(" noise_threshold={t}");
+    }
+    text
 }
 
 const SCENE: &str = "torrey.scene";

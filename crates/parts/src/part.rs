@@ -17,6 +17,13 @@ pub struct Part {
     /// Sum of the sample weights in each pixel: `count` for importance-sampled filters (weight
     /// one each), the splats' filter weights for splatted ones (mitchell, catmullrom, lanczos).
     pub weight: Vec<f32>,
+    /// Per-pixel means of the other values the samples wrote (Mitsuba's AOVs, the denoiser's
+    /// guides), by EXR channel name: `extras` holds `channels.len()` values per pixel.
+    pub channels: Vec<String>,
+    pub extras: Vec<f32>,
+    /// The denoised image, when the part was denoised (its EXR's RGB; `mean` is then the noisy
+    /// image, in `noisy.R/G/B`). Merging drops it: denoising does not commute with merging.
+    pub denoised: Option<Vec<Vec3>>,
 }
 
 impl Part {
@@ -31,12 +38,33 @@ impl Part {
             variance: out.variance.pixels.clone(),
             count: out.counts.clone(),
             weight: out.weights.clone(),
+            channels: out.channels.clone(),
+            extras: out.extras.clone(),
+            denoised: None,
         }
     }
 
-    /// The mean as an image of the crop's size.
+    /// The picture: the denoised image if there is one, else the mean, of the crop's size.
     pub fn image(&self) -> torrey_texture::Image {
-        torrey_texture::Image::new(self.meta.crop.2, self.meta.crop.3, self.mean.clone())
+        let pixels = self.denoised.as_ref().unwrap_or(&self.mean).clone();
+        torrey_texture::Image::new(self.meta.crop.2, self.meta.crop.3, pixels)
+    }
+
+    /// The per-pixel values of the channels `names` (in that order, row by row), if the part
+    /// has them all.
+    pub fn channel_values(&self, names: &[&str]) -> Option<Vec<f32>> {
+        let index: Vec<usize> = names
+            .iter()
+            .map(|n| self.channels.iter().position(|c| c == n))
+            .collect::<Option<_>>()?;
+        let ch = self.channels.len();
+        Some(
+            self.extras
+                .chunks_exact(ch.max(1))
+                .take(self.mean.len())
+                .flat_map(|p| index.iter().map(move |&i| p[i]))
+                .collect(),
+        )
     }
 
     /// Samples per pixel in this part.

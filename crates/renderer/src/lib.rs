@@ -30,8 +30,12 @@ mod textures;
 
 pub use accel::{Accel, BvhWidth, ClosestHit, PrimGeom, Simd};
 pub use cameras::{Camera, CameraSample};
+pub use integrator::aov::{SampleChannels, GUIDE_CHANNELS};
 pub use integrator::{DirectIntegrator, EnvStrategy, Integrator, PathIntegrator, PathLoop};
 pub use ray::{offset_origin, Ray};
-pub use render::{render, render_slice, Overrides, RenderOutput, RenderSettings, RenderSlice};
+pub use render::{
+    relative_error, render, render_slice, render_slice_reporting, Overrides, PassReport,
+    RenderOutput, RenderSettings, RenderSlice,
+};
 pub use sampler::SamplerKind;
 pub use scene::{BuildError, RenderScene};

@@ -72,7 +72,7 @@ fn foreign(elem: &Element, parent: Option<&str>) -> Option<String> {
 fn skipped(elem: &Element) -> bool {
     matches!(
         elem.tag.as_str(),
-        "integrator" | "rfilter" | "film" | "sampler"
+        "integrator" | "rfilter" | "film" | "sampler" | "medium" | "phase" | "volume"
     ) || SKIPPED_TAGS.contains(&elem.tag.as_str())
 }
 

@@ -605,6 +605,9 @@ mod tests {
             sampler: crate::sampler::SamplerKind::Sobol,
             packets: true,
             path_loop: crate::integrator::PathLoop::Auto,
+            channels: Default::default(),
+            noise_threshold: None,
+            time_limit: None,
         };
         let out = crate::render::render(&scene, &settings, &|_, _| {});
         assert_eq!(out.nonfinite_samples, 0);

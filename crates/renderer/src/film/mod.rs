@@ -33,6 +33,10 @@ pub struct Film {
     values: Vec<PixelValue>,
     sums: Vec<SplatSum>,
     nonfinite: u64,
+    /// Values per sample besides the radiance ([`TileFilm::add_sample_with`]) and their
+    /// weighted sums, `channels` per pixel.
+    channels: usize,
+    extras: Vec<f32>,
 }
 
 impl Film {
@@ -57,7 +61,16 @@ impl Film {
             values,
             sums,
             nonfinite: 0,
+            channels: 0,
+            extras: Vec::new(),
         }
+    }
+
+    /// The film with `channels` values per sample besides the radiance.
+    pub fn with_channels(mut self, channels: usize) -> Self {
+        self.channels = channels;
+        self.extras = vec![0.0; self.crop.2 as usize * self.crop.3 as usize * channels];
+        self
     }
 
     /// The tiles to render, `(x0, y0, x1, y1)` (end exclusive), of at most `ts` x `ts` pixels, in
@@ -108,7 +121,7 @@ impl Film {
         } else {
             (x0, y0, x1 - x0, y1 - y0)
         };
-        TileFilm::new(self.filter, self.bounds, window)
+        TileFilm::new(self.filter, self.bounds, window, self.channels)
     }
 
     /// Gathers a rendered tile; tiles must come in the order of [`Film::tiles`] (it fixes the
@@ -117,6 +130,7 @@ impl Film {
         let (cx, cy, cw, _) = self.crop;
         let (wx, wy, ww, wh) = tile.window;
         self.nonfinite += tile.nonfinite;
+        let ch = self.channels;
         for row in 0..wh {
             let out = (wy + row - cy) as usize * cw as usize + (wx - cx) as usize;
             let src = row as usize * ww as usize;
@@ -126,8 +140,20 @@ impl Film {
                 } else {
                     self.values[out + col] = tile.means[src + col].finish();
                 }
+                let (o, t) = ((out + col) * ch, (src + col) * ch);
+                for (a, b) in self.extras[o..o + ch]
+                    .iter_mut()
+                    .zip(&tile.extras[t..t + ch])
+                {
+                    *a += b;
+                }
             }
         }
+    }
+
+    /// Whether the filter splats samples into the pixels around them.
+    pub fn splats(&self) -> bool {
+        self.filter.splats()
     }
 
     /// Samples whose value was NaN or infinite (added as zero).
@@ -135,13 +161,23 @@ impl Film {
         self.nonfinite
     }
 
-    /// The window's pixels, row by row.
-    pub fn finish(self) -> Vec<PixelValue> {
-        if self.filter.splats() {
+    /// The window's pixels and the means of their extra values (`channels` per pixel: the
+    /// sums over the weight sums), row by row.
+    pub fn finish(self) -> (Vec<PixelValue>, Vec<f32>) {
+        let pixels = if self.filter.splats() {
             self.sums.iter().map(SplatSum::finish).collect()
         } else {
             self.values
+        };
+        let mut extras = self.extras;
+        let ch = self.channels;
+        if ch > 0 {
+            for (p, e) in pixels.iter().zip(extras.chunks_exact_mut(ch)) {
+                let w = if p.weight != 0.0 { 1.0 / p.weight } else { 0.0 };
+                e.iter_mut().for_each(|v| *v *= w);
+            }
         }
+        (pixels, extras)
     }
 }
 
@@ -189,7 +225,7 @@ mod tests {
                 }
                 film.add_tile(t);
             }
-            let pixels = film.finish();
+            let (pixels, _) = film.finish();
             assert_eq!(pixels.len(), 63);
             for p in &pixels {
                 assert!(

@@ -24,6 +24,11 @@ pub struct TileFilm {
     pub(crate) splats: Vec<SplatSum>,
     /// Samples whose value was NaN or infinite (added as zero).
     pub(crate) nonfinite: u64,
+    /// Values per sample besides the radiance (AOVs, denoising guides; see
+    /// [`TileFilm::add_sample_with`]), and each pixel's sums of them, `channels` per pixel,
+    /// weighted as the radiance is.
+    pub(crate) channels: usize,
+    pub(crate) extras: Vec<f32>,
 }
 
 impl TileFilm {
@@ -32,6 +37,7 @@ impl TileFilm {
         filter: Filter,
         bounds: (u32, u32, u32, u32),
         window: (u32, u32, u32, u32),
+        channels: usize,
     ) -> Self {
         let pixels = window.2 as usize * window.3 as usize;
         let (means, splats) = if filter.splats() {
@@ -47,6 +53,8 @@ impl TileFilm {
             means,
             splats,
             nonfinite: 0,
+            channels,
+            extras: vec![0.0; pixels * channels],
         }
     }
 
@@ -151,6 +159,65 @@ impl TileFilm {
     }
 }
 
+impl TileFilm {
+    /// [`TileFilm::add_sample`] with the sample's other values (`extras`, one per channel of
+    /// the film): they are added to the same pixels with the same weights, so that each pixel
+    /// holds their mean over its samples (non-finite ones count as zero).
+    #[inline]
+    pub fn add_sample_with(&mut self, pixel: (u32, u32), film: Vec2, value: Vec3A, extras: &[f32]) {
+        debug_assert_eq!(extras.len(), self.channels);
+        self.add_sample(pixel, film, value);
+        let ch = self.channels;
+        let (wx, wy, ww, wh) = self.window;
+        let mut add = |index: usize, w: f32| {
+            let sums = &mut self.extras[index * ch..(index + 1) * ch];
+            for (s, &e) in sums.iter_mut().zip(extras) {
+                if e.is_finite() {
+                    *s += w * e;
+                }
+            }
+        };
+        if !self.filter.splats() {
+            add(
+                (pixel.1 - wy) as usize * ww as usize + (pixel.0 - wx) as usize,
+                1.0,
+            );
+            return;
+        }
+        // The pixels and weights of `add_sample`'s splat.
+        let r = self.filter.radius();
+        let lo = (film - Vec2::splat(0.5 + r))
+            .ceil()
+            .max(Vec2::new(wx as f32, wy as f32));
+        let hi = (film + Vec2::splat(r - 0.5))
+            .floor()
+            .min(Vec2::new((wx + ww - 1) as f32, (wy + wh - 1) as f32));
+        if lo.x > hi.x || lo.y > hi.y {
+            return;
+        }
+        for py in lo.y as u32..=hi.y as u32 {
+            let fy = self.filter.eval(py as f32 + 0.5 - film.y);
+            for px in lo.x as u32..=hi.x as u32 {
+                let w = self.filter.eval(px as f32 + 0.5 - film.x) * fy;
+                if w != 0.0 {
+                    add((py - wy) as usize * ww as usize + (px - wx) as usize, w);
+                }
+            }
+        }
+    }
+
+    /// The pixel's current estimate (the samples added so far); `pixel` in the tile's window.
+    pub fn pixel_value(&self, pixel: (u32, u32)) -> super::PixelValue {
+        let (wx, wy, ww, _) = self.window;
+        let i = (pixel.1 - wy) as usize * ww as usize + (pixel.0 - wx) as usize;
+        if self.filter.splats() {
+            self.splats[i].finish()
+        } else {
+            self.means[i].finish()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,8 +236,8 @@ mod tests {
         ] {
             let filter = Filter::new(kind);
             let (mut one, mut many) = (
-                TileFilm::new(filter, (0, 0, 8, 6), (0, 0, 8, 6)),
-                TileFilm::new(filter, (0, 0, 8, 6), (0, 0, 8, 6)),
+                TileFilm::new(filter, (0, 0, 8, 6), (0, 0, 8, 6), 0),
+                TileFilm::new(filter, (0, 0, 8, 6), (0, 0, 8, 6), 0),
             );
             for run in 0..40 {
                 let pixel = (rng.next_u64() % 8) as u32;

@@ -18,6 +18,7 @@
 // Comparisons are written `!(x > 0.0)` on purpose: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod aov;
 mod direct;
 mod path;
 mod path_state;
@@ -143,6 +144,8 @@ pub struct PathSettings {
     pub footprint_scale: f32,
     /// How lights at infinity are sampled; the default is luminance importance sampling with MIS.
     pub env_strategy: EnvStrategy,
+    /// Take the denoiser's guides along each path ([`path_state::Guides`]).
+    pub guides: bool,
 }
 
 /// Strategies for lights at infinity, kept selectable so their noise can be compared (issue: env

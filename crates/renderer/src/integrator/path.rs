@@ -4,7 +4,7 @@
 //! step at a surface is [`PathState::scatter`], shared with the wavefront driver.
 
 use super::direct;
-use super::path_state::{BounceDraws, PathContext, PathState};
+use super::path_state::{BounceDraws, Guides, PathContext, PathState};
 use super::{Integrator, PathSettings, RayCount};
 use crate::sampler::Sampler;
 use crate::scene::RenderScene;
@@ -24,7 +24,8 @@ pub struct PathIntegrator {
 }
 
 /// Radiance arriving at the camera along the primary ray from `origin` along `dir`, with
-/// `integrator`; `rays` counts the queries traced. `first_hit` is the primary ray's closest hit
+/// `integrator`, and the path's guides for the denoiser (the path tracer's, when
+/// `settings.guides`; `direct` takes none); `rays` counts the queries traced. `first_hit` is the primary ray's closest hit
 /// (between the camera's clip planes), which the render loop traces (in a packet with the
 /// pixel's other samples where it can).
 #[allow(clippy::too_many_arguments)]
@@ -38,25 +39,34 @@ pub fn radiance(
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
     first_hit: Option<SurfaceHit>,
-) -> Vec3A {
+) -> (Vec3A, Guides) {
     match integrator {
-        Integrator::Path(_) => trace_path(
-            &PathContext::new(scene, settings),
-            PathState::camera(origin, dir, cone),
-            sampler,
-            rays,
-            first_hit,
-        ),
-        Integrator::Direct(d) => {
-            direct::radiance(scene, d, dir, cone, settings, sampler, rays, first_hit)
+        Integrator::Path(_) => {
+            let ctx = PathContext::new(scene, settings);
+            let path = trace_path(
+                &ctx,
+                PathState::camera(origin, dir, cone),
+                sampler,
+                rays,
+                first_hit,
+            );
+            (path.radiance(&ctx), path.guides)
         }
-        Integrator::VolPath(_) => super::volpath::trace_volpath(
-            &PathContext::volumetric(scene, settings),
-            PathState::camera(origin, dir, cone),
-            sampler,
-            rays,
-            first_hit,
+        Integrator::Direct(d) => (
+            direct::radiance(scene, d, dir, cone, settings, sampler, rays, first_hit),
+            Guides::default(),
         ),
+        Integrator::VolPath(_) => {
+            let ctx = PathContext::volumetric(scene, settings);
+            let path = super::volpath::trace_volpath(
+                &ctx,
+                PathState::camera(origin, dir, cone),
+                sampler,
+                rays,
+                first_hit,
+            );
+            (path.radiance(&ctx), path.guides)
+        }
     }
 }
 
@@ -68,9 +78,9 @@ fn trace_path(
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
     first_hit: Option<SurfaceHit>,
-) -> Vec3A {
+) -> PathState {
     if ctx.settings.max_depth == 0 {
-        return Vec3A::ZERO;
+        return path;
     }
     let scene = ctx.scene;
     loop {
@@ -117,7 +127,7 @@ fn trace_path(
             break;
         }
     }
-    path.radiance(ctx)
+    path
 }
 
 #[cfg(test)]
@@ -188,6 +198,9 @@ mod tests {
                         sampler,
                         packets: true,
                         path_loop,
+                        channels: Default::default(),
+                        noise_threshold: None,
+                        time_limit: None,
                     };
                     let out = render(&scene, &settings, &|_, _| {});
                     let centre = out.image.pixels[4 * 8 + 4];

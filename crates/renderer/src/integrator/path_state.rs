@@ -35,7 +35,7 @@ use crate::ray::{offset_origin, Ray};
 use crate::sampling::power_heuristic;
 use crate::scene::RenderScene;
 use crate::shapes::SurfaceHit;
-use glam::{Vec2, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
 use torrey_texture::RayCone;
 
 /// What a render's paths share: the scene and the settings.
@@ -205,8 +205,23 @@ pub struct PathState {
     /// always 0 in the path tracer): emission found on `ray` is `travelled` + t away from the
     /// scattering event whose sample produced it.
     pub travelled: f32,
+    /// The denoiser's guides, taken at the path's first non-delta hit when
+    /// [`PathSettings::guides`] asks for them.
+    pub guides: Guides,
 }
 
+/// A path's guides for the denoiser, taken at its first hit whose BSDF has a non-delta lobe
+/// (through mirrors and glass, as Cycles takes them): the albedo, the weight of the BSDF sample
+/// drawn there (an unbiased estimate of the directional albedo: exactly the reflectance of a
+/// diffuse surface) times the delta chain's throughput, clamped to [0, 1]; and the shading
+/// normal. Zero where the path escapes or ends before such a hit. (Unaligned vectors: the
+/// path state, which every wavefront stage reads, stays small.)
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Guides {
+    pub albedo: Vec3,
+    pub normal: Vec3,
+    pub taken: bool,
+}
 impl PathState {
     /// A path starting with the camera ray from `origin` along `dir`.
     #[inline(always)]
@@ -227,6 +242,7 @@ impl PathState {
             specular_chain: true,
             eta: 1.0,
             depth: 0,
+            guides: Guides::default(),
             valid: false,
             medium: None,
             travelled: 0.0,
@@ -351,6 +367,16 @@ impl PathState {
         // polynomial and square roots overlaps the light connection instead of waiting for it.
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
         self.valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
+        if ctx.settings.guides && !self.guides.taken && sp.bsdf.flags().has_smooth() {
+            let weight = bsdf_sample.map_or(Vec3A::ZERO, |s| s.weight);
+            self.guides = Guides {
+                albedo: (self.throughput * weight)
+                    .clamp(Vec3A::ZERO, Vec3A::ONE)
+                    .into(),
+                normal: sp.frame.n.into(),
+                taken: true,
+            };
+        }
 
         let mut shadow = None;
         let light = match sp.bsdf.flags().has_smooth() && !last_segment {

@@ -42,16 +42,17 @@ pub struct VolPathIntegrator {
     pub mis: bool,
 }
 
-/// The scalar driver: follows `path` (a camera ray starting in the camera's medium) to its end.
+/// The scalar driver: follows `path` (a camera ray starting in the camera's medium) to its end
+/// ([`PathState::radiance`] is its sample).
 pub(super) fn trace_volpath(
     ctx: &PathContext,
     mut path: PathState,
     sampler: &mut impl Sampler,
     rays: &mut RayCount,
     first_hit: Option<SurfaceHit>,
-) -> Vec3A {
+) -> PathState {
     if ctx.settings.max_depth == 0 {
-        return Vec3A::ZERO;
+        return path;
     }
     let scene = ctx.scene;
     path.medium = scene.media.camera;
@@ -102,7 +103,7 @@ pub(super) fn trace_volpath(
             break;
         }
     }
-    path.radiance(ctx)
+    path
 }
 
 /// A real scattering event at distance `t` along the path's ray in `medium` (index `m`):

@@ -12,7 +12,7 @@
 //! samples in SIMD lanes, shadow rays traced as packets where they are coherent, and
 //! independent work between one path's dependent chains.
 
-use super::path_state::{BounceDraws, LightPick, PathContext, PathState, ShadowRay};
+use super::path_state::{BounceDraws, Guides, LightPick, PathContext, PathState, ShadowRay};
 use super::{EnvStrategy, PathSettings, RayCount};
 use crate::accel::Simd;
 use crate::lights::{Light, LightDraw};
@@ -36,6 +36,8 @@ pub struct CameraPath {
     /// The sample's film position, inside the film (for the film; the loop does not read it).
     pub position: Vec2,
     pub cone: RayCone,
+    /// The sample's lens point (zero for cameras without a lens), for its AOVs.
+    pub lens: Vec2,
     /// The camera ray's closest hit between the camera's clip planes (traced by the caller, as
     /// the scalar loop's camera rays are).
     pub first_hit: Option<SurfaceHit>,
@@ -104,17 +106,17 @@ impl Wavefront {
         out: &mut Vec<Vec3A>,
     ) {
         out.clear();
-        if settings.max_depth == 0 {
-            out.resize(cameras.len(), Vec3A::ZERO);
-            return;
-        }
-        let ctx = PathContext::new(scene, settings);
         self.paths.clear();
         self.paths.extend(
             cameras
                 .iter()
                 .map(|c| PathState::camera(c.origin, c.dir, c.cone)),
         );
+        if settings.max_depth == 0 {
+            out.resize(cameras.len(), Vec3A::ZERO);
+            return;
+        }
+        let ctx = PathContext::new(scene, settings);
         self.slots.clear();
         self.slots.extend(cameras.iter().map(|c| Slot {
             sample: c.sample,
@@ -239,6 +241,11 @@ impl Wavefront {
             );
         }
         out.extend(self.paths.iter().map(|p| p.radiance(&ctx)));
+    }
+
+    /// The guides of the paths of the last [`Wavefront::radiance`] call, in its order.
+    pub fn guides(&self) -> impl Iterator<Item = Guides> + '_ {
+        self.paths.iter().map(|p| p.guides)
     }
 }
 

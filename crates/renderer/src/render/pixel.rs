@@ -6,6 +6,7 @@ use super::{RenderSettings, MAX_PACKET};
 use crate::accel::ClosestHit;
 use crate::cameras::{Camera, CameraSample};
 use crate::film::{Filter, TileFilm};
+use crate::integrator::aov::{AovWriter, CameraRay};
 use crate::integrator::{radiance, PathSettings, RayCount};
 use crate::ray::Ray;
 use crate::sampler::Sampler;
@@ -56,21 +57,21 @@ impl<'a> PixelCamera<'a> {
         }
     }
 
-    /// One sample's camera ray: origin, direction, film position and whether that position
-    /// counts. Samples whose film position leaves the film do not count (see
+    /// One sample's camera ray: origin, direction, film position, lens point and whether that
+    /// position counts. Samples whose film position leaves the film do not count (see
     /// `TileFilm::film_position`) and are not traced.
     #[inline(always)]
     pub(super) fn ray<S: Sampler>(
         &self,
         sampler: &mut S,
         film: &TileFilm,
-    ) -> (Vec3A, Vec3A, Vec2, bool) {
+    ) -> (Vec3A, Vec3A, Vec2, Vec2, bool) {
         let (position, lens, inside) = self.draw(sampler, film);
         let (o, d) = self.camera.generate_ray(&CameraSample {
             film: position,
             lens,
         });
-        (o, d, position, inside)
+        (o, d, position, lens, inside)
     }
 
     /// One sample's camera draws: its film position, lens point (zero without a lens) and
@@ -100,8 +101,12 @@ pub(super) fn render_pixel<S: Sampler>(
     sampler: &mut S,
     rays: &mut RayCount,
     film: &mut TileFilm,
+    aov: Option<&AovWriter>,
 ) {
     let pixel = PixelCamera::new(scene, (x, y), settings, path, film);
+    // A film without the channels (adaptive sampling's pilot) takes the radiance alone.
+    let aov = aov.filter(|_| film.channels > 0);
+    let mut extras = vec![0.0; aov.map_or(0, |_| film.channels)];
     let (camera, cone, camera_requests) = (pixel.camera, pixel.cone, pixel.requests);
     let camera_ray = |sampler: &mut S, film: &TileFilm| pixel.ray(sampler, film);
     // Camera rays go in packets, traced together, for every group of `lanes` global sample
@@ -125,7 +130,7 @@ pub(super) fn render_pixel<S: Sampler>(
     let mut resume = [[0u64; 2]; MAX_PACKET];
     let mut packed = false;
     for s in samples.clone() {
-        let (o, d, first_hit, position, inside) = if in_packet(s, lanes, &samples) {
+        let (o, d, first_hit, position, lens, inside) = if in_packet(s, lanes, &samples) {
             let lane = (s % lanes as u32) as usize;
             if lane == 0 {
                 for k in 0..lanes {
@@ -148,16 +153,17 @@ pub(super) fn render_pixel<S: Sampler>(
                 dirs[lane],
                 packed.then_some(hits[lane]),
                 positions[lane],
+                lenses[lane],
                 insides[lane],
             )
         } else {
             sampler.start_sample(s);
-            let (o, d, position, inside) = camera_ray(sampler, film);
-            (o, d, None, position, inside)
+            let (o, d, position, lens, inside) = camera_ray(sampler, film);
+            (o, d, None, position, lens, inside)
         };
         if inside {
             let first_hit = clipped_first_hit(scene, o, d, first_hit);
-            let l = radiance(
+            let (l, guides) = radiance(
                 scene,
                 &settings.integrator,
                 o,
@@ -168,7 +174,19 @@ pub(super) fn render_pixel<S: Sampler>(
                 rays,
                 first_hit,
             );
-            film.add_sample((x, y), position, l);
+            match aov {
+                None => film.add_sample((x, y), position, l),
+                Some(aov) => {
+                    let ray = CameraRay {
+                        origin: o,
+                        dir: d,
+                        film: position,
+                        lens,
+                    };
+                    aov.sample(&ray, first_hit.as_ref(), l, guides, &mut extras);
+                    film.add_sample_with((x, y), position, l, &extras);
+                }
+            }
         }
     }
 }

@@ -1,8 +1,10 @@
 //! The render settings and the one way to make them: [`RenderSettings::new`] from a parsed scene
 //! and the caller's [`Overrides`] (the command line, Python and the fuzzer all go through it).
 
+use crate::integrator::aov::SampleChannels;
 use crate::integrator::{EnvStrategy, Integrator, PathLoop};
 use crate::sampler::SamplerKind;
+use std::time::Duration;
 use torrey_parser::PixelFilter;
 
 #[derive(Clone, Debug)]
@@ -24,6 +26,14 @@ pub struct RenderSettings {
     /// Run the path tracer one path at a time or as a wavefront of a pixel's samples (`Auto`:
     /// the wavefront where an environment map lights the scene): the same images, bit for bit.
     pub path_loop: PathLoop,
+    /// What each sample writes besides the radiance: the scene's AOVs (Mitsuba's `aov`
+    /// integrator) and the denoiser's guides.
+    pub channels: SampleChannels,
+    /// Adaptive sampling: stop each pixel once its relative standard error is predicted under
+    /// this (`spp` stays the cap; see `render/adaptive.rs`).
+    pub noise_threshold: Option<f32>,
+    /// Render in passes until this much time has gone, stopping at a pass boundary.
+    pub time_limit: Option<Duration>,
 }
 
 /// What a caller changes of a scene's own render settings (the command line, Python, the
@@ -43,6 +53,10 @@ pub struct Overrides {
     pub path_loop: Option<PathLoop>,
     /// Default: 16 pixels.
     pub tile_size: Option<u32>,
+    /// Take the denoiser's albedo and normal guides. Default: off.
+    pub guides: Option<bool>,
+    pub noise_threshold: Option<f32>,
+    pub time_limit: Option<Duration>,
 }
 
 impl RenderSettings {
@@ -65,6 +79,12 @@ impl RenderSettings {
             mipmapping: overrides.mipmapping.unwrap_or(true),
             packets: overrides.packets.unwrap_or(true),
             path_loop: overrides.path_loop.unwrap_or_default(),
+            channels: SampleChannels {
+                aovs: scene.integrator.aovs.clone(),
+                guides: overrides.guides.unwrap_or(false),
+            },
+            noise_threshold: overrides.noise_threshold,
+            time_limit: overrides.time_limit,
         }
     }
 }

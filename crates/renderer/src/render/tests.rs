@@ -12,7 +12,7 @@ use torrey_parser::PixelFilter;
 use torrey_texture::spp_scale;
 
 /// A small scene with meshes, a sphere and an area light (24x20).
-fn packet_scene() -> RenderScene {
+pub(super) fn packet_scene() -> RenderScene {
     let xml = r#"<scene version="0.6.0">
         <integrator type="path"><integer name="maxDepth" value="5"/></integrator>
         <sensor type="perspective">
@@ -35,7 +35,7 @@ fn packet_scene() -> RenderScene {
     crate::scene::scene_from_xml(xml, 24, 20)
 }
 
-fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
+pub(super) fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
     RenderSettings {
         spp,
         integrator: Integrator::Path(crate::integrator::PathIntegrator {
@@ -51,10 +51,13 @@ fn settings(spp: u32, sampler: SamplerKind, packets: bool) -> RenderSettings {
         sampler,
         packets,
         path_loop: PathLoop::Scalar,
+        channels: Default::default(),
+        noise_threshold: None,
+        time_limit: None,
     }
 }
 
-fn assert_bits_eq(a: &Image, b: &Image, what: &str) {
+pub(super) fn assert_bits_eq(a: &Image, b: &Image, what: &str) {
     assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         assert_eq!(
@@ -538,6 +541,7 @@ fn cameras_keep_sampler_dimensions_aligned() {
                 mipmapping: true,
                 footprint_scale: spp_scale(12),
                 env_strategy: EnvStrategy::default(),
+                guides: false,
             };
             let mut rays = RayCount::default();
             let set = settings(12, SamplerKind::Sobol, packets);
@@ -551,6 +555,7 @@ fn cameras_keep_sampler_dimensions_aligned() {
                 &mut recorder,
                 &mut rays,
                 &mut film.tile((12, 10, 13, 11)),
+                None,
             );
             let mut next = vec![0u32; 12];
             for &(sample, dimension) in &recorder.draws {

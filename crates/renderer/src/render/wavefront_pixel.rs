@@ -5,6 +5,7 @@ use super::pixel::{clip_near, clipped_first_hit, in_packet, PixelCamera};
 use super::{RenderSettings, MAX_PACKET};
 use crate::accel::ClosestHit;
 use crate::film::TileFilm;
+use crate::integrator::aov::{AovWriter, CameraRay};
 use crate::integrator::wavefront::{CameraPath, PathSamplers, Wavefront};
 use crate::integrator::{PathSettings, RayCount};
 use crate::ray::Ray;
@@ -36,6 +37,7 @@ pub(super) fn render_pixel_wavefront<S: Sampler + Clone>(
     rays: &mut RayCount,
     wavefront: &mut WavefrontBuffers<S>,
     film: &mut TileFilm,
+    aov: Option<&AovWriter>,
 ) {
     let pixel = PixelCamera::new(scene, (x, y), settings, path, film);
     let (camera, cone, camera_requests) = (pixel.camera, pixel.cone, pixel.requests);
@@ -103,6 +105,7 @@ pub(super) fn render_pixel_wavefront<S: Sampler + Clone>(
                         dir: dirs[k],
                         position: positions[k],
                         cone,
+                        lens: lenses[k],
                         first_hit: None,
                     });
                     set_first_hit(scene, traced, cameras.last_mut().expect("just pushed"));
@@ -121,7 +124,7 @@ pub(super) fn render_pixel_wavefront<S: Sampler + Clone>(
                     sampler.start_sample(s);
                     &mut *sampler
                 };
-                let (o, d, position, inside) = camera_ray(lane_sampler, film);
+                let (o, d, position, lens, inside) = camera_ray(lane_sampler, film);
                 if inside {
                     cameras.push(CameraPath {
                         sample: s,
@@ -129,6 +132,7 @@ pub(super) fn render_pixel_wavefront<S: Sampler + Clone>(
                         dir: d,
                         position,
                         cone,
+                        lens,
                         first_hit: clipped_first_hit(scene, o, d, None),
                     });
                 } else if per_path {
@@ -151,13 +155,28 @@ pub(super) fn render_pixel_wavefront<S: Sampler + Clone>(
             rays,
             radiance,
         );
-        film.add_samples(
-            (x, y),
-            cameras
-                .iter()
-                .map(|c| c.position)
-                .zip(radiance.iter().copied()),
-        );
+        match aov.filter(|_| film.channels > 0) {
+            None => film.add_samples(
+                (x, y),
+                cameras
+                    .iter()
+                    .map(|c| c.position)
+                    .zip(radiance.iter().copied()),
+            ),
+            Some(aov) => {
+                let mut extras = vec![0.0; film.channels];
+                for ((c, &l), guides) in cameras.iter().zip(radiance.iter()).zip(loop_.guides()) {
+                    let ray = CameraRay {
+                        origin: c.origin,
+                        dir: c.dir,
+                        film: c.position,
+                        lens: c.lens,
+                    };
+                    aov.sample(&ray, c.first_hit.as_ref(), l, guides, &mut extras);
+                    film.add_sample_with((x, y), c.position, l, &extras);
+                }
+            }
+        }
         start = end;
     }
 }

@@ -1,6 +1,6 @@
 //! Integrators, one file per plugin with its parameter table: `path` ([`path`]; also the types
-//! rendered by the path tracer), `direct` ([`direct`]); the wrappers `moment` and `aov` are read
-//! through to the integrator inside them.
+//! rendered by the path tracer), `direct` ([`direct`]), `aov` ([`aov`]: its AOVs and the
+//! integrator inside it); the wrapper `moment` is read through to the integrator inside it.
 //!
 //! | type | read as |
 //! | --- | --- |
@@ -9,8 +9,9 @@
 //! | `volpath`, `volpathmis` | the volumetric path tracer (the parameters of `path`) |
 //! | `ptracer`, `prb`, `prb_basic` | the path tracer (one warning; the same expected image) |
 //! | `moment` | its first nested `<integrator>` |
-//! | `aov` | its nested `<integrator>` (`path` without one); `aovs` is not written (warning) |
+//! | `aov` | its `aovs`, written beside the image of its nested `<integrator>` (black without one, as in Mitsuba) |
 
+mod aov;
 mod direct;
 mod path;
 
@@ -42,6 +43,7 @@ pub(crate) fn default_integrator() -> Integrator {
     Integrator {
         type_name: "path".into(),
         kind: IntegratorKind::Path(path::DEFAULT),
+        aovs: None,
     }
 }
 
@@ -52,8 +54,11 @@ pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrat
         return Err(unknown_type(ctx, elem, "integrator", INTEGRATORS));
     }
     let mut props = Props::new(ctx, elem, format!("integrator '{ty}'"))?;
-    if ty == "moment" || ty == "aov" {
-        return parse_wrapper(ctx, elem, ty, props);
+    if ty == "aov" {
+        return aov::parse(ctx, elem, props);
+    }
+    if ty == "moment" {
+        return parse_moment(ctx, elem, props);
     }
     if READ_AS_PATH.contains(&ty) {
         ctx.warn(
@@ -73,30 +78,28 @@ pub(crate) fn parse_integrator(ctx: &mut Ctx, elem: &Element) -> Result<Integrat
     Ok(Integrator {
         type_name: ty.to_string(),
         kind,
+        aovs: None,
     })
 }
 
-/// `moment` and `aov`: the integrator nested inside.
-fn parse_wrapper(ctx: &mut Ctx, elem: &Element, ty: &str, mut props: Props) -> Result<Integrator> {
-    if ty == "aov" {
-        ctx.warn(
-            elem.pos,
-            "integrator 'aov': its AOV images are not written; the integrator inside it renders the image",
-        );
-        props.ignore(&["aovs"]);
-    }
+/// `moment`: the integrator nested inside.
+fn parse_moment(ctx: &mut Ctx, elem: &Element, mut props: Props) -> Result<Integrator> {
     let inner = props.take_tag("integrator");
-    let result = match inner.first() {
-        Some(i) => parse_integrator(ctx, i)?,
-        None if ty == "aov" => default_integrator(),
-        None => return Err(ctx.err(elem.pos, "integrator 'moment' needs a nested <integrator>")),
+    let Some(first) = inner.first() else {
+        return Err(ctx.err(elem.pos, "integrator 'moment' needs a nested <integrator>"));
     };
+    let result = parse_integrator(ctx, first)?;
+    warn_extra_integrators(ctx, "moment", &inner);
+    props.finish(ctx);
+    Ok(result)
+}
+
+/// Warns about nested integrators past the first, which are not read.
+fn warn_extra_integrators(ctx: &mut Ctx, ty: &str, inner: &[&Element]) {
     for extra in inner.iter().skip(1) {
         ctx.warn(
             extra.pos,
             format!("integrator '{ty}': only the first nested integrator is read"),
         );
     }
-    props.finish(ctx);
-    Ok(result)
 }

@@ -1,0 +1,230 @@
+//! Adaptive sampling's decisions: how many samples each pixel gets, from a uniform pilot of its
+//! neighbours.
+//!
+//! Every pixel first gets the same `pilot` samples (global indices `0..pilot`). Each pixel's
+//! total is then decided once, from the pilot samples of the eight pixels around it and not from
+//! its own: their pooled per-sample standard deviation s and mean m (channel averages) predict
+//! the samples N that bring the pixel's relative standard error s / (m sqrt(N)) under the
+//! threshold T, N = SAFETY (s / (m T))², clamped to `pilot..spp`. Since a pixel's count depends
+//! only on other pixels' samples, which are independent of its own (every pixel draws its own
+//! sample streams), its mean over samples `0..N` is an unbiased estimate whatever N is, as a
+//! uniform render's: adaptive sampling stays unbiased, and a pixel's error is judged with its
+//! neighbours (a lucky pilot of its own does not stop it early; a firefly nearby keeps it going).
+//! The decision is made once: counts decided again from later samples would depend, through
+//! the neighbours' counts, on the pixel's own samples.
+
+use super::Ranges;
+use crate::film::{Film, PixelValue, TileFilm};
+use crate::render::Tracer;
+use std::time::Instant;
+
+/// Predicted sample counts are raised by this factor: the pooled variance of a few dozen
+/// samples is itself noisy, and a count too low leaves the pixel over the threshold.
+const SAFETY: f32 = 2.0;
+
+/// The pilot's samples per pixel for a render of `spp`: a sixteenth of them, rounded up to a
+/// multiple of eight (whole packets of eight camera rays), between 8 and 64 (at most `spp`).
+pub(super) fn pilot_size(spp: u32) -> u32 {
+    (spp / 16)
+        .div_ceil(8)
+        .saturating_mul(8)
+        .clamp(8, 64)
+        .min(spp.max(1))
+}
+
+/// A pixel's relative standard error, from its `mean` and the `variance` of that mean: the
+/// channel-averaged standard deviation over the channel-averaged mean (0 for a black pixel
+/// without noise, infinite for a black one with). What `--noise-threshold` bounds.
+pub fn relative_error(mean: glam::Vec3, variance: glam::Vec3) -> f32 {
+    let sd = variance.max(glam::Vec3::ZERO).to_array().map(f32::sqrt);
+    let sd = (sd[0] + sd[1] + sd[2]) / 3.0;
+    let mean = (mean.x + mean.y + mean.z) / 3.0;
+    if sd == 0.0 {
+        0.0
+    } else if mean > 0.0 {
+        sd / mean
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// The pixels of `window` (x, y, w, h) as far as `tiles` (rendered over `rects`) hold them,
+/// written into `out` (row by row over the window).
+pub(super) fn gather(
+    rects: &[(u32, u32, u32, u32)],
+    tiles: &[TileFilm],
+    window: (u32, u32, u32, u32),
+    out: &mut [PixelValue],
+) {
+    let (wx, wy, ww, wh) = window;
+    for (&(x0, y0, x1, y1), tile) in rects.iter().zip(tiles) {
+        for y in y0.max(wy)..y1.min(wy + wh) {
+            for x in x0.max(wx)..x1.min(wx + ww) {
+                out[((y - wy) * ww + (x - wx)) as usize] = tile.pixel_value((x, y));
+            }
+        }
+    }
+}
+
+/// The pilot's pixels over the crop grown by one pixel (clipped to where samples land), and
+/// that window. With `output` (the output film's tiles, holding the pilot of the crop's
+/// pixels), only the ring around the crop is rendered; otherwise every pixel's pilot is.
+pub(super) fn pilot(
+    tracer: &Tracer,
+    crop: (u32, u32, u32, u32),
+    pilot: u32,
+    output: Option<(&[(u32, u32, u32, u32)], &[TileFilm])>,
+    start: Instant,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> ((u32, u32, u32, u32), Vec<PixelValue>) {
+    let (bx, by, bw, bh) = tracer.scene.sample_window();
+    let (cx, cy, cw, ch) = crop;
+    let (x0, y0) = (cx.saturating_sub(1).max(bx), cy.saturating_sub(1).max(by));
+    let (x1, y1) = ((cx + cw + 1).min(bx + bw), (cy + ch + 1).min(by + bh));
+    let window = (x0, y0, x1 - x0, y1 - y0);
+    let inside = |x: u32, y: u32| x >= cx && x < cx + cw && y >= cy && y < cy + ch;
+    let ranges: Vec<_> = (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+        .map(|(x, y)| match output {
+            Some(_) if inside(x, y) => 0..0,
+            _ => 0..pilot,
+        })
+        .collect();
+    let film = Film::new(tracer.settings.filter, (bx, by, bw, bh), window);
+    let rects = film.tiles(tracer.settings.tile_size);
+    let mut tiles: Vec<TileFilm> = rects.iter().map(|&r| film.tile(r)).collect();
+    tracer.pass(
+        &rects,
+        &mut tiles,
+        &Ranges::PerPixel {
+            window,
+            ranges: &ranges,
+        },
+        start,
+        progress,
+    );
+    let mut values = vec![PixelValue::default(); (window.2 * window.3) as usize];
+    gather(&rects, &tiles, window, &mut values);
+    if let Some((rects, tiles)) = output {
+        gather(rects, tiles, window, &mut values);
+    }
+    (window, values)
+}
+
+/// Each crop pixel's sample count (row by row over `crop`), from the pilot `values` over
+/// `window`: see the module's comment. `threshold` is T, `pilot..cap` the allowed counts.
+pub(super) fn targets(
+    window: (u32, u32, u32, u32),
+    values: &[PixelValue],
+    crop: (u32, u32, u32, u32),
+    threshold: f32,
+    pilot: u32,
+    cap: u32,
+) -> Vec<u32> {
+    let (wx, wy, ww, wh) = window;
+    let (cx, cy, cw, ch) = crop;
+    let mut out = Vec::with_capacity((cw * ch) as usize);
+    for y in cy..cy + ch {
+        for x in cx..cx + cw {
+            let at = |qx: u32, qy: u32| &values[((qy - wy) * ww + (qx - wx)) as usize];
+            let mut ring: Vec<&PixelValue> = Vec::with_capacity(8);
+            for qy in y.saturating_sub(1)..=y + 1 {
+                for qx in x.saturating_sub(1)..=x + 1 {
+                    let outside = qx < wx || qy < wy || qx >= wx + ww || qy >= wy + wh;
+                    if (qx, qy) != (x, y) && !outside {
+                        ring.push(at(qx, qy));
+                    }
+                }
+            }
+            if ring.is_empty() {
+                // A film of one pixel: no neighbour to judge it by.
+                ring.push(at(x, y));
+            }
+            let (mut mean, mut var) = (0.0f64, 0.0f64);
+            for q in &ring {
+                mean += (q.mean.x + q.mean.y + q.mean.z) as f64 / 3.0;
+                let sd = q.variance.max(glam::Vec3A::ZERO).to_array().map(f32::sqrt);
+                // Per-sample deviation: the mean's times the root of the samples.
+                let sd = (sd[0] + sd[1] + sd[2]) as f64 / 3.0 * (q.count as f64).sqrt();
+                var += sd * sd;
+            }
+            let n = ring.len();
+            let (mean, sd) = (mean / n as f64, (var / n as f64).sqrt());
+            let needed = if sd == 0.0 {
+                0.0
+            } else if mean > 0.0 {
+                SAFETY as f64 * (sd / (mean * threshold as f64)).powi(2)
+            } else {
+                f64::INFINITY
+            };
+            out.push(needed.ceil().clamp(pilot as f64, cap as f64) as u32);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    fn pixel(mean: f32, sd_of_mean: f32, count: u32) -> PixelValue {
+        PixelValue {
+            mean: Vec3A::splat(mean),
+            variance: Vec3A::splat(sd_of_mean * sd_of_mean),
+            count,
+            weight: count as f32,
+            clamped: false,
+        }
+    }
+
+    /// A pixel's count comes from its neighbours' pilot, not its own: a noisy pixel among quiet
+    /// ones stops at the pilot, the quiet pixels around a noisy one go on; the prediction is
+    /// SAFETY (s / (m T))² with s the per-sample deviation.
+    #[test]
+    fn counts_follow_the_neighbours() {
+        // 3x3 window, pilot 16: per-sample sd 0.4 (of the mean 0.1), mean 1, T 0.05:
+        // 2 (0.4 / 0.05)² = 128.
+        let mut values = vec![pixel(1.0, 0.1, 16); 9];
+        values[4] = pixel(1.0, 5.0, 16);
+        let t = targets((0, 0, 3, 3), &values, (0, 0, 3, 3), 0.05, 16, 1024);
+        assert!(
+            (128..=129).contains(&t[4]),
+            "the noisy centre is judged by its quiet neighbours: {t:?}"
+        );
+        assert!(t[0] > 129 && t[1] == 1024, "{t:?}");
+        // Black and noiseless: the pilot is enough; black with noise: the cap.
+        let t = targets(
+            (0, 0, 3, 3),
+            &[pixel(0.0, 0.0, 16); 9],
+            (1, 1, 1, 1),
+            0.05,
+            16,
+            1024,
+        );
+        assert_eq!(t, [16]);
+        let t = targets(
+            (0, 0, 3, 3),
+            &[pixel(0.0, 0.2, 16); 9],
+            (1, 1, 1, 1),
+            0.05,
+            16,
+            1024,
+        );
+        assert_eq!(t, [1024]);
+    }
+
+    #[test]
+    fn pilot_sizes() {
+        assert_eq!(pilot_size(16), 8);
+        assert_eq!(pilot_size(4), 4);
+        assert_eq!(pilot_size(256), 16);
+        assert_eq!(pilot_size(1024), 64);
+        assert_eq!(pilot_size(100_000), 64);
+        assert_eq!(
+            relative_error(glam::Vec3::splat(2.0), glam::Vec3::splat(0.01)),
+            0.05
+        );
+        assert_eq!(relative_error(glam::Vec3::ZERO, glam::Vec3::ZERO), 0.0);
+    }
+}

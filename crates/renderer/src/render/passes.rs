@@ -1,0 +1,240 @@
+//! A render in passes: with a time limit (`RenderSettings::time_limit`), adaptive sampling
+//! (`RenderSettings::noise_threshold`), or both. Without either, a render is one pass.
+//!
+//! Every pass takes the pixels from `level` samples to a higher `next` (each pixel capped at its
+//! own count), adding samples in global index order, so a pixel's accumulated mean is that of a
+//! one-pass render of the same samples, bit for bit. The image is complete after every pass.
+//!
+//! - Adaptive sampling: a uniform pilot pass to the pilot size, then each pixel's count is
+//!   decided once from its neighbours' pilot ([`super::adaptive`]), then one pass renders every
+//!   pixel to its count. The counts depend only on the pilot samples, which are those of any
+//!   window or sample range of the same render: a `--crop` renders the pilot of a one-pixel ring
+//!   around it too and gives the one-piece render's pixels bit for bit; a `--sample-range` part
+//!   renders the whole pilot for its decisions (counting in its image only the samples of its
+//!   range) and holds exactly the one-piece render's samples of that range.
+//! - A time limit: passes grow geometrically (1 sample, then doubling the samples rendered), each
+//!   shrunk to what the time left allows at the speed measured so far; the render stops at a
+//!   pass boundary when the next pass would not fit (or every pixel has its samples). The first
+//!   pass always runs. With adaptive sampling, the passes after the pilot raise each pixel to
+//!   min(its count, the level), so the time left goes to the pixels that need the most
+//!   samples: the noisiest.
+
+use super::adaptive;
+use super::{Ranges, RenderSlice, Tracer};
+use crate::film::{Film, PixelValue, TileFilm};
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
+/// What a render in passes reports after each pass.
+#[derive(Clone, Debug)]
+pub struct PassReport {
+    /// Passes finished.
+    pub pass: u32,
+    /// Samples rendered in the window so far, and its pixels.
+    pub samples: u64,
+    pub pixels: u64,
+    /// The median of the pixels' relative standard errors ([`adaptive::relative_error`]).
+    pub median_error: f32,
+    /// With a noise threshold: the share of pixels whose relative error is under it.
+    pub under_threshold: Option<f32>,
+    pub elapsed: Duration,
+    /// With a time limit: the time left.
+    pub time_left: Option<Duration>,
+}
+
+/// How a render in passes went.
+pub(super) struct Summary {
+    pub passes: u32,
+}
+
+/// Renders `slice` into `tiles` (over `rects`) in one pass, or in passes (see the module).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn run(
+    tracer: &Tracer,
+    film: &Film,
+    rects: &[(u32, u32, u32, u32)],
+    tiles: &mut [TileFilm],
+    slice: &RenderSlice,
+    start: Instant,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    report: &(dyn Fn(&PassReport) + Sync),
+) -> Result<Summary, String> {
+    let settings = tracer.settings;
+    let Range {
+        start: first,
+        end: last,
+    } = slice.samples.clone();
+    if settings.noise_threshold.is_none() && settings.time_limit.is_none() {
+        tracer.pass(rects, tiles, &Ranges::All(first..last), start, progress);
+        return Ok(Summary { passes: 1 });
+    }
+    if settings.noise_threshold.is_some() && film.splats() {
+        return Err(format!(
+            "--noise-threshold needs a pixel filter without negative lobes (box, tent, gaussian), not {:?}: a splatting filter mixes the neighbours' samples into a pixel",
+            settings.filter
+        ));
+    }
+    let crop = slice.crop;
+    let pixels = crop.2 as usize * crop.3 as usize;
+    let deadline = settings.time_limit.map(|l| start + l);
+    // Each pixel's count (its last sample index + 1), known once the pilot has decided it.
+    let mut caps = vec![last; pixels];
+    let mut pilot = settings
+        .noise_threshold
+        .map(|_| adaptive::pilot_size(settings.spp));
+    if let (Some(n0), Some(t)) = (pilot, settings.noise_threshold) {
+        if first > 0 || last < n0 {
+            // The image does not hold the pilot: render it apart, for the decisions only.
+            let (window, values) = adaptive::pilot(tracer, crop, n0, None, start, progress);
+            decide(
+                &mut caps,
+                window,
+                &values,
+                crop,
+                t,
+                n0,
+                settings.spp,
+                first..last,
+            );
+            pilot = None;
+        }
+    }
+    let (mut level, mut passes, mut rendered) = (first, 0u32, 0u64);
+    loop {
+        let top = caps.iter().copied().max().unwrap_or(first);
+        if level >= top {
+            break;
+        }
+        // The next level: the pilot's end first; without a time limit every pixel's count,
+        // with one the samples rendered so far doubled, then shrunk to fit the time left.
+        let mut next = match (pilot, deadline) {
+            (Some(n0), _) if level < n0 => n0,
+            (_, None) => top,
+            (_, Some(_)) if passes == 0 => level + 1,
+            (_, Some(_)) => level + (level - first).max(1),
+        };
+        if let (Some(n0), Some(_)) = (pilot, deadline) {
+            if level < n0 {
+                next = next.min(if passes == 0 { level + 1 } else { n0 });
+            }
+        }
+        next = next.min(top);
+        if let (Some(deadline), true) = (deadline, passes > 0) {
+            let per_sample = start.elapsed().as_secs_f64() / rendered.max(1) as f64;
+            let left = deadline
+                .saturating_duration_since(Instant::now())
+                .as_secs_f64();
+            let cost = |to: u32| added(&caps, level, to) as f64 * per_sample;
+            if cost(level + 1) > left {
+                break;
+            }
+            if cost(next) > left {
+                // The highest level that fits (the cost grows with the level).
+                let (mut lo, mut hi) = (level + 1, next);
+                while lo < hi {
+                    let mid = lo + (hi - lo).div_ceil(2);
+                    if cost(mid) <= left {
+                        lo = mid;
+                    } else {
+                        hi = mid - 1;
+                    }
+                }
+                next = lo;
+            }
+        }
+        let ranges: Vec<Range<u32>> = caps.iter().map(|&c| level.min(c)..next.min(c)).collect();
+        rendered += added(&caps, level, next);
+        tracer.pass(
+            rects,
+            tiles,
+            &Ranges::PerPixel {
+                window: crop,
+                ranges: &ranges,
+            },
+            start,
+            progress,
+        );
+        level = next;
+        passes += 1;
+        let mut values = vec![PixelValue::default(); pixels];
+        adaptive::gather(rects, tiles, crop, &mut values);
+        if let (Some(n0), Some(t)) = (pilot, settings.noise_threshold) {
+            if level == n0 {
+                let (window, all) =
+                    adaptive::pilot(tracer, crop, n0, Some((rects, tiles)), start, progress);
+                decide(
+                    &mut caps,
+                    window,
+                    &all,
+                    crop,
+                    t,
+                    n0,
+                    settings.spp,
+                    first..last,
+                );
+                pilot = None;
+            }
+        }
+        report(&pass_report(
+            &values,
+            passes,
+            rendered,
+            settings.noise_threshold,
+            start,
+            deadline,
+        ));
+    }
+    Ok(Summary { passes })
+}
+
+/// Samples a pass from `level` to `to` adds, every pixel capped at its count.
+fn added(caps: &[u32], level: u32, to: u32) -> u64 {
+    caps.iter()
+        .map(|&c| (to.min(c) - level.min(c)) as u64)
+        .sum()
+}
+
+/// Sets each crop pixel's last sample (+ 1) within the slice's `samples` from its count, decided
+/// from the pilot `values` over `window` (the pilot's `n0` samples of a render of `spp`).
+#[allow(clippy::too_many_arguments)]
+fn decide(
+    caps: &mut [u32],
+    window: (u32, u32, u32, u32),
+    values: &[PixelValue],
+    crop: (u32, u32, u32, u32),
+    threshold: f32,
+    n0: u32,
+    spp: u32,
+    samples: Range<u32>,
+) {
+    let targets = adaptive::targets(window, values, crop, threshold, n0, spp.max(n0));
+    for (cap, target) in caps.iter_mut().zip(targets) {
+        *cap = target.clamp(samples.start, samples.end);
+    }
+}
+
+fn pass_report(
+    values: &[PixelValue],
+    pass: u32,
+    samples: u64,
+    threshold: Option<f32>,
+    start: Instant,
+    deadline: Option<Instant>,
+) -> PassReport {
+    let mut errors: Vec<f32> = values
+        .iter()
+        .map(|p| adaptive::relative_error(p.mean.into(), p.variance.into()))
+        .collect();
+    errors.sort_by(f32::total_cmp);
+    let median_error = errors.get(errors.len() / 2).copied().unwrap_or(0.0);
+    PassReport {
+        pass,
+        samples,
+        pixels: values.len() as u64,
+        median_error,
+        under_threshold: threshold
+            .map(|t| errors.iter().filter(|&&e| e < t).count() as f32 / errors.len().max(1) as f32),
+        elapsed: start.elapsed(),
+        time_left: deadline.map(|d| d.saturating_duration_since(Instant::now())),
+    }
+}
