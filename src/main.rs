@@ -272,7 +272,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             noise_threshold: args.noise_threshold,
             time_limit: args
                 .time_limit
-                .map(|t| std::time::Duration::from_secs_f32(t)),
+                .map(std::time::Duration::from_secs_f32),
         },
     );
     let output = output_path(

@@ -126,7 +126,7 @@ fn aov_channels_match_mitsuba() {
         .sum::<f64>()
         / a.len() as f64;
     assert!(d < 0.003, "alpha: mean difference {d}");
-    assert!(a.iter().any(|&v| v == 0.0) && a.iter().any(|&v| v == 1.0));
+    assert!(a.contains(&0.0) && a.contains(&1.0));
 
     // Shapes: Mitsuba numbers them in the order its loader created them (not the file's), so
     // the regions must match up to a renaming, one to one.

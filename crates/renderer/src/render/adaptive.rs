@@ -66,6 +66,9 @@ pub(super) fn gather(
     }
 }
 
+/// The output film's tiles: each tile's corners (x0, y0, x1, y1; ends exclusive) and its film.
+type OutputTiles<'a> = (&'a [(u32, u32, u32, u32)], &'a [TileFilm]);
+
 /// The pilot's pixels over the crop grown by one pixel (clipped to where samples land), and
 /// that window. With `output` (the output film's tiles, holding the pilot of the crop's
 /// pixels), only the ring around the crop is rendered; otherwise every pixel's pilot is.
@@ -73,7 +76,7 @@ pub(super) fn pilot(
     tracer: &Tracer,
     crop: (u32, u32, u32, u32),
     pilot: u32,
-    output: Option<(&[(u32, u32, u32, u32)], &[TileFilm])>,
+    output: Option<OutputTiles>,
     start: Instant,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> ((u32, u32, u32, u32), Vec<PixelValue>) {
