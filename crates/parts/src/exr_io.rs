@@ -205,6 +205,11 @@ pub fn read_part_bytes(bytes: &[u8], name: &str) -> std::result::Result<Part, St
                 .iter()
                 .map(|n| channel(n))
                 .collect::<std::result::Result<_, _>>()?;
+            for (name, column) in NOISY.iter().zip(&noisy) {
+                if let Some(bad) = column.iter().find(|v| !v.is_finite()) {
+                    return Err(err(format!("a value of {bad} in the '{name}' channel")));
+                }
+            }
             let mean = (0..w * h)
                 .map(|i| Vec3::new(noisy[0][i], noisy[1][i], noisy[2][i]))
                 .collect();

@@ -484,7 +484,8 @@ mod tests {
             }
             let bytes = crate::write_part_bytes(&r).unwrap();
             let err = crate::read_part_bytes(&bytes, "bad.exr").unwrap_err();
-            let channel = if variance { "variance.G" } else { "B" };
+            // With a denoised image the mean is in `noisy.*`.
+            let channel = if variance { "variance.G" } else { "noisy.B" };
             assert_eq!(
                 err,
                 format!("bad.exr: a value of {bad} in the '{channel}' channel")
