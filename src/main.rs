@@ -270,9 +270,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             tile_size: None,
             guides: Some(args.denoise),
             noise_threshold: args.noise_threshold,
-            time_limit: args
-                .time_limit
-                .map(std::time::Duration::from_secs_f32),
+            time_limit: args.time_limit.map(std::time::Duration::from_secs_f32),
         },
     );
     let output = output_path(

@@ -42,7 +42,7 @@ REF_FACTOR = 8
 
 def make_sky(path):
     # Radiance depends on the azimuth only: torrey and Mitsuba place lat-long rows half a texel
-    # apart (crates/light/src/envmap.rs), which a sky varying with elevation would show.
+    # apart (crates/light/src/envmap/mod.rs), which a sky varying with elevation would show.
     w, h = 256, 8
     img = np.zeros((h, w, 3), dtype=np.float32)
     for j in range(w):

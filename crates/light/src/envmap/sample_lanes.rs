@@ -252,6 +252,9 @@ impl Tables {
     /// `k` is a slot of the row table.
     #[inline(always)]
     unsafe fn row_slot(&self, k: u32) -> AliasSlot {
+        // SAFETY: the caller's contract: `k` is below the row table's length; `rows` points at
+        // `env.row_slots`, which the `&EnvMap` these tables were made from keeps alive while they
+        // are used.
         unsafe { *self.rows.add(k as usize) }
     }
 
@@ -259,6 +262,9 @@ impl Tables {
     /// `k` is a slot of the column tables.
     #[inline(always)]
     unsafe fn column_slot(&self, k: u32) -> AliasSlot {
+        // SAFETY: the caller's contract: `k` is below the column tables' length; `columns` points
+        // at `env.column_slots`, which the `&EnvMap` these tables were made from keeps alive while
+        // they are used.
         unsafe { *self.columns.add(k as usize) }
     }
 
@@ -266,6 +272,9 @@ impl Tables {
     /// `k` is a texel record.
     #[inline(always)]
     unsafe fn texel(&self, k: u32) -> [f32; 4] {
+        // SAFETY: the caller's contract: `k` is below `texels`' length (width x height records);
+        // `texels` points at `env.texels`, which the `&EnvMap` these tables were made from keeps
+        // alive while they are used.
         unsafe { *self.texels.add(k as usize) }
     }
 }
@@ -280,18 +289,27 @@ impl SampleLanes {
         let (row_count, width) = (env.row_slots.len() as u32, env.width as u32);
         for k in 0..LANES {
             let (slot, frac) = pick_slot(row_count, clamp_unit(self.uy[k]));
-            // SAFETY (all reads): see `Tables`.
+            // SAFETY: `slot` is below `row_count`, the row table's length (`pick_slot` keeps it
+            // below n); see `Tables`.
             let s = unsafe { tables.row_slot(slot) };
             let (row, v_in_patch) = pick_choose(slot, frac, s.q, s.alias);
             let (slot, frac) = pick_slot(width, clamp_unit(self.ux[k]));
+            // SAFETY: `row` is a slot of the row table or its alias (an index of that table,
+            // `build_slots`), so a band, below height - 1; `slot` is below width (`pick_slot`);
+            // `column_slots` holds width slots per band (see `Tables`).
             let s = unsafe { tables.column_slot(row * width + slot) };
             let (column, u_in_patch) = pick_choose(slot, frac, s.q, s.alias);
             // (Arrays spelt out rather than mapped: `map` keeps the loop scalar.)
             let c = patch_corners(env, row, column);
+            // SAFETY: the corners of patch (`row`, `column`), a band and a column below width, are
+            // records of rows `row` and `row + 1` < height and columns below width
+            // (`patch_corners`), inside `texels` (see `Tables`).
             let density = |i: u32| unsafe { tables.texel(i)[3] };
             let w = [density(c[0]), density(c[1]), density(c[2]), density(c[3])];
             let warped = warp(env, row, column, v_in_patch, u_in_patch, w);
             let rgb = |i: u32| {
+                // SAFETY: the taps of `warp` (`finest_taps`) are 0 or records of rows below height
+                // and columns below width, inside `texels` (see `Tables`).
                 let t = unsafe { tables.texel(i) };
                 Vec3::new(t[0], t[1], t[2])
             };
@@ -326,7 +344,8 @@ impl SampleLanes {
             (slot[k], frac[k]) = pick_slot(row_count, clamp_unit(self.uy[k]));
         }
         for k in 0..LANES {
-            // SAFETY (all reads): see `Tables`.
+            // SAFETY: `slot[k]` is below `row_count`, the row table's length (`pick_slot` keeps it
+            // below n); see `Tables`.
             let s = unsafe { tables.row_slot(slot[k]) };
             (q[k], alias[k]) = (s.q, s.alias);
         }
@@ -339,6 +358,9 @@ impl SampleLanes {
             (column_slot[k], column_frac[k]) = pick_slot(width, clamp_unit(self.ux[k]));
         }
         for k in 0..LANES {
+            // SAFETY: `row[k]` is a slot of the row table or its alias (an index of that table,
+            // `build_slots`), so a band, below height - 1; `column_slot[k]` is below width
+            // (`pick_slot`); `column_slots` holds width slots per band (see `Tables`).
             let s = unsafe { tables.column_slot(row[k] * width + column_slot[k]) };
             (q[k], alias[k]) = (s.q, s.alias);
         }
@@ -351,6 +373,9 @@ impl SampleLanes {
         }
         for n in 0..4 {
             for k in 0..LANES {
+                // SAFETY: `texel[n][k]` is a corner of a patch (`patch_corners` of a band and a
+                // column below width): a record of a row below height and a column below width,
+                // inside `texels` (see `Tables`).
                 weight[n][k] = unsafe { tables.texel(texel[n][k])[3] };
             }
         }
@@ -364,6 +389,8 @@ impl SampleLanes {
         }
         for n in 0..4 {
             for k in 0..LANES {
+                // SAFETY: `texel[n][k]` now holds the taps of `warp` (`finest_taps`): 0 or records
+                // of rows below height and columns below width, inside `texels` (see `Tables`).
                 let t = unsafe { tables.texel(texel[n][k]) };
                 (rgb[n][0][k], rgb[n][1][k], rgb[n][2][k]) = (t[0], t[1], t[2]);
             }

@@ -287,6 +287,10 @@ impl Accel {
                 };
                 // SAFETY: checked for AVX-512 above, and as below.
                 return match &self.layout {
+                    // SAFETY: AVX-512 was detected above (it includes AVX2 and FMA, which `Nodes8`
+                    // needed to exist); eight-wide nodes exist only under an inner root (never for
+                    // an empty scene), and `packet_width` checked that the tree fits the packet
+                    // stack.
                     Layout::Eight(nodes) => unsafe {
                         x86_64::avx512::packet16::closest_hits16_8(
                             nodes,
@@ -297,6 +301,9 @@ impl Accel {
                             hits,
                         )
                     },
+                    // SAFETY: AVX-512 was detected above (which `Nodes16` needed to exist too);
+                    // sixteen-wide nodes exist only under an inner root (never for an empty scene),
+                    // and `packet_width` checked that the tree fits the packet stack.
                     Layout::Sixteen(nodes) => unsafe {
                         x86_64::avx512::packet16::closest_hits16_16(
                             nodes,
@@ -318,6 +325,8 @@ impl Accel {
             // (never for an empty scene), and `packet_width` checked that the tree fits the
             // packet stack.
             match &self.layout {
+                // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA, only under an inner root,
+                // and `packet_width` checked that the tree fits the packet stack.
                 Layout::Eight(nodes) => unsafe {
                     x86_64::avx2::packet::closest_hits(
                         nodes,
@@ -328,6 +337,9 @@ impl Accel {
                         hits,
                     )
                 },
+                // SAFETY: `Nodes16` exists only on CPUs with AVX-512 (with AVX2 and FMA), only
+                // under an inner root, and `packet_width` checked that the tree fits the packet
+                // stack.
                 Layout::Sixteen(nodes) => unsafe {
                     x86_64::avx2::packet::closest_hits16(
                         nodes,
@@ -375,7 +387,7 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> Option<ClosestHit> {
         match self {
-            // SAFETY (all arms): the stack holds `stack_needed` entries (the caller's contract).
+            // SAFETY: (all arms) the stack holds `stack_needed` entries (the caller's contract).
             Layout::Four(nodes) => unsafe { closest_hit4(nodes, leaves, root, ray, stack) },
             // SAFETY: `Nodes8` exists only on CPUs with AVX2 and FMA (checked in its build).
             #[cfg(target_arch = "x86_64")]
@@ -403,7 +415,7 @@ impl Layout {
         stack: &mut [MaybeUninit<(ChildRef, f32)>],
     ) -> bool {
         match self {
-            // SAFETY (all arms): the stack holds `stack_needed` entries (the caller's contract).
+            // SAFETY: (all arms) the stack holds `stack_needed` entries (the caller's contract).
             Layout::Four(nodes) => unsafe { any_hit4(nodes, leaves, root, ray, stack) },
             // SAFETY: as in `closest_hit`.
             #[cfg(target_arch = "x86_64")]

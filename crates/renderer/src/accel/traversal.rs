@@ -238,7 +238,7 @@ pub(crate) unsafe fn nearest_first<N: InnerNodes>(
                     } else {
                         (first, second)
                     };
-                    // SAFETY (all stack accesses below): within `stack_needed` (see `push`);
+                    // SAFETY: (all stack accesses below) within `stack_needed` (see `push`);
                     // reads are of entries below `top`, which have been written.
                     unsafe { push(stack, top, (nodes.child(current, far_lane), near[far_lane])) };
                     top += 1;
@@ -253,6 +253,9 @@ pub(crate) unsafe fn nearest_first<N: InnerNodes>(
                 loop {
                     let new = (nodes.child(current, lane), near[lane]);
                     let mut i = top;
+                    // SAFETY: reads are of entries `base..top`, written by this node's pushes above;
+                    // writes are at most at `top`, within `stack_needed` (see `push`: this node
+                    // pushes at most width entries before one is popped).
                     unsafe {
                         while i > base && entry(stack, i - 1).1 < new.1 {
                             push(stack, i, entry(stack, i - 1));
@@ -268,6 +271,8 @@ pub(crate) unsafe fn nearest_first<N: InnerNodes>(
                     mask &= mask - 1;
                 }
                 top -= 1;
+                // SAFETY: `top` was incremented once per child pushed above, so entry `top - 1`
+                // (now `top`) has been written.
                 current = unsafe { entry(stack, top) }.0;
                 continue;
             }
@@ -280,6 +285,8 @@ pub(crate) unsafe fn nearest_first<N: InnerNodes>(
                 return;
             }
             top -= 1;
+            // SAFETY: entries below the old `top` have been written by `push`, and `top` was
+            // decremented just above.
             let (node, near) = unsafe { entry(stack, top) };
             if near <= tmax {
                 current = node;

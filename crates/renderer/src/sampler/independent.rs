@@ -96,9 +96,11 @@ impl Sampler for PcgSampler {
         {
             let dq = std::arch::is_x86_feature_detected!("avx512dq");
             match Simd::detect() {
-                // SAFETY (each arm): the level, and AVX512DQ where used, were detected on this
+                // SAFETY: (each arm) the level, and AVX512DQ where used, were detected on this
                 // CPU.
                 Simd::Avx512 if dq => return unsafe { each_avx512(samplers, indices, out) },
+                // SAFETY: Simd::Avx2 or Simd::Avx512 was detected on this CPU, either of which has
+                // AVX2; `2 * R < JUMPS.len()` was checked above.
                 Simd::Avx512 | Simd::Avx2 => return unsafe { each_avx2(samplers, indices, out) },
                 Simd::Portable => {}
             }
@@ -140,7 +142,7 @@ unsafe fn each_avx512<const R: usize>(
     for (n, &(an, cn)) in JUMPS[..8].iter().enumerate() {
         (a[n], c[n]) = (an as i64, cn as i64);
     }
-    // SAFETY (all the loads and stores): the arrays hold eight 64-bit lanes; `out[k]` holds
+    // SAFETY: (all the loads and stores) the arrays hold eight 64-bit lanes; `out[k]` holds
     // `2R` <= 8 consecutive f32 (`Vec2` is two f32, `repr(C)`), and the store's mask covers
     // only those.
     let (a, c) = unsafe {
@@ -167,6 +169,8 @@ unsafe fn each_avx512<const R: usize>(
         let rotation = _mm512_cvtepi64_epi32(_mm512_srli_epi64::<59>(old));
         let bits = _mm256_rorv_epi32(xorshifted, rotation);
         let units = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(bits)), scale);
+        // SAFETY: `out` (one `[Vec2; R]`) holds `2R` <= 8 consecutive f32 (`Vec2` is two f32,
+        // `repr(C)`), and the store's mask covers only those.
         unsafe { _mm256_mask_storeu_ps(out.as_mut_ptr().cast(), mask, units) };
         rng.state = rng.state_after(2 * R);
     }

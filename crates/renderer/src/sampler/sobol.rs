@@ -114,7 +114,7 @@ impl SobolSampler {
             table.fill(self.pixel_seed, request + FILL_STEP);
         }
         self.dimension += 1;
-        // SAFETY (both reads): request < TABLE_REQUESTS, sample < len <= BLOCK.
+        // SAFETY: (both reads) request < TABLE_REQUESTS, sample < len <= BLOCK.
         unsafe {
             let x = *table
                 .x
@@ -179,10 +179,13 @@ fn column(base: u32, seed: u32, sx: u32, sy: u32, x: &mut [f32], y: &mut [f32]) 
         // `reverse_bits` uses it); without, a reversal costs a dozen.
         let gfni = std::arch::is_x86_feature_detected!("gfni");
         match Simd::detect() {
-            // SAFETY (each arm): the level, and GFNI where used, were detected on this CPU.
+            // SAFETY: (each arm) the level, and GFNI where used, were detected on this CPU.
             Simd::Avx512 if gfni => return unsafe { column_avx512_gfni(base, seed, sx, sy, x, y) },
+            // SAFETY: Simd::Avx512 was detected on this CPU.
             Simd::Avx512 => return unsafe { column_avx512(base, seed, sx, sy, x, y) },
+            // SAFETY: Simd::Avx2 and GFNI were detected on this CPU.
             Simd::Avx2 if gfni => return unsafe { column_avx2_gfni(base, seed, sx, sy, x, y) },
+            // SAFETY: Simd::Avx2 was detected on this CPU.
             Simd::Avx2 => return unsafe { column_avx2(base, seed, sx, sy, x, y) },
             Simd::Portable => {}
         }

@@ -194,7 +194,7 @@ pub(crate) unsafe fn occluded_lanes<L: Lanes, N: ShadowNodes>(
     debug_assert!(packet.rays.len() <= L::N);
     let used = (1u32 << packet.rays.len()) - 1;
     let mut hit = 0u32;
-    // SAFETY (the whole body): the caller's contract; stack accesses are below `top`, which
+    // SAFETY: (the whole body) the caller's contract; stack accesses are below `top`, which
     // stays within STACK_SIZE as in the single-ray traversal (one entry per node on the path and
     // at most width − 1 waiting below each, whatever the lanes).
     unsafe {
@@ -290,7 +290,7 @@ unsafe fn block_occludes<L: Lanes>(
     tmax: L::F,
     active: u32,
 ) -> u32 {
-    // SAFETY (the whole body): the caller's contract.
+    // SAFETY: (the whole body) the caller's contract.
     unsafe {
         let [kx, ky, kz] = packet.axes;
         let [ox, oy, oz] = load3::<L>(packet, &packet.batch.origin);

@@ -12,6 +12,7 @@ impl Lanes for Lanes8 {
 
     #[inline(always)]
     unsafe fn splat(x: f32) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_set1_ps(x) }
     }
     #[inline(always)]
@@ -21,62 +22,77 @@ impl Lanes for Lanes8 {
     }
     #[inline(always)]
     unsafe fn add(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_add_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn sub(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_sub_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn mul(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_mul_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn fmsub(a: __m256, b: __m256, c: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_fmsub_ps(a, b, c) }
     }
     #[inline(always)]
     unsafe fn min(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_min_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn max(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_max_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn xor(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_xor_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn or(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_or_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn flip_sign_by(a: __m256, s: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_xor_ps(a, _mm256_and_ps(s, _mm256_set1_ps(-0.0))) }
     }
     #[inline(always)]
     unsafe fn abs(a: __m256) -> __m256 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), a) }
     }
     #[inline(always)]
     unsafe fn le(a: __m256, b: __m256) -> u32 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn lt(a: __m256, b: __m256) -> u32 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn gt(a: __m256, b: __m256) -> u32 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn eq(a: __m256, b: __m256) -> u32 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn negative(a: __m256) -> u32 {
+        // SAFETY: the CPU has AVX2 and FMA (the caller's contract, see `Lanes`).
         unsafe { _mm256_movemask_ps(a) as u32 }
     }
 }

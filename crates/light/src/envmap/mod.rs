@@ -29,14 +29,18 @@
 //! its pdf along in the same cache lines. Environment-map work was about half of an envmap-lit render before this layout
 //! (docs/performance.md, design decisions).
 
-use crate::alias::{self, AliasSlot};
-use crate::unit::{clamp_unit, ONE_MINUS_EPSILON};
+use crate::alias::AliasSlot;
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 use torrey_fastmath as fastmath;
 use torrey_texture::{FilterType, Image, MipMap, WrapMode};
 
+mod batch;
 mod sample_lanes;
+mod sampling;
+
+pub use batch::{BatchSimd, BATCH_LANES};
+use sampling::{patch_weights, sample_linear, vertex_weights, SamplingTables};
 
 /// Rec.709 luminance: the importance of a linear RGB radiance for sampling purposes.
 #[inline]
@@ -83,78 +87,6 @@ pub struct EnvMap {
     column_slots: Vec<AliasSlot>,
     /// False for an all-black map: nothing to sample, pdf is 0 everywhere.
     samplable: bool,
-}
-
-/// Each texel's sampling weight (row-major): luminance x sin(theta) of its row, theta = pi j /
-/// (H - 1) (sin clamped at 0 on the poles).
-fn vertex_weights(image: &Image) -> Vec<f32> {
-    let (w, h) = (image.width as usize, image.height as usize);
-    let dtheta = std::f64::consts::PI / (h - 1) as f64;
-    let mut weights = Vec::with_capacity(w * h);
-    for j in 0..h {
-        let sin_theta = (j as f64 * dtheta).sin().max(0.0) as f32;
-        let row = &image.pixels[j * w..(j + 1) * w];
-        weights.extend(row.iter().map(|&p| luminance(p) * sin_theta));
-    }
-    weights
-}
-
-/// The mean of each patch's four corner weights (row-major, `width` x (`height` - 1)): the
-/// integral of the bilinear interpolant over the patch, in patch units.
-fn patch_weights(vertex: &[f32], width: usize, height: usize) -> Vec<f32> {
-    let mut weights = Vec::with_capacity(width * (height - 1));
-    for j in 0..height - 1 {
-        let (top, bottom) = (&vertex[j * width..], &vertex[(j + 1) * width..]);
-        for i in 0..width {
-            let i1 = (i + 1) % width;
-            weights.push(0.25 * (top[i] + top[i1] + bottom[i] + bottom[i1]));
-        }
-    }
-    weights
-}
-
-/// Inverts the cdf of the density proportional to a (1 - t) + b t on [0, 1] (both >= 0) at `xi`,
-/// in the form that stays accurate when a and b are close.
-#[inline(always)]
-fn sample_linear(a: f32, b: f32, xi: f32) -> f32 {
-    let denominator = a + (a * a * (1.0 - xi) + b * b * xi).sqrt();
-    if denominator > 0.0 {
-        (xi * (a + b) / denominator).min(ONE_MINUS_EPSILON)
-    } else {
-        xi
-    }
-}
-
-/// The alias tables over an environment map's patch weights.
-struct SamplingTables {
-    row_slots: Vec<AliasSlot>,
-    column_slots: Vec<AliasSlot>,
-    /// Sum of all weights (0: nothing to sample).
-    weight_sum: f64,
-}
-
-impl SamplingTables {
-    /// `weights` row-major, `width * height` of them.
-    fn new(weights: &[f32], width: usize, height: usize) -> Self {
-        let mut column_slots = Vec::with_capacity(width * height);
-        let mut row_weights = Vec::with_capacity(height);
-        for row in weights.chunks_exact(width) {
-            alias::build_slots(row, &mut column_slots);
-            row_weights.push(
-                row.iter()
-                    .filter(|w| w.is_finite() && **w > 0.0)
-                    .map(|&w| w as f64)
-                    .sum::<f64>(),
-            );
-        }
-        let mut row_slots = Vec::with_capacity(height);
-        alias::build_slots_f64(&row_weights, &mut row_slots);
-        Self {
-            row_slots,
-            column_slots,
-            weight_sum: row_weights.iter().sum(),
-        }
-    }
 }
 
 /// Negative, NaN and infinite texels become 0.
@@ -478,246 +410,6 @@ impl EnvMap {
             p_uv / (2.0 * PI * PI * sin_theta)
         }
     }
-
-    /// [`Self::eval_pdf`] of many escaped rays at once, bit for bit: `out[k]` is
-    /// `self.eval_pdf(dirs[k], spreads[k])`, except that where `want_pdf[k]` is false (a path
-    /// that needs no MIS weight) the density may be skipped and read 0: it costs a second
-    /// lookup when the ray cone selects a coarser level. The directions are turned into uv and
-    /// sin(theta) [`BATCH_LANES`] at a time in SIMD lanes (`simd` picks the instruction set the
-    /// CPU was found to have), each lane's texel records are prefetched a chunk ahead, then the
-    /// texels are read lane by lane. `out` is cleared first.
-    pub fn eval_pdf_batch(
-        &self,
-        dirs: &[Vec3],
-        spreads: &[f32],
-        want_pdf: &[bool],
-        simd: BatchSimd,
-        out: &mut Vec<(Vec3, f32)>,
-    ) {
-        out.clear();
-        if self.scale == 0.0 {
-            out.resize(dirs.len(), (Vec3::ZERO, 0.0));
-            return;
-        }
-        // The uv of the next chunk is found, and its texels hinted, before this chunk's are
-        // read: the hints get a chunk's work to arrive.
-        let chunks = dirs.len().div_ceil(BATCH_LANES);
-        let chunk = |c: usize| c * BATCH_LANES..((c + 1) * BATCH_LANES).min(dirs.len());
-        let mut next = self.hinted_uv_lanes(&dirs[chunk(0)], simd);
-        for c in 0..chunks {
-            let lanes = next;
-            if c + 1 < chunks {
-                next = self.hinted_uv_lanes(&dirs[chunk(c + 1)], simd);
-            } else {
-                next = UvLanes::default();
-            }
-            let range = chunk(c);
-            for (k, (&spread, &want_pdf)) in spreads[range.clone()]
-                .iter()
-                .zip(&want_pdf[range])
-                .enumerate()
-            {
-                let uv = Vec2::new(lanes.x[k], lanes.y[k]);
-                out.push(self.eval_pdf_uv(uv, lanes.z[k], spread, want_pdf));
-            }
-        }
-    }
-
-    /// The uv and sin(theta) of up to [`BATCH_LANES`] world directions (`eval_pdf_batch`), in
-    /// SIMD lanes, with the texel records their finest-level lookups read hinted.
-    #[inline]
-    fn hinted_uv_lanes(&self, dirs: &[Vec3], simd: BatchSimd) -> UvLanes {
-        let mut lanes = UvLanes::default();
-        for (k, d) in dirs.iter().enumerate() {
-            let local = self.to_local * *d;
-            (lanes.x[k], lanes.y[k], lanes.z[k]) = (local.x, local.y, local.z);
-        }
-        lanes.convert_to_uv_sin(simd);
-        for k in 0..dirs.len() {
-            // A hint only: the four texel records of the bilinear lookup, top-left at column
-            // floor(u W - 1/2) and row floor(v (H - 1)) (the row remap of
-            // `bilinear_finest_with_density`); the saturating casts and the clamps keep the
-            // address inside the table except at the seam and the nadir, where a neighbour
-            // is hinted instead (nothing is read).
-            let column = ((lanes.x[k] * self.size.x - 0.5) as u32).min(self.width as u32 - 1);
-            let row = ((lanes.y[k] * (self.size.y - 1.0)) as u32).min(self.height as u32 - 2);
-            let top = self
-                .texels
-                .as_ptr()
-                .wrapping_add(row as usize * self.width + column as usize);
-            let bottom = top.wrapping_add(self.width);
-            prefetch(top);
-            prefetch(top.wrapping_add(1));
-            prefetch(bottom);
-            prefetch(bottom.wrapping_add(1));
-        }
-        lanes
-    }
-
-    /// Starts loading the memory [`Self::sample`] will read for `u`: the row is chosen here (its
-    /// table is small and cached), the column's alias slot and its own texel are prefetched.
-    /// The integrator calls this before tracing the ray whose hit the sample lights, so that these
-    /// cache misses (the slot and texel tables are megabytes, read at random) overlap the
-    /// traversal. A hint only: nothing changes but timing, and it is free when the ray escapes.
-    #[inline]
-    pub fn prefetch_sample(&self, u: Vec2) {
-        if !self.samplable {
-            return;
-        }
-        let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
-        let (row, _) = alias::pick(&self.row_slots, u.y);
-        // u.x is in [0, 1): the own slot of the column pick (`size.x` is the width as f32).
-        let column = ((u.x * self.size.x) as u32 as usize).min(self.width - 1);
-        let cell = row * self.width + column;
-        prefetch(self.column_slots.as_ptr().wrapping_add(cell));
-        // The patch's top and bottom texel records (those of the slot's own column).
-        prefetch(self.texels.as_ptr().wrapping_add(cell));
-        prefetch(self.texels.as_ptr().wrapping_add(cell + self.width));
-    }
-
-    /// Importance-samples a direction by luminance x sin(theta) (module doc). `None` for a black
-    /// map or a sample that lands exactly on a pole.
-    #[inline]
-    pub fn sample(&self, u: Vec2) -> Option<EnvSample> {
-        if !self.samplable {
-            return None;
-        }
-        let u = Vec2::new(clamp_unit(u.x), clamp_unit(u.y));
-        let (row, v_in_patch) = alias::pick(&self.row_slots, u.y);
-        let columns = &self.column_slots[row * self.width..(row + 1) * self.width];
-        let (column, u_in_patch) = alias::pick(columns, u.x);
-        let column1 = if column + 1 == self.width {
-            0
-        } else {
-            column + 1
-        };
-        let (top, bottom) = (row * self.width, (row + 1) * self.width);
-        debug_assert!(row + 1 < self.height && column < self.width && column1 < self.width);
-        // SAFETY: the row table has height - 1 slots and each row's column table width slots,
-        // and an alias table's pick is below its length (its own index, clamped, or an alias
-        // that `build_slots` took from the same range); so both rows are below height, both
-        // columns below width, and `texels` holds width x height records.
-        let texel_w = |k: usize| unsafe { self.texels.get_unchecked(k).w };
-        let [w00, w10, w01, w11] = [
-            texel_w(top + column),
-            texel_w(top + column1),
-            texel_w(bottom + column),
-            texel_w(bottom + column1),
-        ];
-        // The bilinear warp: the row position by the marginal (linear in t), then the column
-        // position given it.
-        let t = sample_linear(w00 + w10, w01 + w11, v_in_patch);
-        let (left, right) = (w00 * (1.0 - t) + w01 * t, w10 * (1.0 - t) + w11 * t);
-        let s = sample_linear(left, right, u_in_patch);
-        let p_uv = left * (1.0 - s) + right * s;
-        let mut su = (column as u32 as f32 + 0.5 + s) * self.inv_size.x;
-        if su >= 1.0 {
-            su -= 1.0;
-        }
-        let uv = Vec2::new(su, (row as u32 as f32 + t) * self.inv_bands)
-            .min(Vec2::splat(ONE_MINUS_EPSILON));
-        let (local, sin_theta) = Self::uv_to_local_dir_sin(uv);
-        let pdf = Self::solid_angle_pdf(p_uv, sin_theta);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(EnvSample {
-            direction: self.to_world * local,
-            radiance: self.bilinear_finest(uv) * self.scale,
-            pdf,
-        })
-    }
-
-    /// Density over solid angle of [`Self::sample`] producing world direction `dir`.
-    #[inline]
-    pub fn pdf(&self, dir: Vec3) -> f32 {
-        if !self.samplable {
-            return 0.0;
-        }
-        let (uv, sin_theta) = Self::local_dir_to_uv_sin(self.to_local * dir);
-        self.pdf_uv(uv, sin_theta)
-    }
-
-    /// [`Self::pdf`] of the direction with local `uv` (in [0, 1]^2) and `sin_theta`.
-    #[inline]
-    fn pdf_uv(&self, uv: Vec2, sin_theta: f32) -> f32 {
-        if !self.samplable {
-            return 0.0;
-        }
-        Self::solid_angle_pdf(self.bilinear_finest_with_density(uv).w, sin_theta)
-    }
-}
-
-/// Directions per SIMD step of [`EnvMap::eval_pdf_batch`] (one AVX-512 register, two AVX2 ones).
-pub const BATCH_LANES: usize = 16;
-
-/// The instruction set [`EnvMap::eval_pdf_batch`] runs its lanes with; the caller detects it
-/// (the renderer's `Simd`, which `TORREY_SIMD` caps). Every level gives the same bits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BatchSimd {
-    /// Baseline x86-64 (SSE2), or any other architecture.
-    Portable,
-    /// AVX2 and FMA (FMA is never used for these sums: the results stay those of `eval_pdf`).
-    Avx2,
-    /// AVX-512 F.
-    Avx512,
-}
-
-/// [`BATCH_LANES`] local directions in structure-of-arrays form, turned in place into
-/// (u, v, sin theta).
-#[derive(Default)]
-struct UvLanes {
-    x: [f32; BATCH_LANES],
-    y: [f32; BATCH_LANES],
-    z: [f32; BATCH_LANES],
-}
-
-impl UvLanes {
-    /// `EnvMap::local_dir_to_uv_sin` on every lane (unused lanes hold zero directions, which
-    /// read as the zenith and are ignored).
-    #[inline(always)]
-    fn uv_sin_body(&mut self) {
-        for k in 0..BATCH_LANES {
-            let (uv, sin_theta) =
-                EnvMap::local_dir_to_uv_sin_inline(Vec3::new(self.x[k], self.y[k], self.z[k]));
-            (self.x[k], self.y[k], self.z[k]) = (uv.x, uv.y, sin_theta);
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn uv_sin_avx2(&mut self) {
-        self.uv_sin_body()
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx2,fma")]
-    fn uv_sin_avx512(&mut self) {
-        self.uv_sin_body()
-    }
-
-    fn uv_sin_portable(&mut self) {
-        self.uv_sin_body()
-    }
-
-    #[inline]
-    fn convert_to_uv_sin(&mut self, simd: BatchSimd) {
-        match simd {
-            #[cfg(target_arch = "x86_64")]
-            BatchSimd::Avx512 if is_x86_feature_detected!("avx512f") => {
-                // SAFETY: the CPU has AVX-512 F (checked).
-                unsafe { self.uv_sin_avx512() }
-            }
-            #[cfg(target_arch = "x86_64")]
-            BatchSimd::Avx2 | BatchSimd::Avx512
-                if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") =>
-            {
-                // SAFETY: the CPU has AVX2 and FMA (checked).
-                unsafe { self.uv_sin_avx2() }
-            }
-            _ => self.uv_sin_portable(),
-        }
-    }
 }
 
 /// Asks the CPU to start loading the cache line at `p` (no effect on results; any address is
@@ -788,6 +480,7 @@ fn floor_frac(t: f32) -> (i32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::unit::ONE_MINUS_EPSILON;
     use torrey_testkit::{assert_chi_square, Rng};
 
     fn rotation() -> Mat3 {
