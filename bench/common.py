@@ -22,7 +22,7 @@ OUT = os.path.join(REPO, "out", "bench")
 TIME = "/usr/bin/time"
 
 SUMMARY_RE = re.compile(
-    r"(?P<w>\d+)x(?P<h>\d+) px, (?P<spp>\d+) spp, max depth (?P<depth>-?\d+), (?P<tris>\d+) triangles; "
+    r"(?P<w>\d+)x(?P<h>\d+) px, (?P<spp>\d+) spp, max depth (?P<depth>-?\d+), (?P<tris>\d+) triangles[^;]*; "
     r"load (?P<load>[\d.]+) s, build (?P<build>[\d.]+) s, render (?P<render>[\d.]+) s, "
     r"(?P<msps>[\d.]+) M samples/s"
     r"(?:, (?P<mrays>[\d.]+) M rays/s \((?P<closest>\d+) closest \+ (?P<shadow>\d+) shadow\), "

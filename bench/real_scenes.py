@@ -95,8 +95,10 @@ def torrey_run(scene, spp, seed, threads, out_exr, extra, size=None, depth=None)
             "build_s": float(m.group("build")) if m else None, "loadavg": la, "rss_mb": rss}
 
 
-def mitsuba_run(xml, spp, seed, threads, out_exr):
-    r = common.run_mitsuba("llvm_ad_rgb", xml, spp, threads, seed, plugins=False, warm=True,
+def mitsuba_run(xml, spp, seed, threads, out_exr, plugins):
+    """`plugins`: the scene was converted from the torrey course and may use torrey's Python
+    BSDF plugins (tests/mitsuba/torrey_bsdfs.py)."""
+    r = common.run_mitsuba("llvm_ad_rgb", xml, spp, threads, seed, plugins=plugins, warm=True,
                            out_exr=out_exr)
     return {"cold_s": r["load_s"] + r["first_render_s"], "warm_s": r["load_s"] + r["warm_render_s"],
             "load_s": r["load_s"], "loadavg": r["loadavg_before"]}
@@ -167,7 +169,7 @@ def main():
                 entry["torrey_error"] = str(e).splitlines()[-1]
                 log("   torrey failed: %s" % entry["torrey_error"])
                 break
-            m = mitsuba_run(mxml, a.spp, seed, a.threads, m_out)
+            m = mitsuba_run(mxml, a.spp, seed, a.threads, m_out, plugins=mxml != scene)
             entry["torrey"].append(t)
             entry["mitsuba"].append(m)
             entry["torrey_relmse"].append(rel_mse(common.read_exr(t_out), ref_img, var_img))
@@ -186,11 +188,12 @@ def main():
                          eff_ratio_warm=(me * warm) / max(te * tt, 1e-30),
                          simd=entry["torrey"][0]["simd"])
         result["scenes"][name] = entry
+        # Written after every scene, so that a failure later keeps what was measured.
+        path = a.json or os.path.join(OUT, "real_%s.json" % datetime.date.today().isoformat())
+        for p in (path, os.path.join(OUT, "real_latest.json")):
+            with open(p, "w") as f:
+                json.dump(result, f, indent=1)
     print_table(result)
-    path = a.json or os.path.join(OUT, "real_%s.json" % datetime.date.today().isoformat())
-    for p in (path, os.path.join(OUT, "real_latest.json")):
-        with open(p, "w") as f:
-            json.dump(result, f, indent=1)
     log("wrote %s" % path)
 
 

@@ -23,11 +23,12 @@ use std::time::Instant;
 const SAFETY: f32 = 2.0;
 
 /// The pilot's samples per pixel for a render of `spp`: a sixteenth of them, rounded up to a
-/// multiple of eight (whole packets of eight camera rays), between 8 and 64 (at most `spp`).
+/// power of two (a whole Sobol prefix, and whole packets of eight camera rays), between 8 and 64
+/// (at most `spp`).
 pub(super) fn pilot_size(spp: u32) -> u32 {
     (spp / 16)
-        .div_ceil(8)
-        .saturating_mul(8)
+        .max(1)
+        .next_power_of_two()
         .clamp(8, 64)
         .min(spp.max(1))
 }
