@@ -60,8 +60,7 @@ def relative_errors(ch):
     import numpy as np
     mean = rgb(ch, "noisy." if "noisy.R" in ch else "").mean(axis=-1)
     sd = np.mean([np.sqrt(np.maximum(ch["variance." + c], 0)) for c in "RGB"], axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(sd == 0, 0.0, np.where(mean > 0, sd / mean, np.inf))
+    return sd / np.sqrt(mean ** 2 + 0.01)
 
 
 def torrey(scene, out, *args):
