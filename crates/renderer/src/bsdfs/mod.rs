@@ -57,6 +57,8 @@ mod tests;
 #[cfg(test)]
 mod tests_mitsuba;
 #[cfg(test)]
+mod tests_mitsuba_values;
+#[cfg(test)]
 mod tests_principled;
 
 pub use blend::{Blend, BlendParams};
