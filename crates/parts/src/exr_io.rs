@@ -172,11 +172,15 @@ pub fn read_part_bytes(bytes: &[u8], name: &str) -> std::result::Result<Part, St
         .collect::<std::result::Result<_, _>>()?;
     // Renders and merges write finite values only (the film clamps to f32's range): a part
     // holding NaN or infinity was not written by torrey, and would spread it into the merge.
-    for (name, column) in CHANNELS.iter().zip(&columns) {
-        if let Some(bad) = column.iter().find(|v| !v.is_finite()) {
-            return Err(err(format!("a value of {bad} in the '{name}' channel")));
+    let finite = |names: &[&str], columns: &[Vec<f32>]| -> std::result::Result<(), String> {
+        for (name, column) in names.iter().zip(columns) {
+            if let Some(bad) = column.iter().find(|v| !v.is_finite()) {
+                return Err(err(format!("a value of {bad} in the '{name}' channel")));
+            }
         }
-    }
+        Ok(())
+    };
+    finite(&CHANNELS, &columns)?;
     let gather = |k: usize| {
         (0..w * h)
             .map(|i| Vec3::new(columns[k][i], columns[k + 1][i], columns[k + 2][i]))
@@ -205,11 +209,7 @@ pub fn read_part_bytes(bytes: &[u8], name: &str) -> std::result::Result<Part, St
                 .iter()
                 .map(|n| channel(n))
                 .collect::<std::result::Result<_, _>>()?;
-            for (name, column) in NOISY.iter().zip(&noisy) {
-                if let Some(bad) = column.iter().find(|v| !v.is_finite()) {
-                    return Err(err(format!("a value of {bad} in the '{name}' channel")));
-                }
-            }
+            finite(&NOISY, &noisy)?;
             let mean = (0..w * h)
                 .map(|i| Vec3::new(noisy[0][i], noisy[1][i], noisy[2][i]))
                 .collect();
