@@ -221,6 +221,11 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             ));
         }
     }
+    // One pool of `--threads` workers for loading, building and rendering.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let load_start = Instant::now();
     let options = torrey_parser::LoadOptions {
         overrides: args.define.clone(),
@@ -230,7 +235,9 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         }),
         limits: limits.parser.clone(),
     };
-    let scene = torrey_parser::load_scene_with(scene_path, &options).map_err(|e| e.to_string())?;
+    let scene = pool
+        .install(|| torrey_parser::load_scene_with(scene_path, &options))
+        .map_err(|e| e.to_string())?;
     for w in &scene.warnings {
         eprintln!("{w}");
     }
@@ -243,9 +250,11 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
         BvhWidthArg::Sixteen => torrey_renderer::BvhWidth::Sixteen,
     };
-    let render_scene =
-        torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width)
-            .map_err(|e| e.to_string())?;
+    let render_scene = pool
+        .install(|| {
+            torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width)
+        })
+        .map_err(|e| e.to_string())?;
     for w in &render_scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -296,10 +305,6 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         bar.set_position(done);
     };
     let report = |r: &torrey_renderer::PassReport| bar.set_message(pass_message(r));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let slice = torrey_renderer::RenderSlice {
         crop: slicing::default_crop(args.crop, &scene.film, args.size),
         samples: args.sample_range.map_or(0..settings.spp, |(a, b)| a..b),
@@ -325,7 +330,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         eprintln!("denoised in {seconds:.2} s");
     }
     let write_start = Instant::now();
-    let png = slicing::write_outputs(&output, &part)?;
+    let png = pool.install(|| slicing::write_outputs(&output, &part))?;
     let write_time = write_start.elapsed();
 
     // Samples that counted (adaptive sampling and time limits give pixels their own counts).

@@ -37,6 +37,7 @@ use obvhs::bvh2::{Bvh2, DEFAULT_MAX_STACK_DEPTH};
 use obvhs::ploc::morton::{morton_encode_u128_unorm, morton_encode_u64_unorm};
 use obvhs::ploc::{PlocSearchDistance, SortPrecision};
 use obvhs::BvhBuildParams;
+use rayon::prelude::*;
 use rdst::{RadixKey, RadixSort};
 
 /// A pass that merges fewer than 1/FORCE_RATIO of its nodes makes too little progress.
@@ -50,6 +51,13 @@ const FORCE_MIN_NODES: usize = 64;
 /// searches for: ordinary meshes take 50 to 150 (the scenes of scenes/ and
 /// ../shared/scenes/mitsuba-real: at most 94), the budget several times that.
 const REINSERTION_VISITS_PER_CANDIDATE: u64 = 512;
+
+/// Reinsertion searches run in parallel in chunks of this many candidates.
+const SEARCH_CHUNK: usize = 256;
+
+/// PLOC passes over at least this many nodes search their neighbours in parallel (in pieces
+/// of this many nodes).
+const PARALLEL_NODES: usize = 4096;
 
 /// obvhs's `bvh2::builder::build_bvh2` over boxes, with [`ploc`] for its clustering and
 /// [`reinsert`] for its optimizer.
@@ -202,15 +210,29 @@ pub(super) fn reinsert(bvh: &mut Bvh2, batch_size_ratio: f32) -> ReinsertionStat
         candidates.radix_sort_unstable();
         touched.fill(false);
         reinsertions.clear();
-        for candidate in &candidates[..node_count - 1] {
-            if stats.visits > budget {
-                stats.out_of_budget = true;
-                break;
-            }
-            stats.candidates += 1;
-            let r = find_reinsertion(bvh, candidate.node_id as usize, &mut stats.visits);
-            if r.area_diff > 0.0 {
-                reinsertions.push(r);
+        // The searches only read the tree: a chunk of them runs in parallel, and their
+        // results are taken in order as the sequential loop would take them (the budget
+        // checked before each), so the tree is the same; past the budget at most one chunk's
+        // searches are wasted.
+        'search: for chunk in candidates[..node_count - 1].chunks(SEARCH_CHUNK) {
+            let found: Vec<(Reinsertion, u64)> = chunk
+                .par_iter()
+                .map(|candidate| {
+                    let mut visits = 0;
+                    let r = find_reinsertion(bvh, candidate.node_id as usize, &mut visits);
+                    (r, visits)
+                })
+                .collect();
+            for (r, visits) in found {
+                if stats.visits > budget {
+                    stats.out_of_budget = true;
+                    break 'search;
+                }
+                stats.candidates += 1;
+                stats.visits += visits;
+                if r.area_diff > 0.0 {
+                    reinsertions.push(r);
+                }
             }
         }
         reinsertions.sort_unstable_by(|a, b| b.area_diff.partial_cmp(&a.area_diff).unwrap());
@@ -428,29 +450,37 @@ fn ploc_with<const SEARCH: usize>(
         let merge = &mut merge[..count];
         if SEARCH == 1 || depth < search_depth_threshold {
             // Each node towards the cheaper of its two neighbours (obvhs's first passes).
+            let costs: Vec<f32> = (0..count - 1)
+                .into_par_iter()
+                .with_min_len(PARALLEL_NODES)
+                .map(|i| cost(&nodes[i], &nodes[i + 1]))
+                .collect();
             let mut last_cost = f32::INFINITY;
-            for i in 0..count - 1 {
-                let c = cost(&nodes[i], &nodes[i + 1]);
-                merge[i] = if last_cost < c { -1 } else { 1 };
+            for (m, &c) in merge.iter_mut().zip(&costs) {
+                *m = if last_cost < c { -1 } else { 1 };
                 last_cost = c;
             }
             merge[count - 1] = -1;
         } else {
             // The cheapest union within SEARCH places, ties to the last (obvhs's `<=`).
-            for (index, best) in merge.iter_mut().enumerate() {
-                let mut best_node = index;
-                let mut best_cost = f32::INFINITY;
-                let begin = index - SEARCH.min(index);
-                let end = (index + SEARCH + 1).min(count);
-                for other in (begin..index).chain(index + 1..end) {
-                    let c = cost(&nodes[other], &nodes[index]);
-                    if c <= best_cost {
-                        best_node = other;
-                        best_cost = c;
+            merge
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(PARALLEL_NODES)
+                .for_each(|(index, best)| {
+                    let mut best_node = index;
+                    let mut best_cost = f32::INFINITY;
+                    let begin = index - SEARCH.min(index);
+                    let end = (index + SEARCH + 1).min(count);
+                    for other in (begin..index).chain(index + 1..end) {
+                        let c = cost(&nodes[other], &nodes[index]);
+                        if c <= best_cost {
+                            best_node = other;
+                            best_cost = c;
+                        }
                     }
-                }
-                *best = (best_node as i64 - index as i64) as i8;
-            }
+                    *best = (best_node as i64 - index as i64) as i8;
+                });
         }
         let mutual = |merge: &[i8], i: usize| {
             let best = (i as i64 + merge[i] as i64) as usize;

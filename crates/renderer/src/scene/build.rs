@@ -5,7 +5,7 @@
 
 use super::build_lights::build_light;
 use super::build_shapes::{build_shapes, ShapeSet};
-use super::build_textures::{build_camera, build_texture};
+use super::build_textures::{build_camera, build_textures, emission_texture};
 use super::{Material, RenderScene};
 use crate::accel::instances::{GroupAccel, Instances};
 use crate::accel::{Accel, BvhWidth, PrimGeom};
@@ -40,12 +40,6 @@ impl RenderScene {
         bvh_width: BvhWidth,
     ) -> Result<Self, BuildError> {
         let camera = build_camera(&scene.camera, width, height)?;
-        let mut warnings = Vec::new();
-        let textures = scene
-            .textures
-            .iter()
-            .map(|t| build_texture(t, &mut warnings))
-            .collect::<Result<Vec<_>, _>>()?;
         let torrey_dialect = scene.dialect == desc::Dialect::Torrey;
         let mut materials: Vec<Material> = scene
             .bsdfs
@@ -64,35 +58,74 @@ impl RenderScene {
             false,
         ));
 
-        let mut lights = Vec::new();
-        let ShapeSet {
-            mesh,
-            prims,
-            shapes,
-            world_geoms,
-            group_geoms,
-            group_first_prim,
-            attributes,
-        } = build_shapes(
-            scene,
-            &textures,
-            default_material,
-            &mut lights,
-            &mut warnings,
-        )?;
-
+        // The textures and the other lights (decoding images, building mip-maps and sampling
+        // tables) beside the shapes and their BVHs: the two halves share nothing, and a
+        // textured interior spends as long on the one as on the other.
+        let (textures_and_lights, geometry) = rayon::join(
+            || -> Result<_, BuildError> {
+                let mut warnings = Vec::new();
+                let textures = build_textures(&scene.textures, &mut warnings)?;
+                let mut lights = Vec::new();
+                for light in &scene.lights {
+                    if let Some(light) = build_light(light, scene, &textures, &mut warnings)? {
+                        lights.push(light);
+                    }
+                }
+                Ok((textures, lights, warnings))
+            },
+            || -> Result<_, BuildError> {
+                let mut area_lights = Vec::new();
+                let mut warnings = Vec::new();
+                let set = build_shapes(scene, default_material, &mut area_lights, &mut warnings)?;
+                debug_assert!(set.world_geoms.iter().all(PrimGeom::is_finite));
+                let accel = Accel::build_with(&set.world_geoms, &set.mesh.sdf_voxels, bvh_width);
+                let instances = build_instances(
+                    scene,
+                    &set.group_geoms,
+                    &set.group_first_prim,
+                    &set.mesh.sdf_voxels,
+                    bvh_width,
+                );
+                Ok((set, area_lights, accel, instances, warnings))
+            },
+        );
+        let (mut textures, other_lights, mut warnings) = textures_and_lights?;
+        let (
+            ShapeSet {
+                mesh,
+                prims,
+                shapes,
+                attributes,
+                textured_emitters,
+                ..
+            },
+            mut lights,
+            accel,
+            instances,
+            shape_warnings,
+        ) = geometry?;
+        warnings.extend(shape_warnings);
+        for e in textured_emitters {
+            if let Light::Area(light) = &mut lights[e.light] {
+                light.texture = light.texture.as_ref().map(|t| {
+                    emission_texture(
+                        t.texture,
+                        &textures,
+                        &scene.shapes[e.shape],
+                        &shapes[e.shape].kind,
+                        &prims[e.prims],
+                    )
+                });
+            }
+        }
         let mut infinite_lights = Vec::new();
-        for light in &scene.lights {
-            let Some(light) = build_light(light, scene, &textures, &mut warnings)? else {
-                continue;
-            };
+        for light in other_lights {
             if light.is_infinite() {
                 infinite_lights.push(lights.len() as u32);
             }
             lights.push(light);
         }
 
-        let mut textures = textures;
         for (t, desc_texture) in textures.iter_mut().zip(&scene.textures) {
             if let (
                 Texture::MeshAttribute { by_shape, .. },
@@ -105,15 +138,6 @@ impl RenderScene {
             }
         }
 
-        debug_assert!(world_geoms.iter().all(PrimGeom::is_finite));
-        let accel = Accel::build_with(&world_geoms, &mesh.sdf_voxels, bvh_width);
-        let instances = build_instances(
-            scene,
-            &group_geoms,
-            &group_first_prim,
-            &mesh.sdf_voxels,
-            bvh_width,
-        );
         let has_area_lights = shapes.iter().any(|s| s.area_light.is_some());
         let any_uv = shapes.iter().any(|s| {
             materials

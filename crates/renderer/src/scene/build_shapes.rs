@@ -3,8 +3,7 @@
 //! and the area lights of emitting shapes.
 
 use super::build::BuildError;
-use super::build_textures::emission_texture;
-use crate::lights::{AreaEmitter, AreaLight, Light};
+use crate::lights::{AreaEmitter, AreaLight, EmissionTexture, Light};
 use crate::shapes::attributes::{AttributeData, MeshAttributes};
 use crate::shapes::cylinder::Cylinder;
 use crate::shapes::disk::Disk;
@@ -12,7 +11,6 @@ use crate::shapes::mesh::{MeshData, MeshEmitter, MeshShape};
 use crate::shapes::sdfgrid::{SdfGridData, SdfGridShape};
 use crate::shapes::sphere::Sphere;
 use crate::shapes::{PrimGeom, PrimInfo, Shape, ShapeKind};
-use crate::textures::Texture;
 use glam::Vec3A;
 use torrey_parser as desc;
 
@@ -28,13 +26,23 @@ pub(super) struct ShapeSet {
     pub group_geoms: Vec<Vec<PrimGeom>>,
     pub group_first_prim: Vec<u32>,
     pub attributes: MeshAttributes,
+    /// The area lights whose radiance is a texture: their [`EmissionTexture`]'s sampling is
+    /// filled in once the textures are built (they are built beside the shapes).
+    pub textured_emitters: Vec<TexturedEmitter>,
+}
+
+/// An area light with a textured radiance, and the shape and primitives it emits from.
+pub(super) struct TexturedEmitter {
+    pub light: usize,
+    pub shape: usize,
+    pub prims: std::ops::Range<usize>,
 }
 
 /// Builds every shape of `scene` (the world's, then each shape group's), appending the area
-/// lights of emitting shapes to `lights`; shapes without a bsdf get `default_material`.
+/// lights of emitting shapes to `lights`; shapes without a bsdf get `default_material`. Needs no
+/// texture: a textured emitter's sampling is left to be filled in (`textured_emitters`).
 pub(super) fn build_shapes(
     scene: &desc::Scene,
-    textures: &[Texture],
     default_material: u32,
     lights: &mut Vec<Light>,
     warnings: &mut Vec<String>,
@@ -56,6 +64,7 @@ pub(super) fn build_shapes(
         })
         .collect();
     let mut attributes = MeshAttributes::default();
+    let mut textured_emitters = Vec::new();
     // The world's shapes, then each shape group's (in the group's space): a group's
     // primitives get their own list (its BVH's) and contiguous records in `prims` from
     // `group_first_prim`, so that group primitive i is record group_first_prim + i.
@@ -220,9 +229,17 @@ pub(super) fn build_shapes(
                         AreaEmitter::Mesh(MeshEmitter::new(&mesh, shape_prims))
                     }
                 };
-                let texture = shape
-                    .emitter_texture
-                    .map(|t| emission_texture(t as u32, textures, shape, &kind, shape_prims));
+                let texture = shape.emitter_texture.map(|t| {
+                    textured_emitters.push(TexturedEmitter {
+                        light: lights.len(),
+                        shape: shape_index,
+                        prims: first_prim..prims.len(),
+                    });
+                    EmissionTexture {
+                        texture: t as u32,
+                        sampling: None,
+                    }
+                });
                 lights.push(Light::Area(AreaLight {
                     radiance: radiance.into(),
                     texture,
@@ -266,5 +283,6 @@ pub(super) fn build_shapes(
         group_geoms,
         group_first_prim,
         attributes,
+        textured_emitters,
     })
 }

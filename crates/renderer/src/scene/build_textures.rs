@@ -104,6 +104,28 @@ pub(super) fn emission_texture(
     }
 }
 
+/// Every texture of a scene, in its order, built in parallel (decoding a JPEG and building its
+/// mip-map take tens of milliseconds each); their warnings in that order too.
+pub(super) fn build_textures(
+    textures: &[desc::Texture],
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Texture>, BuildError> {
+    use rayon::prelude::*;
+    let built: Vec<_> = textures
+        .par_iter()
+        .map(|t| {
+            let mut own = Vec::new();
+            (build_texture(t, &mut own), own)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(built.len());
+    for (texture, own) in built {
+        warnings.extend(own);
+        out.push(texture?);
+    }
+    Ok(out)
+}
+
 pub(super) fn build_texture(
     t: &desc::Texture,
     warnings: &mut Vec<String>,
