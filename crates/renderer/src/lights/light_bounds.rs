@@ -3,10 +3,8 @@
 //! and in which directions (a cone of surface normals, widened by how far from the normal the
 //! emission reaches), as in pbrt-v4's `LightBounds` (Conty Estevez and Kulla 2018).
 //!
-//! [`LightBounds::importance`] estimates what the light (or a cluster of lights) sends to a point:
-//! power over squared distance, times the cosine of the smallest angle between the cone and the
-//! direction to the point, and the cosine at the receiving surface. It is zero only where nothing
-//! inside the bounds can reach the point (a one-sided emitter facing away from it).
+//! [`super::light_bounds4::LightBounds4::importance`] estimates what a light (or a cluster of
+//! lights) sends to a point from these bounds, four at a time.
 
 use glam::Vec3A;
 use std::f32::consts::PI;
@@ -111,69 +109,6 @@ impl LightBounds {
             two_sided: self.two_sided || other.two_sided,
         }
     }
-
-    /// An estimate of the light these bounds send to point `p`, whose surface normal is `n` (zero:
-    /// a point in space, no cosine there). Zero only where no emitter inside can reach `p`.
-    #[inline]
-    pub fn importance(&self, p: Vec3A, n: Vec3A) -> f32 {
-        let centre = self.centroid();
-        let diagonal = self.max - self.min;
-        let radius2 = 0.25 * diagonal.length_squared();
-        let to_p = p - centre;
-        let len2 = to_p.length_squared();
-        // Squared distance, kept from getting small inside the bounds (pbrt's clamp).
-        let d2 = len2.max(radius2.sqrt());
-        let inv_len = if len2 > 0.0 { len2.sqrt().recip() } else { 0.0 };
-        let wi = if len2 > 0.0 { to_p * inv_len } else { Vec3A::Z };
-        // The angle the bounds' sphere subtends from p: inside it, every direction.
-        let (sin_b, cos_b) = if len2 > radius2 {
-            let sin2 = radius2 * inv_len * inv_len;
-            (sin2.sqrt(), (1.0 - sin2).max(0.0).sqrt())
-        } else {
-            (0.0, -1.0)
-        };
-        // The angle between the cone's axis and the direction to p, less the cone's and the
-        // bounds' angles: no emitter normal inside faces p more directly than that.
-        let mut cos_w = self.normals.w.dot(wi);
-        if self.two_sided {
-            cos_w = cos_w.abs();
-        }
-        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-        let cos_o = self.normals.cos_theta;
-        let sin_o = (1.0 - cos_o * cos_o).max(0.0).sqrt();
-        let (cos_x, sin_x) = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
-        let (cos_p, _) = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-        // A margin below the emission's edge keeps rounding from zeroing a light that reaches
-        // p (a zero must be exact: that light is then never chosen there).
-        if cos_p <= self.cos_theta_e - 1e-4 {
-            return 0.0;
-        }
-        let mut importance = self.phi * cos_p.max(1e-4) / d2;
-        if n != Vec3A::ZERO {
-            // The cosine at the receiver, either side (transmission counts), less the bounds'
-            // angle; never zero (a shading normal need not be the geometric one).
-            let cos_i = wi.dot(n).abs();
-            let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
-            importance *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b).0.max(1e-2);
-        }
-        if importance.is_finite() {
-            importance.max(0.0)
-        } else {
-            0.0
-        }
-    }
-}
-
-/// cos and sin of max(0, a − b) for angles given by their sines and cosines.
-#[inline(always)]
-fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> (f32, f32) {
-    if cos_a > cos_b {
-        return (1.0, 0.0);
-    }
-    (
-        cos_a * cos_b + sin_a * sin_b,
-        (sin_a * cos_b - cos_a * sin_b).max(0.0),
-    )
 }
 
 /// The luminance of linear sRGB `c` (Rec. 709 weights), the power measure of the light tree.
@@ -222,29 +157,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// A one-sided emitter facing away has no importance behind it; facing the point it has.
-    #[test]
-    fn importance_is_zero_only_behind_one_sided_emitters() {
-        let b = LightBounds {
-            min: Vec3A::new(-0.5, -0.5, 0.0),
-            max: Vec3A::new(0.5, 0.5, 0.0),
-            phi: 1.0,
-            normals: DirectionCone {
-                w: Vec3A::Z,
-                cos_theta: 1.0,
-            },
-            cos_theta_e: 0.0,
-            two_sided: false,
-        };
-        assert!(b.importance(Vec3A::new(0.0, 0.0, 2.0), Vec3A::ZERO) > 0.0);
-        assert!(b.importance(Vec3A::new(3.0, 0.0, 0.01), -Vec3A::X) > 0.0);
-        assert_eq!(b.importance(Vec3A::new(0.0, 0.0, -2.0), Vec3A::ZERO), 0.0);
-        let two = LightBounds {
-            two_sided: true,
-            ..b
-        };
-        assert!(two.importance(Vec3A::new(0.0, 0.0, -2.0), Vec3A::ZERO) > 0.0);
     }
 }

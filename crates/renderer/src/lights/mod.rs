@@ -10,6 +10,7 @@ mod directional;
 mod emission_texture;
 mod envmap;
 mod light_bounds;
+mod light_bounds4;
 mod point;
 mod projector;
 mod selection;

@@ -1,6 +1,7 @@
 //! Which light next-event estimation samples: a light tree (pbrt-v4's `BVHLightSampler`, after
-//! Conty Estevez and Kulla 2018) over the lights with a position, walked from the root by each
-//! cluster's estimated contribution to the shading point ([`LightBounds::importance`]); lights at
+//! Conty Estevez and Kulla 2018, with four children per node) over the lights with a position,
+//! walked from the root by each cluster's estimated contribution to the shading point (the four
+//! children's at once, [`LightBounds4::importance`]); lights at
 //! infinity (environment maps, constant backgrounds, directional lights) are chosen with their
 //! share of the lights' count, independently of the point.
 //!
@@ -20,17 +21,25 @@
 //! choice for multiple importance sampling.
 
 use super::light_bounds::LightBounds;
+use super::light_bounds4::LightBounds4;
 use super::Light;
 use glam::Vec3A;
 
-/// A node of the light tree: a light (leaf) or two subtrees (the first right after the node).
+/// A node of the light tree: up to four children, each a light or a subtree, with their bounds
+/// side by side.
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: LightBounds,
-    /// Leaf: the light's index; inner node: the second child's node index.
-    child_or_light: u32,
-    leaf: bool,
+    bounds: LightBounds4,
+    /// Per child: the light's index (a leaf) or the subtree's node index.
+    children: [u32; 4],
+    /// Bit k: child k is a light.
+    leaves: u8,
+    /// How many of the four children there are (1 to 4; the rest are empty lanes).
+    count: u8,
 }
+
+/// Bits of a light's trail per level: which of a node's four children the walk takes.
+const TRAIL_BITS: u32 = 2;
 
 /// The outcome of [`LightSelection::choose_early`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,9 +59,9 @@ pub enum EarlyChoice {
 const UNIFORM_SHARE: f32 = 0.5;
 
 /// The fewest lights with a position for which a tree is built; fewer are chosen uniformly, as
-/// Mitsuba does. The walk costs about two bound evaluations per level: on veach-direct (5 sphere
-/// lights) the tree took 18% more render time for the same error, on stage-lights (400 lamps)
-/// 29% more time for 4.5x lower error (relMSE at 32 spp, worst 0.1% of pixels left out).
+/// Mitsuba does. (With a binary tree, two bound evaluations per level, veach-direct's 5 sphere
+/// lights took 18% more render time for the same error; stage-lights' 400 lamps 29% more time
+/// for 4.5x lower error, relMSE at 32 spp, worst 0.1% of pixels left out.)
 const TREE_MIN_LIGHTS: usize = 8;
 
 /// How lights are chosen for next-event estimation (see the module).
@@ -63,8 +72,9 @@ pub struct LightSelection {
     /// The probability of choosing among `unbounded` (each then `p_unbounded / len`).
     p_unbounded: f32,
     nodes: Vec<Node>,
-    /// Per light: the path from the root to its leaf (bit k: second child at depth k) and its
-    /// depth; `u8::MAX` depth for lights not in the tree.
+    /// Per light: the path from the root to its leaf ([`TRAIL_BITS`] bits per level, the child
+    /// taken at that depth, from the lowest bits) and its depth (the levels walked); `u8::MAX`
+    /// depth for lights not in the tree.
     trails: Vec<(u64, u8)>,
     /// The tree's lights, for the uniform share of its choices.
     tree_lights: Vec<u32>,
@@ -105,50 +115,51 @@ impl LightSelection {
         selection
     }
 
-    /// Builds the subtree over `lights` at depth `depth` with root trail `trail`; returns its
-    /// node index. Clusters are split at the median of their centroids along the longest axis
-    /// of the centroids' box (a balanced tree: depth ≤ 64 for any light count).
+    /// Builds the subtree over `lights` (two or more, or one only for a tree of one light) at
+    /// depth `depth` with root trail `trail`; returns its node index. A cluster is split at the
+    /// median of its centroids along the longest axis of their box, and each half again: four
+    /// children (a balanced tree, depth about log4 of the count).
     fn build(&mut self, lights: &mut [(u32, LightBounds)], trail: u64, depth: u8) -> usize {
         let index = self.nodes.len();
-        if lights.len() == 1 || depth >= 63 {
-            // (A depth of 63 needs 2^63 lights; the second test keeps the trail's bits valid.)
-            let (light, bounds) = lights[0];
-            self.nodes.push(Node {
-                bounds,
-                child_or_light: light,
-                leaf: true,
-            });
-            self.trails[light as usize] = (trail, depth);
-            return index;
-        }
-        let bounds = lights[1..]
-            .iter()
-            .fold(lights[0].1, |acc, (_, b)| acc.union(b));
         self.nodes.push(Node {
-            bounds,
-            child_or_light: 0,
-            leaf: false,
+            bounds: LightBounds4::new([None; 4]),
+            children: [0; 4],
+            leaves: 0,
+            count: 0,
         });
-        let (lo, hi) = lights.iter().fold(
-            (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)),
-            |(lo, hi), (_, b)| (lo.min(b.centroid()), hi.max(b.centroid())),
-        );
-        let extent = hi - lo;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
+        let mut groups: Vec<&mut [(u32, LightBounds)]> = Vec::with_capacity(4);
+        if lights.len() <= 4 {
+            groups.extend(lights.chunks_mut(1));
         } else {
-            2
+            let (a, b) = split_at_median(lights);
+            let (a0, a1) = split_at_median(a);
+            let (b0, b1) = split_at_median(b);
+            groups.extend([a0, a1, b0, b1]);
+        }
+        let mut bounds = [None; 4];
+        let mut children = [0u32; 4];
+        let mut leaves = 0u8;
+        for (k, group) in groups.into_iter().enumerate() {
+            bounds[k] = Some(
+                group[1..]
+                    .iter()
+                    .fold(group[0].1, |acc, (_, b)| acc.union(b)),
+            );
+            let child_trail = trail | (k as u64) << (TRAIL_BITS * depth as u32);
+            if let [(light, _)] = group {
+                leaves |= 1 << k;
+                children[k] = *light;
+                self.trails[*light as usize] = (child_trail, depth + 1);
+            } else {
+                children[k] = self.build(group, child_trail, depth + 1) as u32;
+            }
+        }
+        self.nodes[index] = Node {
+            bounds: LightBounds4::new(bounds),
+            children,
+            leaves,
+            count: bounds.iter().flatten().count() as u8,
         };
-        let mid = lights.len() / 2;
-        lights.select_nth_unstable_by(mid, |a, b| {
-            a.1.centroid()[axis].total_cmp(&b.1.centroid()[axis])
-        });
-        let (first, second) = lights.split_at_mut(mid);
-        self.build(first, trail, depth + 1);
-        let second_index = self.build(second, trail | (1u64 << depth), depth + 1);
-        self.nodes[index].child_or_light = second_index as u32;
         index
     }
 
@@ -168,9 +179,9 @@ impl LightSelection {
             };
         }
         let p_tree = 1.0 - self.p_unbounded;
-        if self.nodes[0].leaf {
+        if let [light] = self.tree_lights[..] {
             return EarlyChoice::Light {
-                index: self.nodes[0].child_or_light as usize,
+                index: light as usize,
                 pmf: p_tree,
             };
         }
@@ -213,27 +224,32 @@ impl LightSelection {
         let mut prob = 1.0f32;
         loop {
             let current = &self.nodes[node];
-            if current.leaf {
-                return Some((current.child_or_light as usize, prob));
-            }
-            let (a, b) = (node + 1, current.child_or_light as usize);
-            let ia = self.nodes[a].bounds.importance(p, n);
-            let ib = self.nodes[b].bounds.importance(p, n);
-            let total = ia + ib;
+            let importance = current.bounds.importance(p, n).to_array();
+            let total = total(&importance);
             if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return None;
             }
-            let pa = ia / total;
-            // The same products as `walk_pmf` forms.
-            if u < pa {
-                u = (u / pa).min(ONE_BELOW);
-                prob *= pa;
-                node = a;
-            } else {
-                u = ((u - pa) / (1.0 - pa)).clamp(0.0, ONE_BELOW);
-                prob *= ib / total;
-                node = b;
+            // The child whose share of the total holds u (the last important one where
+            // rounding leaves u past them all); u rescaled to within that share.
+            let target = u * total;
+            let mut before = 0.0;
+            let mut k = 0;
+            for (lane, &i) in importance.iter().enumerate().take(current.count as usize) {
+                if i > 0.0 {
+                    k = lane;
+                    if target < before + i {
+                        break;
+                    }
+                    before += i;
+                }
             }
+            u = ((target - before) / importance[k]).clamp(0.0, ONE_BELOW);
+            // The same product as `walk_pmf` forms.
+            prob *= importance[k] / total;
+            if current.leaves >> k & 1 == 1 {
+                return Some((current.children[k] as usize, prob));
+            }
+            node = current.children[k] as usize;
         }
     }
 
@@ -243,22 +259,16 @@ impl LightSelection {
         let (trail, depth) = self.trails[index];
         let mut prob = 1.0f32;
         let mut node = 0usize;
-        for level in 0..depth {
+        for level in 0..depth as u32 {
             let current = &self.nodes[node];
-            let (a, b) = (node + 1, current.child_or_light as usize);
-            let ia = self.nodes[a].bounds.importance(p, n);
-            let ib = self.nodes[b].bounds.importance(p, n);
-            let total = ia + ib;
+            let importance = current.bounds.importance(p, n).to_array();
+            let total = total(&importance);
             if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return 0.0;
             }
-            if trail >> level & 1 == 0 {
-                prob *= ia / total;
-                node = a;
-            } else {
-                prob *= ib / total;
-                node = b;
-            }
+            let k = (trail >> (TRAIL_BITS * level) & 3) as usize;
+            prob *= importance[k] / total;
+            node = current.children[k] as usize;
         }
         prob
     }
@@ -274,7 +284,7 @@ impl LightSelection {
                 0.0
             };
         }
-        if depth == 0 {
+        if self.tree_lights.len() == 1 {
             // The tree is one light.
             return 1.0 - self.p_unbounded;
         }
@@ -294,6 +304,37 @@ impl LightSelection {
 
 /// The largest f32 below 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// The sum of a node's four importances, in one fixed order (the walk and its pmf must agree to
+/// the bit).
+#[inline(always)]
+fn total(importance: &[f32; 4]) -> f32 {
+    (importance[0] + importance[1]) + (importance[2] + importance[3])
+}
+
+/// `lights` (two or more) split at the median of their centroids along the longest axis of the
+/// centroids' box.
+fn split_at_median(
+    lights: &mut [(u32, LightBounds)],
+) -> (&mut [(u32, LightBounds)], &mut [(u32, LightBounds)]) {
+    let (lo, hi) = lights.iter().fold(
+        (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)),
+        |(lo, hi), (_, b)| (lo.min(b.centroid()), hi.max(b.centroid())),
+    );
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = lights.len() / 2;
+    lights.select_nth_unstable_by(mid, |a, b| {
+        a.1.centroid()[axis].total_cmp(&b.1.centroid()[axis])
+    });
+    lights.split_at_mut(mid)
+}
 
 #[cfg(test)]
 mod tests {
