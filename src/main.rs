@@ -250,11 +250,16 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
         BvhWidthArg::Sixteen => torrey_renderer::BvhWidth::Sixteen,
     };
-    let render_scene = pool
-        .install(|| {
-            torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width)
-        })
-        .map_err(|e| e.to_string())?;
+    // The scene's content hash (for the part's metadata: every file it names read again)
+    // beside the build.
+    let (render_scene, scene_hash) = pool.install(|| {
+        rayon::join(
+            || torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width),
+            || torrey_parts::scene_hash(&scene, &args.define),
+        )
+    });
+    let render_scene = render_scene.map_err(|e| e.to_string())?;
+    let scene_hash = scene_hash?;
     for w in &render_scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -310,7 +315,7 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         samples: args.sample_range.map_or(0..settings.spp, |(a, b)| a..b),
     };
     slice.validate(width, height, settings.spp)?;
-    let meta = slicing::part_meta(&scene, &args.define, &settings, (width, height), &slice)?;
+    let meta = slicing::part_meta(&scene, scene_hash, &settings, (width, height), &slice)?;
     let cpu_before = process_cpu_seconds();
     let out = pool.install(|| {
         torrey_renderer::render_slice_reporting(

@@ -60,14 +60,14 @@ pub fn default_crop(
 /// the slice.
 pub fn part_meta(
     scene: &torrey_parser::Scene,
-    defines: &[(String, String)],
+    scene_hash: String,
     settings: &torrey_renderer::RenderSettings,
     (width, height): (u32, u32),
     slice: &torrey_renderer::RenderSlice,
 ) -> Result<PartMeta, String> {
     Ok(PartMeta {
         scene: scene.path.display().to_string(),
-        scene_hash: torrey_parts::scene_hash(scene, defines)?,
+        scene_hash,
         settings: torrey_parts::settings_text(settings),
         width,
         height,

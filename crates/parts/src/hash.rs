@@ -48,21 +48,28 @@ pub fn scene_hash(scene: &Scene, defines: &[(String, String)]) -> Result<String,
             h.bytes(s.as_bytes());
         }
     }
-    let mut file_hashes: HashMap<&Path, u64> = HashMap::new();
-    h.u64(files.len() as u64);
-    for f in files {
-        let fh = match file_hashes.get(f.as_path()) {
-            Some(&fh) => fh,
-            None => {
+    // Each distinct file hashed once, in parallel (a furnished interior names tens of megabytes
+    // of meshes and images), then their hashes taken in the scene's order.
+    use rayon::prelude::*;
+    let mut distinct: Vec<&Path> = files.iter().map(|f| f.as_path()).collect();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let hashes: HashMap<&Path, Result<u64, String>> = distinct
+        .par_iter()
+        .map(|&f| {
+            let hash = read(f).map(|data| {
                 let mut g = Fnv::new();
-                let data = read(f)?;
                 g.u64(data.len() as u64);
                 g.bytes(&data);
-                file_hashes.insert(f, g.0);
                 g.0
-            }
-        };
-        h.u64(fh);
+            });
+            (f, hash)
+        })
+        .collect();
+    h.u64(files.len() as u64);
+    // The first file in the scene's order that cannot be read is the one reported.
+    for f in files {
+        h.u64(hashes[f.as_path()].clone()?);
     }
     Ok(format!("{:016x}", h.0))
 }
