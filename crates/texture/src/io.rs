@@ -240,16 +240,22 @@ fn check_exr_header(bytes: &[u8], limit: u64) -> Result<(), String> {
 
 /// Replaces NaN/inf/negative channels with 0 and returns how many were replaced.
 fn sanitize(pixels: &mut [Vec3]) -> usize {
-    let mut bad = 0;
-    for p in pixels.iter_mut() {
-        for c in [&mut p.x, &mut p.y, &mut p.z] {
-            if !(c.is_finite() && *c >= 0.0) {
-                *c = 0.0;
-                bad += 1;
+    use rayon::prelude::*;
+    pixels
+        .par_chunks_mut(1 << 14)
+        .map(|chunk| {
+            let mut bad = 0;
+            for p in chunk {
+                for c in [&mut p.x, &mut p.y, &mut p.z] {
+                    if !(c.is_finite() && *c >= 0.0) {
+                        *c = 0.0;
+                        bad += 1;
+                    }
+                }
             }
-        }
-    }
-    bad
+            bad
+        })
+        .sum()
 }
 
 type Decoded = (Image, Vec<String>);
@@ -320,7 +326,10 @@ fn decode_with_image_crate(
                 }
             };
             let rgb = dynimg.into_rgb8();
-            rgb.pixels()
+            use rayon::prelude::*;
+            rgb.as_raw()
+                .par_chunks_exact(3)
+                .with_min_len(1 << 14)
                 .map(|p| Vec3::new(conv(p[0]), conv(p[1]), conv(p[2])))
                 .collect()
         }

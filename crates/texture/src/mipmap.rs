@@ -137,20 +137,29 @@ fn downsample(img: &Image) -> Image {
     let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
     let wx = box_weights(w, nw);
     let wy = box_weights(h, nh);
-    // Horizontal pass into an nw x h buffer, then vertical pass.
+    // Horizontal pass into an nw x h buffer, then vertical pass; rows in parallel (a large
+    // texture's pyramid is the longest single task of a scene's build).
+    use rayon::prelude::*;
+    const ROWS: usize = 16;
     let mut tmp = vec![Vec3::ZERO; nw * h];
-    for y in 0..h {
-        let row = &img.pixels[y * w..(y + 1) * w];
-        for (x, taps) in wx.iter().enumerate() {
-            tmp[y * nw + x] = taps.iter().map(|&(j, k)| row[j] * k).sum();
-        }
-    }
+    tmp.par_chunks_mut(nw)
+        .with_min_len(ROWS)
+        .enumerate()
+        .for_each(|(y, out_row)| {
+            let row = &img.pixels[y * w..(y + 1) * w];
+            for (out, taps) in out_row.iter_mut().zip(&wx) {
+                *out = taps.iter().map(|&(j, k)| row[j] * k).sum();
+            }
+        });
     let mut out = vec![Vec3::ZERO; nw * nh];
-    for (y, taps) in wy.iter().enumerate() {
-        for x in 0..nw {
-            out[y * nw + x] = taps.iter().map(|&(j, k)| tmp[j * nw + x] * k).sum();
-        }
-    }
+    out.par_chunks_mut(nw)
+        .with_min_len(ROWS)
+        .zip(&wy)
+        .for_each(|(out_row, taps)| {
+            for (x, out) in out_row.iter_mut().enumerate() {
+                *out = taps.iter().map(|&(j, k)| tmp[j * nw + x] * k).sum();
+            }
+        });
     Image::new(nw as u32, nh as u32, out)
 }
 

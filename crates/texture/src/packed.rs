@@ -29,7 +29,12 @@ impl PackedLevel {
     /// lookups that wrap with `wrap`.
     pub(crate) fn new(img: &Image, wrap: WrapMode) -> Self {
         let n = img.width as usize * img.height as usize;
-        let texels: Box<[Vec3A]> = img.pixels[..n].iter().map(|&p| p.into()).collect();
+        use rayon::prelude::*;
+        let texels: Box<[Vec3A]> = img.pixels[..n]
+            .par_iter()
+            .with_min_len(1 << 14)
+            .map(|&p| p.into())
+            .collect();
         Self {
             texels,
             width: img.width,
