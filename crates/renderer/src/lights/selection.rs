@@ -119,7 +119,7 @@ impl LightSelection {
     /// depth `depth` with root trail `trail`; returns its node index. A cluster is split at the
     /// median of its centroids along the longest axis of their box, and each half again: four
     /// children (a balanced tree, depth about log4 of the count).
-    fn build(&mut self, lights: &mut [(u32, LightBounds)], trail: u64, depth: u8) -> usize {
+    fn build(&mut self, lights: &mut Cluster, trail: u64, depth: u8) -> usize {
         let index = self.nodes.len();
         self.nodes.push(Node {
             bounds: LightBounds4::new([None; 4]),
@@ -127,7 +127,7 @@ impl LightSelection {
             leaves: 0,
             count: 0,
         });
-        let mut groups: Vec<&mut [(u32, LightBounds)]> = Vec::with_capacity(4);
+        let mut groups: Vec<&mut Cluster> = Vec::with_capacity(4);
         if lights.len() <= 4 {
             groups.extend(lights.chunks_mut(1));
         } else {
@@ -312,11 +312,12 @@ fn total(importance: &[f32; 4]) -> f32 {
     (importance[0] + importance[1]) + (importance[2] + importance[3])
 }
 
+/// Lights with their bounds, as the tree is built over them.
+type Cluster = [(u32, LightBounds)];
+
 /// `lights` (two or more) split at the median of their centroids along the longest axis of the
 /// centroids' box.
-fn split_at_median(
-    lights: &mut [(u32, LightBounds)],
-) -> (&mut [(u32, LightBounds)], &mut [(u32, LightBounds)]) {
+fn split_at_median(lights: &mut Cluster) -> (&mut Cluster, &mut Cluster) {
     let (lo, hi) = lights.iter().fold(
         (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)),
         |(lo, hi), (_, b)| (lo.min(b.centroid()), hi.max(b.centroid())),
