@@ -369,7 +369,10 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
         write_time.as_secs_f64(),
     );
     if out.passes > 1 || settings.noise_threshold.is_some() {
-        eprintln!("{}", passes_summary(&out, settings.noise_threshold));
+        eprintln!(
+            "{}",
+            passes_summary(&out, settings.noise_threshold, settings.spp)
+        );
     }
     if out.nonfinite_samples > 0 {
         eprintln!(
@@ -411,8 +414,9 @@ fn pass_message(r: &torrey_renderer::PassReport) -> String {
 }
 
 /// One line on a render in passes: passes, samples per pixel (mean and range) and, with a noise
-/// threshold, the share of pixels under it.
-fn passes_summary(out: &torrey_renderer::RenderOutput, threshold: Option<f32>) -> String {
+/// threshold, the share of pixels under it and of those the cap `spp` held over it (the cap is
+/// a hard limit: a threshold it prevents is not met, and the line says so).
+fn passes_summary(out: &torrey_renderer::RenderOutput, threshold: Option<f32>, spp: u32) -> String {
     let n = out.counts.len().max(1);
     let total: u64 = out.counts.iter().map(|&c| c as u64).sum();
     let (lo, hi) = out
@@ -425,15 +429,24 @@ fn passes_summary(out: &torrey_renderer::RenderOutput, threshold: Option<f32>) -
         total as f64 / n as f64
     );
     if let Some(t) = threshold {
-        let under = (0..n)
-            .filter(|&i| {
-                torrey_renderer::relative_error(out.image.pixels[i], out.variance.pixels[i]) < t
-            })
-            .count();
+        let (mut under, mut capped) = (0, 0);
+        for i in 0..out.counts.len() {
+            if torrey_renderer::relative_error(out.image.pixels[i], out.variance.pixels[i]) < t {
+                under += 1;
+            } else if out.counts[i] >= spp {
+                capped += 1;
+            }
+        }
         line += &format!(
             ", {:.1}% of pixels under the threshold {t}",
             100.0 * under as f64 / n as f64
         );
+        if capped > 0 {
+            line += &format!(
+                " ({:.1}% over it at the --spp cap {spp}: a higher cap lets them reach it)",
+                100.0 * capped as f64 / n as f64
+            );
+        }
     }
     line
 }
