@@ -11,7 +11,13 @@ scenes' Mitsuba 3.9.1 references:
     standard error (the EXR's variance) is under it, and the mean spp;
   * the denoiser's time on a 1920x1080 image (--denoise-size).
 
-    python3 bench/clean_image.py [--only a,b] [--threshold 0.05] [--no-build] [--torrey-bin PATH]
+    python3 bench/clean_image.py [--only a,b] [--skip raw256,denoised16,noisy16,threshold,fullhd]
+                                 [--threshold 0.05] [--no-build] [--torrey-bin PATH]
+
+Besides the mitsuba-real scenes, `interior-openings` (scenes/interior_openings.xml, a room lit
+through small openings: uneven noise) against out/refs/interior_openings{,_var}.exr, made by
+bench/mitsuba_reference.py (skipped when missing). Times are the renders' wall clock; the
+adaptive comparison also gives relMSE x CPU seconds (steadier on a shared machine).
 
 Needs torrey built with the `denoise` feature (bash crates/denoise/install-oidn.sh; the script
 builds `cargo build --release --features denoise` unless --no-build) and Mitsuba's venv for
@@ -33,7 +39,11 @@ from real_scenes import REAL_SCENES, rel_mse  # noqa: E402
 
 REAL = os.path.join(SHARED, "scenes", "mitsuba-real")
 # The scenes without media (volpath's media are another issue's work).
-SCENES = ["staircase", "matpreview-copper", "matpreview-glass", "stage-lights", "veach-direct"]
+SCENES = ["staircase", "matpreview-copper", "matpreview-glass", "stage-lights", "veach-direct",
+          "interior-openings"]
+# Scenes of this repository: scene, reference (made by bench/mitsuba_reference.py).
+OWN = {"interior-openings": (os.path.join(REPO, "scenes", "interior_openings.xml"),
+                             os.path.join(REPO, "out", "refs", "interior_openings"))}
 
 
 def channels(path):
@@ -71,14 +81,17 @@ def torrey(scene, out, *args):
     if p.returncode != 0:
         raise RuntimeError("torrey failed (%s):\n%s" % (" ".join(cmd), p.stderr[-2000:]))
     render = float(re.search(r"render ([0-9.]+) s", p.stderr).group(1))
+    cpu = re.search(r"render CPU ([0-9.]+) s", p.stderr)
     dn = re.search(r"denoised in ([0-9.]+) s", p.stderr)
-    return {"wall_s": wall, "render_s": render, "denoise_s": float(dn.group(1)) if dn else None,
+    return {"wall_s": wall, "render_s": render, "cpu_s": float(cpu.group(1)) if cpu else render,
+            "denoise_s": float(dn.group(1)) if dn else None,
             "stderr": p.stderr.strip().splitlines()[-3:]}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only")
+    ap.add_argument("--skip", default="", help="stages to leave out: raw256,denoised16,noisy16,threshold,fullhd")
     ap.add_argument("--seeds", type=int, default=2, help="renders per setting (their mean relMSE)")
     ap.add_argument("--uniform-spp", type=int, default=64)
     ap.add_argument("--adaptive-cap", type=int, default=1024)
@@ -100,14 +113,21 @@ def main():
     work = os.path.join(OUT, "clean")
     os.makedirs(work, exist_ok=True)
     only = set(a.only.split(",")) if a.only else None
+    skip = set(a.skip.split(",")) if a.skip else set()
     result = {"date": datetime.datetime.now().isoformat(timespec="seconds"), "rev": common.git_rev(),
               "cpu": common.cpu_name(), "args": vars(a), "scenes": {}}
     for name in SCENES:
         if only and name not in only:
             continue
-        xml = os.path.join(REAL, REAL_SCENES[name])
-        ref = rgb(channels(os.path.join(REAL, "refs", name + ".exr")))
-        var = rgb(channels(os.path.join(REAL, "refs", name + "_var.exr")))
+        if name in OWN:
+            xml, refbase = OWN[name]
+            if not os.path.exists(refbase + ".exr"):
+                log("== %s: no reference %s.exr (bench/mitsuba_reference.py), skipped" % (name, refbase))
+                continue
+        else:
+            xml, refbase = os.path.join(REAL, REAL_SCENES[name]), os.path.join(REAL, "refs", name)
+        ref = rgb(channels(refbase + ".exr"))
+        var = rgb(channels(refbase + "_var.exr"))
         out = lambda tag: os.path.join(work, "%s_%s.exr" % (name, tag))  # noqa: E731
         log("== %s (load average %.1f)" % (name, os.getloadavg()[0]))
         e = {}
@@ -118,6 +138,8 @@ def main():
                 ("noisy16", ["--spp", 16], ""),
                 ("uniform", ["--spp", a.uniform_spp], ""),
             ]:
+                if tag in skip:
+                    continue
                 runs, errs = [], []
                 for s in range(a.seeds):
                     runs.append(torrey(xml, out(tag), *args, "--seed", 7 + s))
@@ -125,6 +147,8 @@ def main():
                 e[tag] = {"relmse": float(np.mean(errs)),
                           "render_s": float(np.median([r["render_s"] for r in runs])),
                           "wall_s": float(np.median([r["wall_s"] for r in runs])),
+                          "cpu_s": float(np.median([r["cpu_s"] for r in runs])),
+                          "render_s_all": [r["render_s"] for r in runs],
                           "denoise_s": runs[0]["denoise_s"]}
                 log("   %-10s relMSE %.4g, render %.2f s%s" % (
                     tag, e[tag]["relmse"], e[tag]["render_s"],
@@ -138,11 +162,20 @@ def main():
                 errs.append(rel_mse(rgb(ch), ref, var))
                 spp.append(float(ch["count"].mean()))
             e["adaptive"] = {"relmse": float(np.mean(errs)), "mean_spp": float(np.mean(spp)),
-                             "render_s": float(np.median([r["render_s"] for r in runs]))}
+                             "render_s": float(np.median([r["render_s"] for r in runs])),
+                             "cpu_s": float(np.median([r["cpu_s"] for r in runs])),
+                             "render_s_all": [r["render_s"] for r in runs], "relmse_all": errs}
             eff = (e["uniform"]["relmse"] * budget) / (e["adaptive"]["relmse"] * e["adaptive"]["render_s"])
+            eff_cpu = (e["uniform"]["relmse"] * e["uniform"]["cpu_s"]) / (e["adaptive"]["relmse"] * e["adaptive"]["cpu_s"])
             e["adaptive"]["efficiency_ratio"] = eff
+            e["adaptive"]["efficiency_ratio_cpu"] = eff_cpu
             log("   adaptive   relMSE %.4g in %.2f s (%.1f spp on average): relMSE x s %.2fx better"
-                % (e["adaptive"]["relmse"], e["adaptive"]["render_s"], e["adaptive"]["mean_spp"], eff))
+                " (x CPU s: %.2fx; uniform %.2f CPU s, adaptive %.2f)"
+                % (e["adaptive"]["relmse"], e["adaptive"]["render_s"], e["adaptive"]["mean_spp"], eff,
+                   eff_cpu, e["uniform"]["cpu_s"], e["adaptive"]["cpu_s"]))
+            if "threshold" in skip:
+                result["scenes"][name] = e
+                continue
             t = torrey(xml, out("threshold"), "--spp", a.threshold_cap, "--noise-threshold", a.threshold)
             ch = channels(out("threshold"))
             err = relative_errors(ch)
@@ -152,20 +185,24 @@ def main():
                               "capped": float((ch["count"] >= a.threshold_cap).mean()),
                               "mean_spp": float(ch["count"].mean()), "render_s": t["render_s"],
                               "relmse": rel_mse(rgb(ch), ref, var)}
-            log("   threshold  %.1f%% of pixels under %g (%.1f%% at the %d cap), %.0f spp on average, %.1f s"
+            log("   threshold  %.1f%% of pixels under %g (%.1f%% at the %d cap; %s%% of the others), "
+                "%.0f spp on average, %.1f s"
                 % (100 * e["threshold"]["under"], a.threshold, 100 * e["threshold"]["capped"],
-                   a.threshold_cap, e["threshold"]["mean_spp"], t["render_s"]))
+                   a.threshold_cap, "%.1f" % (100 * e["threshold"]["under_uncapped"])
+                   if e["threshold"]["under_uncapped"] is not None else "-",
+                   e["threshold"]["mean_spp"], t["render_s"]))
         except RuntimeError as err:
             e["error"] = str(err).splitlines()[-1]
             log("   failed: %s" % e["error"])
         result["scenes"][name] = e
     # The denoiser alone on a full-HD image (1 spp of the copper scene: its time does not depend
     # on the content).
-    xml = os.path.join(REAL, REAL_SCENES["matpreview-copper"])
-    t = torrey(xml, os.path.join(work, "fullhd.exr"), "--spp", 1, "--size", a.denoise_size, "--denoise")
-    result["denoise_fullhd_s"] = t["denoise_s"]
-    log("denoising %s: %.2f s" % (a.denoise_size, t["denoise_s"]))
-    path = os.path.join(OUT, "clean_image_%s.json" % datetime.date.today().isoformat())
+    if "fullhd" not in skip:
+        xml = os.path.join(REAL, REAL_SCENES["matpreview-copper"])
+        t = torrey(xml, os.path.join(work, "fullhd.exr"), "--spp", 1, "--size", a.denoise_size, "--denoise")
+        result["denoise_fullhd_s"] = t["denoise_s"]
+        log("denoising %s: %.2f s" % (a.denoise_size, t["denoise_s"]))
+    path = os.path.join(OUT, "clean_image_%s.json" % datetime.datetime.now().strftime("%Y-%m-%dT%H%M"))
     with open(path, "w") as f:
         json.dump(result, f, indent=1)
     log("wrote %s" % path)
