@@ -4,16 +4,21 @@ heterogeneous medium (issue 32's goal: at least 3x lower error than Mitsuba and 
 global-majorant tracking).
 
     tests/mitsuba/.venv/bin/python bench/media_equal_time.py [--torrey target/release/torrey]
-        [--budget 20] [--ref-spp 4096] [--out DIR] [--speed [SCENE.xml ...]]
+        [--budget 20] [--runs 2] [--ref-spp 8192] [--methods A,B] [--out DIR]
+        [--speed [SCENE.xml ...]]
 
 --speed: instead, the CPU seconds of torrey (independent samples, like Mitsuba's) and of Mitsuba
 (llvm_ad_rgb, its kernel compiled by a first 1-spp render) at equal spp on the given scenes
 (default: the media verdict scenes and the media scenes of ../shared/scenes/mitsuba-real).
 
 Equal time is measured in process CPU seconds (all threads; robust to other load on a shared
-machine): each method renders a few spp to measure its CPU seconds per spp, then renders the spp
-that fill the budget. Error is the RMSE over pixels and channels against a reference rendered by
-torrey at --ref-spp with its default sampler (checked against Mitsuba's mean).
+machine): torrey's whole process, Mitsuba's render with its kernel compiled by a first 1-spp
+render. Each method renders 16 spp to measure its CPU seconds per spp, then --runs renders of
+the spp that fill the budget. Error: relMSE as bench/real_scenes.py measures it (worst 0.1% of
+pixel terms left out, the reference's noise taken off) and RMSE (its MSE less the reference's
+mean variance), against torrey at --ref-spp independent samples (rendered once in parts of
+--ref-chunk, cached under --out, with the variance of their mean); then error x CPU seconds, so
+that the calibration's inaccuracy does not count.
 
 The scene (written to --out): a 64^3 cloud of our own in a null cube, about 5% of the voxels
 occupied, densities up to 40 per unit length (strong contrast), under a rectangular light and a
@@ -187,7 +192,7 @@ def main():
     ap.add_argument("--torrey", default=os.path.join(REPO, "target", "release", "torrey"))
     ap.add_argument("--budget", type=float, default=20.0, help="CPU seconds per method")
     ap.add_argument("--runs", type=int, default=2, help="renders (seeds) per method")
-    ap.add_argument("--ref-spp", type=int, default=16384)
+    ap.add_argument("--ref-spp", type=int, default=8192)
     ap.add_argument("--ref-chunk", type=int, default=2048)
     ap.add_argument("--methods", help="comma-separated subset of: %s, Mitsuba" % ", ".join(METHODS))
     ap.add_argument("--out", default=os.path.join(REPO, "out", "bench", "media"))
