@@ -4,16 +4,21 @@ heterogeneous medium (issue 32's goal: at least 3x lower error than Mitsuba and 
 global-majorant tracking).
 
     tests/mitsuba/.venv/bin/python bench/media_equal_time.py [--torrey target/release/torrey]
-        [--budget 20] [--ref-spp 4096] [--out DIR] [--speed [SCENE.xml ...]]
+        [--budget 20] [--runs 2] [--ref-spp 8192] [--methods A,B] [--out DIR]
+        [--speed [SCENE.xml ...]]
 
 --speed: instead, the CPU seconds of torrey (independent samples, like Mitsuba's) and of Mitsuba
 (llvm_ad_rgb, its kernel compiled by a first 1-spp render) at equal spp on the given scenes
 (default: the media verdict scenes and the media scenes of ../shared/scenes/mitsuba-real).
 
 Equal time is measured in process CPU seconds (all threads; robust to other load on a shared
-machine): each method renders a few spp to measure its CPU seconds per spp, then renders the spp
-that fill the budget. Error is the RMSE over pixels and channels against a reference rendered by
-torrey at --ref-spp with its default sampler (checked against Mitsuba's mean).
+machine): torrey's whole process, Mitsuba's render with its kernel compiled by a first 1-spp
+render. Each method renders 16 spp to measure its CPU seconds per spp, then --runs renders of
+the spp that fill the budget. Error: relMSE as bench/real_scenes.py measures it (worst 0.1% of
+pixel terms left out, the reference's noise taken off) and RMSE (its MSE less the reference's
+mean variance), against torrey at --ref-spp independent samples (rendered once in parts of
+--ref-chunk, cached under --out, with the variance of their mean); then error x CPU seconds, so
+that the calibration's inaccuracy does not count.
 
 The scene (written to --out): a 64^3 cloud of our own in a null cube, about 5% of the voxels
 occupied, densities up to 40 per unit length (strong contrast), under a rectangular light and a
@@ -24,6 +29,7 @@ dim sky, `volpath` max_depth 16. Compared:
   Mitsuba 3.9.1     llvm_ad_rgb (global majorant, delta tracking)
 """
 import argparse
+import hashlib
 import json
 import os
 import resource
@@ -37,6 +43,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(REPO, "tests", "mitsuba"))
+sys.path.insert(0, HERE)
 
 SCENE = """<scene version="3.0.0">
     <default name="spp" value="16"/>
@@ -92,18 +99,23 @@ def sparse_cloud(path, n=64, seed=5):
     return float((d > 0.01).mean())
 
 
-def read_exr(path):
+def read_exr(path, channels="RGB"):
+    """The named channels of an EXR as float64 (H, W, len(channels))."""
     import mitsuba as mi
     b = mi.Bitmap(path)
     names = [b.struct_()[i].name for i in range(b.channel_count())]
     a = np.array(b).astype(np.float64)
-    idx = [names.index(c) for c in "RGB"] if "R" in names else [0, 1, 2]
+    if isinstance(channels, str):
+        channels = list(channels)
+    idx = [names.index(c) for c in channels] if channels[0] in names else [0, 1, 2]
     return a[..., idx]
 
 
-def torrey(exe, xml, spp, out, env=None, sampler=None, seed=0):
+def torrey(exe, xml, spp, out, env=None, sampler=None, seed=0, extra=()):
     """Renders with torrey; returns CPU seconds of the child (all threads)."""
-    cmd = [exe, xml, "--spp", str(spp), "--seed", str(seed), "-o", out, "--quiet", "--no-mipmap"]
+    cmd = [exe, xml, "--seed", str(seed), "-o", out, "--quiet", "--no-mipmap", *extra]
+    if spp is not None:
+        cmd += ["--spp", str(spp)]
     if sampler:
         cmd += ["--sampler", sampler]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -132,36 +144,58 @@ def mitsuba(xml, spp, out, seed=0):
     return cpu
 
 
-def rmse(a, b):
-    return float(np.sqrt(((a - b) ** 2).mean()))
+def errors(img, ref, var):
+    """(relMSE, RMSE) against the reference, its own noise (`var`, the variance of its mean)
+    taken off: relMSE as bench/real_scenes.py measures it (the worst 0.1% of pixel terms left
+    out), RMSE = sqrt(MSE - mean variance)."""
+    from real_scenes import rel_mse
+    mse = float(((img - ref) ** 2).mean()) - float(var.mean())
+    return rel_mse(img, ref, var), float(np.sqrt(max(mse, 0.0)))
 
 
-SPEED_SCENES = [(os.path.join(REPO, "tests", "scenes", "mitsuba", n + ".xml"), 256) for n in [
-    "media_homogeneous_env", "media_grid", "media_chromatic_hg", "media_emitter_inside",
-    "media_dielectrics", "media_roughdielectric_spot", "media_camera_fog"]] + [
-    (os.path.join(REPO, "..", "shared", "scenes", "mitsuba-real", p), spp) for p, spp in [
-        ("volumetric-caustic/scene_v3.xml", 16),
-        ("bunny-sss/docs/scenes/medium_homogeneous_sss.xml", 16),
-        ("clover-banner/scene.xml", 16)]]
+def reference(exe, xml, spp, chunk, folder):
+    """torrey's reference of the scene: `spp` independent samples (their variance is the noise
+    of the mean; Sobol's would be overestimated), rendered as parts of `chunk` samples (kept: a
+    larger --ref-spp renders only the missing ones). Returns (mean, variance of the mean): the
+    parts' mean and sum of variances / parts² (parts of equal counts)."""
+    os.makedirs(folder, exist_ok=True)
+    means, variances = [], []
+    for a in range(0, spp, chunk):
+        b = min(spp, a + chunk)
+        part = os.path.join(folder, "part_%d_%d.exr" % (a, b))
+        if not os.path.exists(part):
+            t0 = time.time()
+            cpu = torrey(exe, xml, b, part + ".tmp.exr", sampler="independent", seed=99,
+                         extra=["--sample-range", "%d..%d" % (a, b)])
+            os.replace(part + ".tmp.exr", part)
+            print("reference samples %d..%d: %.0f CPU s, %.0f s" % (a, b, cpu, time.time() - t0),
+                  flush=True)
+        means.append(read_exr(part))
+        variances.append(read_exr(part, ["variance.R", "variance.G", "variance.B"]))
+    k = len(means)
+    return np.mean(means, 0), np.sum(variances, 0) / k ** 2
 
 
-def speed(exe, scenes, out):
-    """Equal spp: CPU seconds of torrey and of Mitsuba per scene."""
-    for xml, spp in scenes:
-        if not os.path.exists(xml):
-            continue
-        t = torrey(exe, xml, spp, os.path.join(out, "speed_torrey.exr"), sampler="independent")
-        m = mitsuba(xml, spp, os.path.join(out, "speed_mitsuba.exr"))
-        print("%-52s %4d spp  torrey %7.1f CPU s  Mitsuba %7.1f CPU s  Mitsuba / torrey %.2f" % (
-            os.path.relpath(xml, REPO), spp, t, m, m / t), flush=True)
+METHODS = {
+    "torrey": ({}, None),
+    "torrey global majorant": ({"TORREY_MAJORANT_GRID": "1"}, None),
+    "torrey independent": ({}, "independent"),
+    "torrey global, independent": ({"TORREY_MAJORANT_GRID": "1"}, "independent"),
+    # The majorant grid's resolution (default: a cell per 4 samples, 16^3 here).
+    "torrey majorant 32": ({"TORREY_MAJORANT_GRID": "32"}, None),
+    "torrey majorant 64": ({"TORREY_MAJORANT_GRID": "64"}, None),
+}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--torrey", default=os.path.join(REPO, "target", "release", "torrey"))
     ap.add_argument("--budget", type=float, default=20.0, help="CPU seconds per method")
-    ap.add_argument("--ref-spp", type=int, default=4096)
-    ap.add_argument("--out", default="/tmp/torrey-media-bench")
+    ap.add_argument("--runs", type=int, default=2, help="renders (seeds) per method")
+    ap.add_argument("--ref-spp", type=int, default=8192)
+    ap.add_argument("--ref-chunk", type=int, default=2048)
+    ap.add_argument("--methods", help="comma-separated subset of: %s, Mitsuba" % ", ".join(METHODS))
+    ap.add_argument("--out", default=os.path.join(REPO, "out", "bench", "media"))
     ap.add_argument("--speed", nargs="*", help="equal-spp timing instead (scene files; spp 16)")
     a = ap.parse_args()
     import mitsuba as mi
@@ -175,39 +209,55 @@ def main():
     with open(xml, "w") as f:
         f.write(SCENE)
     print("sparse cloud: %.1f%% of the voxels above 1%% of the peak" % (100 * occupied))
-    ref_path = os.path.join(a.out, "ref.exr")
-    if not os.path.exists(ref_path):
-        cpu = torrey(a.torrey, xml, a.ref_spp, ref_path, seed=99)
-        print("reference: torrey %d spp (Sobol), %.0f CPU s" % (a.ref_spp, cpu))
-    ref = read_exr(ref_path)
+    # The reference's folder is named by the scene's text: another scene gets another one.
+    key = hashlib.sha1((SCENE + str(occupied)).encode()).hexdigest()[:10]
+    ref, var = reference(a.torrey, xml, a.ref_spp, a.ref_chunk, os.path.join(a.out, "ref_" + key))
+    print("reference: torrey %d spp (independent), mean %s, its noise relMSE %.3g" % (
+        a.ref_spp, ref.mean((0, 1)).round(4).tolist(), float((var / (ref ** 2 + 1e-2)).mean())))
+    runs = {name: (lambda spp, out, seed, e=env, s=smp: torrey(a.torrey, xml, spp, out, env=e,
+                                                               sampler=s, seed=seed))
+            for name, (env, smp) in METHODS.items()}
+    runs["Mitsuba"] = lambda spp, out, seed: mitsuba(xml, spp, out, seed=seed)
+    chosen = a.methods.split(",") if a.methods else list(runs)
     results = {}
-    methods = [
-        ("torrey", lambda spp, out: torrey(a.torrey, xml, spp, out)),
-        ("torrey global majorant",
-         lambda spp, out: torrey(a.torrey, xml, spp, out, env={"TORREY_MAJORANT_GRID": "1"})),
-        ("torrey independent", lambda spp, out: torrey(a.torrey, xml, spp, out, sampler="independent")),
-        ("torrey global, independent",
-         lambda spp, out: torrey(a.torrey, xml, spp, out, env={"TORREY_MAJORANT_GRID": "1"},
-                                 sampler="independent")),
-        ("Mitsuba 3.9.1", lambda spp, out: mitsuba(xml, spp, out)),
-    ]
-    for name, run in methods:
-        calib = 8
+    for name in chosen:
+        run = runs[name]
+        calib = 16
         out = os.path.join(a.out, name.replace(" ", "_").replace(",", "") + ".exr")
-        cpu = run(calib, out)
+        cpu = run(calib, out, 1000)
         spp = max(1, int(a.budget / (cpu / calib)))
-        cpu = run(spp, out)
-        err = rmse(read_exr(out), ref)
-        results[name] = {"spp": spp, "cpu_s": round(cpu, 2), "cpu_s_per_spp": round(cpu / spp, 4),
-                         "rmse": err, "mean": read_exr(out).mean((0, 1)).round(4).tolist()}
-        print("%-28s %5d spp  %6.1f CPU s  (%.3f CPU s/spp)  RMSE %.5f  mean %s" % (
-            name, spp, cpu, cpu / spp, err, results[name]["mean"]), flush=True)
-    base = results["torrey"]["rmse"]
-    for name, r in results.items():
-        print("%-28s error / torrey's: %.2f" % (name, r["rmse"] / base))
+        r = {"spp": spp, "cpu_s": [], "relmse": [], "rmse": []}
+        images = []
+        for k in range(a.runs):
+            r["cpu_s"].append(round(run(spp, out, k), 2))
+            img = read_exr(out)
+            images.append(img)
+            rel, rm = errors(img, ref, var)
+            r["relmse"].append(rel)
+            r["rmse"].append(rm)
+        r["relmse_mean"] = float(np.mean(r["relmse"]))
+        r["rmse_mean"] = float(np.sqrt(np.mean(np.square(r["rmse"]))))
+        # Unbiased against the reference: the mean of the runs has 1/runs of one run's error.
+        r["relmse_of_mean_x_runs"] = errors(np.mean(images, 0), ref, var)[0] * a.runs
+        results[name] = r
+        print("%-28s %5d spp  CPU s %s  relMSE %.4g  RMSE %.5f  (mean of %d runs: relMSE x %d = "
+              "%.4g)" % (name, spp, r["cpu_s"], r["relmse_mean"], r["rmse_mean"], a.runs, a.runs,
+                         r["relmse_of_mean_x_runs"]), flush=True)
+    for r in results.values():
+        # Error x time (relMSE falls as 1 / time for unbiased estimators): the spp that fill the
+        # budget come from a short calibration render, and this takes its inaccuracy out.
+        r["relmse_x_cpu_s"] = r["relmse_mean"] * float(np.mean(r["cpu_s"]))
+        r["mse_x_cpu_s"] = r["rmse_mean"] ** 2 * float(np.mean(r["cpu_s"]))
+    if "torrey" in results:
+        base = results["torrey"]
+        for name, r in results.items():
+            rel = r["relmse_x_cpu_s"] / base["relmse_x_cpu_s"]
+            mse = r["mse_x_cpu_s"] / base["mse_x_cpu_s"]
+            print("%-28s at equal CPU time: relMSE / torrey's %.2f (its square root %.2f), "
+                  "RMSE / torrey's %.2f" % (name, rel, np.sqrt(rel), np.sqrt(mse)))
     with open(os.path.join(a.out, "results.json"), "w") as f:
-        json.dump({"reference_mean": ref.mean((0, 1)).round(4).tolist(), "results": results}, f,
-                  indent=2)
+        json.dump({"reference_spp": a.ref_spp, "reference_mean": ref.mean((0, 1)).round(4).tolist(),
+                   "budget_cpu_s": a.budget, "results": results}, f, indent=2)
 
 
 if __name__ == "__main__":

@@ -17,9 +17,11 @@
 //! `volpath` and `volpathmis` differ in Mitsuba only in how they sample chromatic media; both
 //! converge to the same image, and torrey renders both with one estimator (the spectral MIS of
 //! [`super::super::media::Medium`]), whose noise is at most theirs. Runs in the scalar loop
-//! only (the render loop does not batch it).
+//! only (the render loop does not batch it). Its random numbers: [`draws`].
 
-use super::path_state::{BounceDraws, PathContext, PathState};
+mod draws;
+
+use super::path_state::{BounceDraws, LightPick, PathContext, PathState};
 use super::shading::ShadingPoint;
 use super::{EnvStrategy, RayCount};
 use crate::lights::LightSample;
@@ -28,7 +30,8 @@ use crate::ray::{offset_origin, Ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::shapes::SurfaceHit;
-use glam::Vec3A;
+use draws::PathDraws;
+use glam::{Vec2, Vec3A};
 use torrey_texture::RayCone;
 
 /// Mitsuba's `volpath` (`mis` false) and `volpathmis` (true).
@@ -55,14 +58,19 @@ pub(super) fn trace_volpath(
         return path;
     }
     let scene = ctx.scene;
+    let draws = &mut PathDraws::new(sampler);
     path.medium = scene.media.camera;
     let mut first = Some(first_hit);
     loop {
-        let draws = BounceDraws::new(ctx, std::array::from_fn(|_| sampler.next_2d()));
+        let bounce: [Vec2; 4] = std::array::from_fn(|_| draws.next_2d());
         let medium = path.medium.map(|m| &scene.media.list[m as usize]);
-        // In a homogeneous medium the ray is traced only as far as the drawn free flight.
-        let drawn =
-            medium.and_then(|m| m.draw_distance(path.throughput, &mut || sampler.next_1d()));
+        // The free flight's first numbers. In a homogeneous medium the distance is drawn now and
+        // the ray traced only that far.
+        let u_flight = match medium {
+            Some(_) => draws.next_2d(),
+            None => Vec2::ZERO,
+        };
+        let drawn = medium.and_then(|m| m.draw_distance(path.throughput, u_flight));
         rays.closest += 1;
         let hit = match first.take() {
             Some(h) => h,
@@ -74,10 +82,22 @@ pub(super) fn trace_volpath(
         if let (Some(m), Some(medium)) = (path.medium, medium) {
             let tmax = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
             let (o, d) = (path.ray.origin, path.ray.dir);
-            let u = &mut || sampler.next_1d();
+            let mut fixed = [u_flight.x, u_flight.y].into_iter();
+            let u = &mut || fixed.next().unwrap_or_else(|| draws.stream_1d());
             match medium.sample(o, d, tmax, drawn, &mut path.throughput, u) {
                 Flight::Scatter(t) => {
-                    if !scatter_in_medium(ctx, &mut path, medium, m, t, &draws, sampler, rays) {
+                    // A medium that samples no emitters draws no light sample (the numbers
+                    // BounceDraws::new would take for the rest).
+                    let bounce = match medium.sample_emitters {
+                        true => BounceDraws::new(ctx, bounce),
+                        false => BounceDraws {
+                            light: LightPick::None,
+                            u_dir: bounce[2],
+                            u_lobe: bounce[3].x,
+                            u_rr: bounce[0].y,
+                        },
+                    };
+                    if !scatter_in_medium(ctx, &mut path, medium, m, t, &bounce, draws, rays) {
                         break;
                     }
                     continue;
@@ -90,13 +110,14 @@ pub(super) fn trace_volpath(
             path.escape(ctx);
             break;
         };
+        let bounce = BounceDraws::new(ctx, bounce);
         let medium_in = path.medium;
-        let (shadow, continues) = path.scatter(ctx, &hit, &draws);
+        let (shadow, continues) = path.scatter(ctx, &hit, &bounce);
         if let Some(s) = shadow {
             let m = scene
                 .media
                 .after_crossing(medium_in, hit.shape, hit.ng, s.dir);
-            let tr = transmittance(ctx, s.origin, s.dir, s.tmax, m, sampler, rays);
+            let tr = transmittance(ctx, s.origin, s.dir, s.tmax, m, draws, rays);
             path.result += s.contribution * tr;
         }
         if !continues {
@@ -117,7 +138,7 @@ fn scatter_in_medium(
     m: u32,
     t: f32,
     draws: &BounceDraws,
-    sampler: &mut impl Sampler,
+    numbers: &mut PathDraws<impl Sampler>,
     rays: &mut RayCount,
 ) -> bool {
     let scene = ctx.scene;
@@ -144,7 +165,7 @@ fn scatter_in_medium(
                     power_heuristic(light_pdf, f)
                 };
                 let (dir, tmax) = towards(&ls);
-                let tr = transmittance(ctx, p, dir, tmax, Some(m), sampler, rays);
+                let tr = transmittance(ctx, p, dir, tmax, Some(m), numbers, rays);
                 path.result += path.throughput * tr * ls.radiance * (f * w / light_pdf);
             }
         }
@@ -175,7 +196,7 @@ fn transmittance(
     dir: Vec3A,
     tmax: f32,
     mut medium: Option<u32>,
-    sampler: &mut impl Sampler,
+    numbers: &mut PathDraws<impl Sampler>,
     rays: &mut RayCount,
 ) -> Vec3A {
     let scene = ctx.scene;
@@ -200,7 +221,7 @@ fn transmittance(
         if let Some(m) = medium {
             let seg = hit.as_ref().map_or(remaining, |h| h.t);
             let medium = &scene.media.list[m as usize];
-            tr *= medium.transmittance(o, dir, seg, &mut || sampler.next_1d());
+            tr *= medium.transmittance(o, dir, seg, &mut || numbers.stream_1d());
             if !(tr.max_element() > 0.0) {
                 return Vec3A::ZERO;
             }

@@ -98,7 +98,8 @@ impl Grid {
     }
 }
 
-/// Cells of the majorant grid along each axis: about one per 4 samples, at most 64. The
+/// Cells of the majorant grid along each axis: one per 2 samples, at most 64 (on a sparse 64³
+/// cloud, 32³ cells took 0.8x the relMSE x CPU seconds of 16³, 64³ about 1.0x). The
 /// environment variable `TORREY_MAJORANT_GRID` sets a fixed count (1: one global majorant, as
 /// Mitsuba; for comparisons).
 fn majorant_cells(samples: u32) -> u32 {
@@ -109,7 +110,7 @@ fn majorant_cells(samples: u32) -> u32 {
             .and_then(|v| v.trim().parse::<u32>().ok())
             .map(|v| v.clamp(1, 256))
     });
-    fixed.unwrap_or_else(|| samples.div_ceil(4).clamp(1, 64))
+    fixed.unwrap_or_else(|| samples.div_ceil(2).clamp(1, 64))
 }
 
 /// Local majorants of a grid over the unit cube.

@@ -7,8 +7,9 @@
 //! - Homogeneous: a distance is drawn from one channel's exponential, the channel chosen in
 //!   proportion to the path's throughput, and weighted by the mixture of the three channels'
 //!   densities (one-sample spectral MIS, the balance heuristic). For a grey medium the weight
-//!   is the albedo at a scattering event and one past the segment, exactly Mitsuba's. The
-//!   transmittance of a shadow segment is exp(−σt d), exactly.
+//!   is the albedo at a scattering event and one past the segment, exactly Mitsuba's (computed
+//!   so, without exponentials). The transmittance of a shadow segment is exp(−σt d), exactly
+//!   (Mitsuba ratio-tracks it: its estimate is 0 or 1 per shadow ray).
 //! - Heterogeneous: delta tracking against the majorant grid's local majorant μ (one scalar for
 //!   all channels), with Kutz et al.'s spectral tracking at each tentative collision: a real
 //!   event with probability P = ⟨w σt⟩ / (⟨w σt⟩ + ⟨w σn⟩) (⟨⟩ the channel mean, w the
@@ -18,7 +19,7 @@
 
 use super::grid::{unit_cube_span, Grid, MajorantGrid};
 use super::phase::PhaseFunction;
-use glam::Vec3A;
+use glam::{Vec2, Vec3A};
 use torrey_parser as desc;
 
 /// A volume field: constant or a grid.
@@ -98,8 +99,9 @@ impl Medium {
     /// In a homogeneous medium, the tentative free-flight distance of a path with `throughput`,
     /// drawn before its ray is traced so that the ray need only be traced that far (a dense
     /// medium's short rays stop early, as Mitsuba traces them); [`Medium::sample`] then weighs
-    /// it. None in a grid medium (its flights are drawn along the traced segment).
-    pub fn draw_distance(&self, throughput: Vec3A, u: &mut impl FnMut() -> f32) -> Option<f32> {
+    /// it. `u`: the channel's number (x) and the distance's (y). None in a grid medium (its
+    /// flights are drawn along the traced segment).
+    pub fn draw_distance(&self, throughput: Vec3A, u: Vec2) -> Option<f32> {
         let Density::Homogeneous(sigma) = &self.density else {
             return None;
         };
@@ -108,7 +110,7 @@ impl Medium {
             return Some(f32::INFINITY);
         }
         // The channel, in proportion to the throughput.
-        let pick = u() * total;
+        let pick = u.x * total;
         let c = if pick < throughput.x {
             0
         } else if pick < throughput.x + throughput.y {
@@ -117,7 +119,7 @@ impl Medium {
             2
         };
         Some(if sigma[c] > 0.0 {
-            -(1.0 - u()).ln() / sigma[c]
+            -(1.0 - u.y).ln() / sigma[c]
         } else {
             f32::INFINITY
         })
@@ -138,7 +140,7 @@ impl Medium {
         match &self.density {
             Density::Homogeneous(sigma) => {
                 let t = drawn.unwrap_or_else(|| {
-                    self.draw_distance(*throughput, u)
+                    self.draw_distance(*throughput, Vec2::new(u(), u()))
                         .expect("homogeneous media draw distances")
                 });
                 self.weigh_homogeneous(*sigma, o, d, t, tmax, throughput)
@@ -202,6 +204,15 @@ impl Medium {
         let w = *throughput;
         let total = w.element_sum();
         if !(sigma.max_element() > 0.0 && total > 0.0) {
+            return Flight::Pass;
+        }
+        if sigma.x == sigma.y && sigma.y == sigma.z {
+            // Grey: the mixture is the one exponential, whose density cancels the
+            // transmittance (no exponentials to evaluate).
+            if t < tmax {
+                *throughput *= self.albedo.eval(o + d * t);
+                return Flight::Scatter(t);
+            }
             return Flight::Pass;
         }
         let probs = w / total;
@@ -295,6 +306,30 @@ mod tests {
             albedo: Field::Constant(albedo),
             phase: PhaseFunction::Isotropic,
             sample_emitters: true,
+        }
+    }
+
+    /// A grey medium skips the exponentials: its weights are the general mixture's (a medium
+    /// whose one channel differs by a millionth), at scattering events and past the segment.
+    #[test]
+    fn grey_weights_are_the_mixtures() {
+        let albedo = Vec3A::new(0.85, 0.97, 0.5);
+        let grey = homogeneous(Vec3A::splat(3.0), albedo);
+        let almost = homogeneous(Vec3A::new(3.0, 3.0, 3.0 * (1.0 + 1e-6)), albedo);
+        let mut rng = Rng::new(5);
+        for _ in 0..1000 {
+            let w = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) + Vec3A::splat(0.01);
+            let (t, tmax) = (rng.range(0.0, 2.0), rng.range(0.0, 2.0));
+            let (mut a, mut b) = (w, w);
+            let fa =
+                grey.weigh_homogeneous(Vec3A::splat(3.0), Vec3A::ZERO, Vec3A::X, t, tmax, &mut a);
+            let sigma = Vec3A::new(3.0, 3.0, 3.0 * (1.0 + 1e-6));
+            let fb = almost.weigh_homogeneous(sigma, Vec3A::ZERO, Vec3A::X, t, tmax, &mut b);
+            assert_eq!(matches!(fa, Flight::Pass), matches!(fb, Flight::Pass));
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * b.max_element(),
+                "{a} vs {b}"
+            );
         }
     }
 

@@ -54,10 +54,11 @@ impl PhaseFunction {
     pub fn sample(&self, d_in: Vec3A, u: Vec2, u_lobe: f32) -> (Vec3A, f32) {
         let cos = self.sample_cos(u.x, u_lobe);
         let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let local = Vec3A::new(sin * phi.cos(), sin * phi.sin(), cos);
+        let (sin_phi, cos_phi) = (2.0 * PI * u.y).sin_cos();
+        let local = Vec3A::new(sin * cos_phi, sin * sin_phi, cos);
         let d_out = Frame::from_normal(d_in).to_world(local).normalize();
-        (d_out, self.eval(d_in, d_out))
+        // The density at the sampled cosine (what eval of d_out gives, to rounding).
+        (d_out, self.eval_cos(cos))
     }
 
     /// The cosine to `d_in` of a sampled direction (its azimuth is uniform for every model).
