@@ -202,26 +202,12 @@ fn size_bombs_are_refused_before_inflating() {
 /// An RGB PNG of one colour, streamed row by row into the compressor.
 fn flat_png(w: u32, h: u32) -> Vec<u8> {
     let mut file = Vec::new();
-    let crc = |data: &[u8]| {
-        let mut c = !0u32;
-        for &b in data {
-            c ^= b as u32;
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    (c >> 1) ^ 0xEDB8_8320
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    };
     let chunk = |out: &mut Vec<u8>, kind: &[u8], data: &[u8]| {
         out.extend_from_slice(&(data.len() as u32).to_be_bytes());
         let mut body = kind.to_vec();
         body.extend_from_slice(data);
         out.extend_from_slice(&body);
-        out.extend_from_slice(&crc(&body).to_be_bytes());
+        out.extend_from_slice(&torrey_testkit::crc32(&body).to_be_bytes());
     };
     let mut raw = Vec::with_capacity(((w * 3 + 1) * h) as usize);
     for _ in 0..h {

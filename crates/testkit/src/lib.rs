@@ -178,6 +178,23 @@ pub fn assert_chi_square(name: &str, observed: &[f64], expected: &[f64]) {
     }
 }
 
+/// The CRC-32 of PNG chunks (and zlib, gzip): tests that write image files by hand (a header
+/// that lies about its size, a huge flat image streamed to the compressor) need valid checksums.
+pub fn crc32(data: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in data {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

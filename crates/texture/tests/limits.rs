@@ -29,21 +29,6 @@ fn lying_exr(name: &str, w: i32, h: i32) -> PathBuf {
     path
 }
 
-fn crc32(data: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    for &b in data {
-        crc ^= b as u32;
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
-}
-
 /// A valid 1x1 PNG whose IHDR (with a correct CRC) then claims `w` x `h` pixels.
 fn lying_png(name: &str, w: u32, h: u32) -> PathBuf {
     let path = scratch(name);
@@ -54,7 +39,7 @@ fn lying_png(name: &str, w: u32, h: u32) -> PathBuf {
     // Signature (8), IHDR length (4), "IHDR" (4), width, height, 5 more bytes, CRC.
     bytes[16..20].copy_from_slice(&w.to_be_bytes());
     bytes[20..24].copy_from_slice(&h.to_be_bytes());
-    let crc = crc32(&bytes[12..29]);
+    let crc = torrey_testkit::crc32(&bytes[12..29]);
     bytes[29..33].copy_from_slice(&crc.to_be_bytes());
     std::fs::write(&path, &bytes).unwrap();
     path

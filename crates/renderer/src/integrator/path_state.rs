@@ -138,6 +138,16 @@ impl BounceDraws {
         };
         BounceDraws {
             light,
+            ..Self::without_light([light_rr, u_pos, u_dir, u_lobe])
+        }
+    }
+
+    /// [`BounceDraws::new`] for a bounce that samples no light (a medium that samples no
+    /// emitters): the same numbers in the same places, and no light chosen or drawn.
+    #[inline(always)]
+    pub fn without_light([light_rr, _, u_dir, u_lobe]: [Vec2; 4]) -> Self {
+        BounceDraws {
+            light: LightPick::None,
             u_dir,
             u_lobe: u_lobe.x,
             u_rr: light_rr.y,

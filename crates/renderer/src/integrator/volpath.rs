@@ -21,7 +21,7 @@
 
 mod draws;
 
-use super::path_state::{BounceDraws, LightPick, PathContext, PathState};
+use super::path_state::{BounceDraws, PathContext, PathState};
 use super::shading::ShadingPoint;
 use super::{EnvStrategy, RayCount};
 use crate::lights::LightSample;
@@ -90,12 +90,7 @@ pub(super) fn trace_volpath(
                     // BounceDraws::new would take for the rest).
                     let bounce = match medium.sample_emitters {
                         true => BounceDraws::new(ctx, bounce),
-                        false => BounceDraws {
-                            light: LightPick::None,
-                            u_dir: bounce[2],
-                            u_lobe: bounce[3].x,
-                            u_rr: bounce[0].y,
-                        },
+                        false => BounceDraws::without_light(bounce),
                     };
                     if !scatter_in_medium(ctx, &mut path, medium, m, t, &bounce, draws, rays) {
                         break;

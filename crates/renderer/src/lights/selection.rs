@@ -32,10 +32,8 @@ struct Node {
     bounds: LightBounds4,
     /// Per child: the light's index (a leaf) or the subtree's node index.
     children: [u32; 4],
-    /// Bit k: child k is a light.
+    /// Bit k: child k is a light. (Missing children are empty lanes, never important.)
     leaves: u8,
-    /// How many of the four children there are (1 to 4; the rest are empty lanes).
-    count: u8,
 }
 
 /// Bits of a light's trail per level: which of a node's four children the walk takes.
@@ -125,7 +123,6 @@ impl LightSelection {
             bounds: LightBounds4::new([None; 4]),
             children: [0; 4],
             leaves: 0,
-            count: 0,
         });
         let mut groups: Vec<&mut Cluster> = Vec::with_capacity(4);
         if lights.len() <= 4 {
@@ -158,7 +155,6 @@ impl LightSelection {
             bounds: LightBounds4::new(bounds),
             children,
             leaves,
-            count: bounds.iter().flatten().count() as u8,
         };
         index
     }
@@ -234,7 +230,7 @@ impl LightSelection {
             let target = u * total;
             let mut before = 0.0;
             let mut k = 0;
-            for (lane, &i) in importance.iter().enumerate().take(current.count as usize) {
+            for (lane, &i) in importance.iter().enumerate() {
                 if i > 0.0 {
                     k = lane;
                     if target < before + i {
