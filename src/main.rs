@@ -243,27 +243,6 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
     }
     let parse_time = load_start.elapsed();
     let (width, height) = args.size.unwrap_or((scene.film.width, scene.film.height));
-    let build_start = Instant::now();
-    let bvh_width = match args.bvh_width {
-        BvhWidthArg::Auto => torrey_renderer::BvhWidth::Auto,
-        BvhWidthArg::Four => torrey_renderer::BvhWidth::Four,
-        BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
-        BvhWidthArg::Sixteen => torrey_renderer::BvhWidth::Sixteen,
-    };
-    // The scene's content hash (for the part's metadata: every file it names read again)
-    // beside the build.
-    let (render_scene, scene_hash) = pool.install(|| {
-        rayon::join(
-            || torrey_renderer::RenderScene::build_with_width(&scene, width, height, bvh_width),
-            || torrey_parts::scene_hash(&scene, &args.define),
-        )
-    });
-    let render_scene = render_scene.map_err(|e| e.to_string())?;
-    let scene_hash = scene_hash?;
-    for w in &render_scene.warnings {
-        eprintln!("warning: {w}");
-    }
-    let build_time = build_start.elapsed();
     let settings = torrey_renderer::RenderSettings::new(
         &scene,
         &torrey_renderer::Overrides {
@@ -287,6 +266,31 @@ fn render_command(args: &RenderArgs) -> Result<(), String> {
             time_limit: args.time_limit.map(std::time::Duration::from_secs_f32),
         },
     );
+    let build_start = Instant::now();
+    // The whole render's samples (not a part's: every part must trace the same BVH).
+    let accel = torrey_renderer::AccelOptions {
+        width: match args.bvh_width {
+            BvhWidthArg::Auto => torrey_renderer::BvhWidth::Auto,
+            BvhWidthArg::Four => torrey_renderer::BvhWidth::Four,
+            BvhWidthArg::Eight => torrey_renderer::BvhWidth::Eight,
+            BvhWidthArg::Sixteen => torrey_renderer::BvhWidth::Sixteen,
+        },
+        samples: u64::from(width) * u64::from(height) * u64::from(settings.spp),
+    };
+    // The scene's content hash (for the part's metadata: every file it names read again)
+    // beside the build.
+    let (render_scene, scene_hash) = pool.install(|| {
+        rayon::join(
+            || torrey_renderer::RenderScene::build_with(&scene, width, height, accel),
+            || torrey_parts::scene_hash(&scene, &args.define),
+        )
+    });
+    let render_scene = render_scene.map_err(|e| e.to_string())?;
+    let scene_hash = scene_hash?;
+    for w in &render_scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let build_time = build_start.elapsed();
     let output = output_path(
         args.output.as_deref(),
         scene_path,

@@ -177,7 +177,12 @@ impl Harness {
                 } else {
                     torrey_renderer::BvhWidth::Auto
                 };
-                let built = torrey_renderer::RenderScene::build_with_width(&scene, 8, 6, width)
+                // Both build efforts: the best one, or the one a tiny render gets.
+                let accel = torrey_renderer::AccelOptions {
+                    width,
+                    samples: if variant % 7 == 3 { 8 * 6 } else { u64::MAX },
+                };
+                let built = torrey_renderer::RenderScene::build_with(&scene, 8, 6, accel)
                     .map_err(|e| e.to_string())?;
                 let settings = torrey_renderer::RenderSettings::new(
                     &scene,

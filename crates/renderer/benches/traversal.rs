@@ -33,7 +33,7 @@ use glam::{Vec2, Vec3A};
 use std::path::Path;
 use std::time::Instant;
 use torrey_renderer::{offset_origin, CameraSample, Ray};
-use torrey_renderer::{BvhWidth, RenderScene, Simd};
+use torrey_renderer::{AccelOptions, BvhWidth, RenderScene, Simd};
 
 /// Column titles; each tracer may leave a column out.
 const COLUMNS: [&str; 6] = [
@@ -111,7 +111,8 @@ fn main() {
         .into_iter()
         .filter_map(|(width, nodes)| {
             let scene =
-                RenderScene::build_with_width(&desc, 256, 256, width).expect("scene builds");
+                RenderScene::build_with(&desc, 256, 256, AccelOptions::best(width))
+                    .expect("scene builds");
             // The CPU may lack AVX2 (8) or AVX-512 (16).
             (scene.accel().bvh_width() == nodes).then_some(scene)
         })

@@ -28,7 +28,7 @@ mod scene;
 mod shapes;
 mod textures;
 
-pub use accel::{Accel, BvhWidth, ClosestHit, PrimGeom, Simd};
+pub use accel::{Accel, AccelOptions, BvhWidth, ClosestHit, PrimGeom, Simd};
 pub use cameras::{Camera, CameraSample};
 pub use integrator::aov::{SampleChannels, GUIDE_CHANNELS};
 pub use integrator::{DirectIntegrator, EnvStrategy, Integrator, PathIntegrator, PathLoop};

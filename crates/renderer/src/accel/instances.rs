@@ -30,7 +30,7 @@ impl GroupAccel {
     /// The BVH over `geoms` (in the group's space), whose records start at `first_prim`; None
     /// for a group without primitives (nothing of it can be hit).
     pub fn build(geoms: &[PrimGeom], first_prim: u32, width: super::BvhWidth) -> Option<Self> {
-        Self::build_with(geoms, &[], first_prim, width)
+        Self::build_with(geoms, &[], first_prim, super::AccelOptions::best(width))
     }
 
     /// [`GroupAccel::build`] with the table of the `sdfgrid` voxels among `geoms`
@@ -39,14 +39,14 @@ impl GroupAccel {
         geoms: &[PrimGeom],
         sdf_voxels: &[crate::shapes::sdfgrid::SdfVoxel],
         first_prim: u32,
-        width: super::BvhWidth,
+        options: super::AccelOptions,
     ) -> Option<Self> {
         let bounds = geoms
             .iter()
             .map(PrimGeom::aabb)
             .reduce(|a, b| a.union(&b))?;
         Some(Self {
-            accel: Accel::build_with(geoms, sdf_voxels, width),
+            accel: Accel::build_with(geoms, sdf_voxels, options),
             first_prim,
             bounds,
         })

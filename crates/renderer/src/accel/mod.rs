@@ -63,6 +63,26 @@ pub enum BvhWidth {
     Sixteen,
 }
 
+/// How a BVH is to be built: its node width, and the work it will serve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AccelOptions {
+    pub width: BvhWidth,
+    /// Camera samples of the whole render (film pixels × spp; a part of a split render counts
+    /// the whole render's, so that every part traces the same tree): how much build effort
+    /// pays off is judged by them per primitive ([`build::HIGH_QUALITY_SAMPLES_PER_PRIM`]).
+    pub samples: u64,
+}
+
+impl AccelOptions {
+    /// The highest-quality build whatever its cost (tests, and callers that trace many rays).
+    pub fn best(width: BvhWidth) -> Self {
+        Self {
+            width,
+            samples: u64::MAX,
+        }
+    }
+}
+
 /// The instruction set the traversal kernels use, chosen once per process.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Simd {
@@ -167,7 +187,7 @@ impl Accel {
     /// empty scene gives an accelerator that every ray misses. Primitives with non-finite bounds
     /// must have been removed by the caller (obvhs's builder cannot order them).
     pub fn build(geoms: &[PrimGeom], width: BvhWidth) -> Self {
-        Self::build_with(geoms, &[], width)
+        Self::build_with(geoms, &[], AccelOptions::best(width))
     }
 
     /// [`Accel::build`] over primitives that include `sdfgrid` voxels: each
@@ -175,7 +195,7 @@ impl Accel {
     pub fn build_with(
         geoms: &[PrimGeom],
         sdf_voxels: &[crate::shapes::sdfgrid::SdfVoxel],
-        width: BvhWidth,
+        options: AccelOptions,
     ) -> Self {
         let simd = Simd::detect();
         let widest = match simd {
@@ -183,14 +203,14 @@ impl Accel {
             Simd::Avx2 => 8,
             Simd::Avx512 => 16,
         };
-        let width = match width {
+        let width = match options.width {
             BvhWidth::Auto => simd.auto_width(),
             BvhWidth::Four => 4,
             BvhWidth::Eight => 8,
             BvhWidth::Sixteen => 16,
         }
         .min(widest);
-        let (layout, leaves, root, depth) = build::build(geoms, sdf_voxels, width);
+        let (layout, leaves, root, depth) = build::build(geoms, sdf_voxels, width, options.samples);
         Self {
             // A node pushes at most all but one of its children, at each level below the root.
             stack_needed: (layout.width() - 1) * depth + 1,

@@ -8,7 +8,7 @@ use super::build_shapes::{build_shapes, ShapeSet};
 use super::build_textures::{build_camera, build_textures, emission_texture};
 use super::{Material, RenderScene};
 use crate::accel::instances::{GroupAccel, Instances};
-use crate::accel::{Accel, BvhWidth, PrimGeom};
+use crate::accel::{Accel, AccelOptions, BvhWidth, PrimGeom};
 use crate::bsdfs::{BsdfParams, DiffuseParams};
 use crate::lights::Light;
 use crate::textures::{ColorSource, Texture};
@@ -26,18 +26,28 @@ pub enum BuildError {
 }
 
 impl RenderScene {
-    /// Prepares `scene` for a `width` x `height` film.
+    /// Prepares `scene` for a `width` x `height` film, rendered at the spp of its sampler.
     pub fn build(scene: &desc::Scene, width: u32, height: u32) -> Result<Self, BuildError> {
-        Self::build_with_width(scene, width, height, BvhWidth::Auto)
+        let samples = u64::from(width) * u64::from(height) * u64::from(scene.sampler.sample_count);
+        Self::build_with(
+            scene,
+            width,
+            height,
+            AccelOptions {
+                width: BvhWidth::Auto,
+                samples,
+            },
+        )
     }
 
-    /// [`RenderScene::build`] with a chosen BVH node width (for comparing them; the images are
-    /// the same up to which of two triangles at exactly equal distance is reported).
-    pub fn build_with_width(
+    /// [`RenderScene::build`] with the BVH's options: its node width (for comparing them; the
+    /// images are the same up to which of two triangles at exactly equal distance is reported)
+    /// and the render's camera samples, which size the build's effort.
+    pub fn build_with(
         scene: &desc::Scene,
         width: u32,
         height: u32,
-        bvh_width: BvhWidth,
+        accel: AccelOptions,
     ) -> Result<Self, BuildError> {
         let camera = build_camera(&scene.camera, width, height)?;
         let torrey_dialect = scene.dialect == desc::Dialect::Torrey;
@@ -78,15 +88,15 @@ impl RenderScene {
                 let mut warnings = Vec::new();
                 let set = build_shapes(scene, default_material, &mut area_lights, &mut warnings)?;
                 debug_assert!(set.world_geoms.iter().all(PrimGeom::is_finite));
-                let accel = Accel::build_with(&set.world_geoms, &set.mesh.sdf_voxels, bvh_width);
+                let bvh = Accel::build_with(&set.world_geoms, &set.mesh.sdf_voxels, accel);
                 let instances = build_instances(
                     scene,
                     &set.group_geoms,
                     &set.group_first_prim,
                     &set.mesh.sdf_voxels,
-                    bvh_width,
+                    accel,
                 );
-                Ok((set, area_lights, accel, instances, warnings))
+                Ok((set, area_lights, bvh, instances, warnings))
             },
         );
         let (mut textures, other_lights, mut warnings) = textures_and_lights?;
@@ -191,7 +201,7 @@ fn build_instances(
     group_geoms: &[Vec<PrimGeom>],
     group_first_prim: &[u32],
     sdf_voxels: &[crate::shapes::sdfgrid::SdfVoxel],
-    bvh_width: BvhWidth,
+    accel: AccelOptions,
 ) -> Option<Box<Instances>> {
     if scene.instances.is_empty() {
         return None;
@@ -207,7 +217,7 @@ fn build_instances(
         .map(|((geoms, &first), placed)| {
             debug_assert!(geoms.iter().all(PrimGeom::is_finite));
             placed
-                .then(|| GroupAccel::build_with(geoms, sdf_voxels, first, bvh_width))
+                .then(|| GroupAccel::build_with(geoms, sdf_voxels, first, accel))
                 .flatten()
         })
         .collect();
