@@ -166,6 +166,18 @@ impl Bsdf<'_> {
         }
     }
 
+    /// [`Bsdf::eval`] and [`Bsdf::pdf`] together (the same bits): the microfacet models share
+    /// their half vector, D and F between the two, which next-event estimation needs both of.
+    #[inline(always)]
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+        match self {
+            Bsdf::RoughDielectric(b) => b.eval_pdf(wo, wi),
+            Bsdf::RoughConductor(b) => b.eval_pdf(wo, wi),
+            Bsdf::RoughPlastic(b) => b.eval_pdf(wo, wi),
+            _ => (self.eval(wo, wi), self.pdf(wo, wi)),
+        }
+    }
+
     /// Samples a direction: `u` picks the direction, `u_lobe` the lobe of multi-lobe models.
     /// None when nothing is scattered (the back of a one-sided model, or a proposal below the
     /// surface). The diffuse case, the common one in most scenes, is inline; the others take a

@@ -78,7 +78,7 @@ impl RoughConductor {
     /// [`RoughConductor::eval`] and [`RoughConductor::pdf`] together, sharing the half vector
     /// and D: what `sample` weighs with (the same bits as the two calls).
     #[inline]
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (Vec3A::ZERO, 0.0);
         }

@@ -152,7 +152,7 @@ impl RoughDielectric {
     /// [`RoughDielectric::eval`] and [`RoughDielectric::pdf`] together, sharing the half
     /// vector, D and F: what `sample` weighs with (the same bits as the two calls).
     #[inline]
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
         let Some((m, reflect, eta_o)) = half_vector(self.eta, wo, wi) else {
             return (Vec3A::ZERO, 0.0);
         };

@@ -277,7 +277,7 @@ impl RoughPlastic<'_> {
     /// [`RoughPlastic::eval`] and [`RoughPlastic::pdf`] together, sharing the half vector, D
     /// and T(cos θo): what `sample` weighs with (the same bits as the two calls).
     #[inline]
-    fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (Vec3A::ZERO, 0.0);
         }

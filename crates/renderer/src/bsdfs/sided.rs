@@ -143,14 +143,15 @@ impl SidedBsdf<'_> {
         }
     }
 
+    /// [`SidedBsdf::eval`] and [`SidedBsdf::pdf`] together ([`Bsdf::eval_pdf`]; the same bits).
     #[inline(always)]
-    pub fn pdf(&self, wo: Vec3A, wi: Vec3A) -> f32 {
-        if let Some(p) = &self.perturbation {
-            if !p.same_side(wi) {
-                return 0.0;
-            }
+    pub fn eval_pdf(&self, wo: Vec3A, wi: Vec3A) -> (Vec3A, f32) {
+        let (f, pdf) = self.bsdf.eval_pdf(self.local(wo), self.local(wi));
+        match &self.perturbation {
+            None => (f, pdf),
+            Some(p) if p.same_side(wi) => (f * p.factor(wi), pdf),
+            Some(p) => (f * p.factor(wi), 0.0),
         }
-        self.bsdf.pdf(self.local(wo), self.local(wi))
     }
 
     #[inline(always)]

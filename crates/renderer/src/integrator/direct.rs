@@ -111,7 +111,7 @@ pub fn radiance(
             let w = if c.ls.is_delta || (light.is_infinite() && !mis_env) {
                 1.0
             } else {
-                power_heuristic(light_pdf * frac_lum, sp.bsdf_pdf(c.wi) * frac_bsdf)
+                power_heuristic(light_pdf * frac_lum, c.bsdf_pdf * frac_bsdf)
             };
             // Mitsuba 3.9.1 divides by the count only the MIS-weighted samples: a delta light's
             // sample keeps weight 1 each (its `direct` renders point lights emitter_samples

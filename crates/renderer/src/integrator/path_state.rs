@@ -401,7 +401,7 @@ impl PathState {
                 let w = if c.ls.is_delta || (light.is_infinite() && !ctx.infinite_mis()) {
                     1.0
                 } else {
-                    power_heuristic(light_pdf, sp.bsdf_pdf(c.wi))
+                    power_heuristic(light_pdf, c.bsdf_pdf)
                 };
                 shadow = Some(ShadowRay {
                     origin: c.origin,

@@ -75,25 +75,24 @@ impl<'a> ShadingPoint<'a> {
     ) -> Option<LightConnection> {
         let ls = light.connect(draw, hit.p, uniform_env, &scene.textures)?;
         let wi = self.frame.to_local(ls.wi);
-        let f = self.bsdf.eval(self.wo, wi);
+        // A delta light's sample takes no MIS weight: the BSDF's pdf is not needed.
+        let (f, bsdf_pdf) = if ls.is_delta {
+            (self.bsdf.eval(self.wo, wi), 0.0)
+        } else {
+            self.bsdf.eval_pdf(self.wo, wi)
+        };
         if !(f.max_element() > 0.0 && ls.pdf > 0.0) {
             return None;
         }
         let (origin, dir, tmax) = shadow_ray(hit.p, hit.ng, &ls);
         Some(LightConnection {
             ls,
-            wi,
             f,
+            bsdf_pdf,
             origin,
             dir,
             tmax,
         })
-    }
-
-    /// The BSDF's density of sampling `wi` (local): the other technique's pdf in MIS.
-    #[inline(always)]
-    pub fn bsdf_pdf(&self, wi: Vec3A) -> f32 {
-        self.bsdf.pdf(self.wo, wi)
     }
 }
 
@@ -102,10 +101,11 @@ impl<'a> ShadingPoint<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct LightConnection {
     pub ls: LightSample,
-    /// The light's direction in the shading frame.
-    pub wi: Vec3A,
     /// f(wo, wi)·|cos θi|.
     pub f: Vec3A,
+    /// The BSDF's density of sampling `wi`: the other technique's pdf in MIS (0 for a delta
+    /// light, which takes no MIS weight).
+    pub bsdf_pdf: f32,
     /// The shadow ray ([`shadow_ray`]).
     pub origin: Vec3A,
     pub dir: Vec3A,

@@ -292,7 +292,8 @@ mod tests {
                 let wi = dir(b, if k % 4 < 2 { 1.0 } else { -1.0 });
                 let sided = material.bsdf_facing(&q, None, wo);
                 assert_eq!(sided.eval(wo, wi), whole.eval(wo, wi), "material {m}");
-                assert_eq!(sided.pdf(wo, wi), whole.pdf(wo, wi), "material {m}");
+                let both = (whole.eval(wo, wi), whole.pdf(wo, wi));
+                assert_eq!(sided.eval_pdf(wo, wi), both, "material {m}");
                 assert_eq!(sided.flags(), whole.flags(wo), "material {m}");
                 assert_eq!(sided.roughness(), whole.roughness(wo), "material {m}");
                 let (u, u_lobe) = (rng.vec2(), rng.f32());
