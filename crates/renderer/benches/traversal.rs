@@ -110,9 +110,8 @@ fn main() {
         ]
         .into_iter()
         .filter_map(|(width, nodes)| {
-            let scene =
-                RenderScene::build_with(&desc, 256, 256, AccelOptions::best(width))
-                    .expect("scene builds");
+            let scene = RenderScene::build_with(&desc, 256, 256, AccelOptions::best(width))
+                .expect("scene builds");
             // The CPU may lack AVX2 (8) or AVX-512 (16).
             (scene.accel().bvh_width() == nodes).then_some(scene)
         })

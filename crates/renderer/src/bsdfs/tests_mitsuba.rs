@@ -407,7 +407,11 @@ fn eval_pdf_is_eval_and_pdf() {
                 crate::sampling::square_to_uniform_sphere(u)
             };
             let (wo, wi) = (dir(), dir());
-            assert_eq!(b.eval_pdf(wo, wi), (b.eval(wo, wi), b.pdf(wo, wi)), "{name}");
+            assert_eq!(
+                b.eval_pdf(wo, wi),
+                (b.eval(wo, wi), b.pdf(wo, wi)),
+                "{name}"
+            );
         }
     }
 }
