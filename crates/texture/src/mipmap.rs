@@ -4,6 +4,8 @@
 //! odd and non-power-of-two sizes), so every level keeps the mean of the original image and a
 //! pattern averages out instead of aliasing when the renderer asks for a wide footprint.
 
+use std::borrow::Cow;
+
 use glam::{Vec2, Vec3, Vec3A};
 
 use crate::image::Image;
@@ -103,11 +105,58 @@ impl WrapMode {
 /// A mip pyramid: level 0 is the image itself, each next level about half the size, down to 1x1.
 #[derive(Clone, Debug)]
 pub struct MipMap {
-    levels: Vec<Image>,
+    levels: Levels,
     wrap: WrapMode,
     filter: FilterType,
-    /// The same levels as 16-byte texels ([`MipMap::with_packed_texels`]), or empty.
-    packed: Box<[PackedLevel]>,
+}
+
+/// Where a pyramid's texels are: one copy, in one of two layouts.
+#[derive(Clone, Debug)]
+enum Levels {
+    /// Three floats per texel.
+    Rgb(Vec<Image>),
+    /// 16-byte texels ([`MipMap::with_packed_texels`]).
+    Packed(Box<[PackedLevel]>),
+}
+
+/// One level's texels, row by row from the top, whichever their layout.
+#[derive(Clone, Copy)]
+struct LevelTexels<'a> {
+    width: u32,
+    height: u32,
+    data: TexelData<'a>,
+}
+
+#[derive(Clone, Copy)]
+enum TexelData<'a> {
+    Rgb(&'a [Vec3]),
+    Packed(&'a [Vec3A]),
+}
+
+impl LevelTexels<'_> {
+    /// Texel `k` (row-major); panics past the end.
+    #[inline(always)]
+    fn get(&self, k: usize) -> Vec3 {
+        match self.data {
+            TexelData::Rgb(px) => px[k],
+            TexelData::Packed(px) => px[k].into(),
+        }
+    }
+
+    /// Texel `k` without the bounds check.
+    ///
+    /// # Safety
+    /// `k < width * height` (every level holds that many texels).
+    #[inline(always)]
+    unsafe fn get_unchecked(&self, k: usize) -> Vec3 {
+        // SAFETY: the caller's k < width * height, and both layouts hold that many texels.
+        unsafe {
+            match self.data {
+                TexelData::Rgb(px) => *px.get_unchecked(k),
+                TexelData::Packed(px) => (*px.get_unchecked(k)).into(),
+            }
+        }
+    }
 }
 
 /// For one axis of a box-filter downsample from `src` to `dst` texels: for each destination
@@ -188,46 +237,96 @@ impl MipMap {
             levels.push(next);
         }
         Self {
-            levels,
+            levels: Levels::Rgb(levels),
             wrap,
             filter,
-            packed: Box::default(),
         }
     }
 
-    /// The pyramid with a second copy of its levels as 16-byte texels, which the filtered
-    /// lookups (`lookup_lod_a`, [`MipMap::lookup_aniso`]) then read: the same values to the bit,
-    /// about half the instructions per bilinear lookup, for 16/12 more memory on top of the
-    /// pyramid. For the renderer's bitmaps; an environment map keeps its own texel records.
+    /// The pyramid with its levels as 16-byte texels instead of three floats, which the filtered
+    /// lookups (`lookup_lod_a`, [`MipMap::lookup_aniso`]) read with one aligned load each: the
+    /// same values to the bit, about half the instructions per bilinear lookup, for 16/12 of the
+    /// memory. One copy only (a textured interior's pyramids are hundreds of megabytes). For the
+    /// renderer's bitmaps with bilinear filtering; an environment map keeps its own texel records.
     pub fn with_packed_texels(mut self) -> Self {
         if self.filter == FilterType::Bilinear {
-            self.packed = self
-                .levels
-                .iter()
-                .map(|img| PackedLevel::new(img, self.wrap))
-                .collect();
+            if let Levels::Rgb(levels) = &self.levels {
+                let packed = levels
+                    .iter()
+                    .map(|img| PackedLevel::new(img, self.wrap))
+                    .collect();
+                self.levels = Levels::Packed(packed);
+            }
         }
         self
     }
 
     /// Number of levels, including level 0 and the final 1x1.
     pub fn levels(&self) -> usize {
-        self.levels.len()
+        match &self.levels {
+            Levels::Rgb(l) => l.len(),
+            Levels::Packed(l) => l.len(),
+        }
+    }
+
+    /// Level `i`'s texels (the coarsest for `i` past it).
+    #[inline(always)]
+    fn texels(&self, i: usize) -> LevelTexels<'_> {
+        match &self.levels {
+            Levels::Rgb(l) => {
+                let img = &l[i.min(l.len() - 1)];
+                LevelTexels {
+                    width: img.width,
+                    height: img.height,
+                    data: TexelData::Rgb(&img.pixels),
+                }
+            }
+            Levels::Packed(l) => {
+                let p = &l[i.min(l.len() - 1)];
+                LevelTexels {
+                    width: p.width(),
+                    height: p.height(),
+                    data: TexelData::Packed(p.texels()),
+                }
+            }
+        }
+    }
+
+    /// Level `i`'s packed texels, when the pyramid has them.
+    #[inline(always)]
+    fn packed(&self, i: usize) -> Option<&PackedLevel> {
+        match &self.levels {
+            Levels::Packed(l) => l.get(i),
+            Levels::Rgb(_) => None,
+        }
     }
 
     /// Level `i` of the pyramid (0 = full resolution); `i` is clamped to the coarsest level.
-    pub fn level(&self, i: usize) -> &Image {
-        &self.levels[i.min(self.levels.len() - 1)]
+    /// Borrowed from a pyramid of three-float texels; a packed one's is copied out (for the
+    /// build's tables, not for lookups).
+    pub fn level(&self, i: usize) -> Cow<'_, Image> {
+        match &self.levels {
+            Levels::Rgb(l) => Cow::Borrowed(&l[i.min(l.len() - 1)]),
+            Levels::Packed(_) => {
+                let t = self.texels(i);
+                let n = t.width as usize * t.height as usize;
+                Cow::Owned(Image::new(
+                    t.width,
+                    t.height,
+                    (0..n).map(|k| t.get(k)).collect(),
+                ))
+            }
+        }
     }
 
     /// Width of level 0 in texels.
     pub fn width(&self) -> u32 {
-        self.levels[0].width
+        self.texels(0).width
     }
 
     /// Height of level 0 in texels.
     pub fn height(&self) -> u32 {
-        self.levels[0].height
+        self.texels(0).height
     }
 
     /// The wrap mode used for every lookup.
@@ -244,7 +343,7 @@ impl MipMap {
     /// texel centres at ((i + 0.5)/W, (j + 0.5)/H) as in Mitsuba. Non-finite uv reads texel 0.
     #[inline]
     pub fn lookup_level(&self, level: usize, uv: Vec2) -> Vec3 {
-        let img = self.level(level);
+        let img = self.texels(level);
         match self.filter {
             FilterType::Nearest => {
                 let x = uv.x * img.width as f32;
@@ -252,7 +351,7 @@ impl MipMap {
                 let (w, h) = (img.width as i64, img.height as i64);
                 let i = self.wrap.apply(floor_index(x), w) as usize;
                 let j = self.wrap.apply(floor_index(y), h) as usize;
-                img.pixels[j * img.width as usize + i]
+                img.get(j * img.width as usize + i)
             }
             FilterType::Bilinear => {
                 let x = uv.x * img.width as f32 - 0.5;
@@ -269,12 +368,10 @@ impl MipMap {
                 let (r0, r1) = self.wrap.apply_pair(j, img.height);
                 let w = img.width as usize;
                 let (r0, r1) = (r0 * w, r1 * w);
-                let px = &img.pixels;
                 debug_assert!(r1.max(r0) + c1.max(c0) < w * img.height as usize);
-                debug_assert!(px.len() >= w * img.height as usize);
                 // SAFETY: apply_pair returns columns < width and rows < height, and every level
                 // holds at least width * height texels (checked in `MipMap::new`).
-                let at = |k: usize| unsafe { *px.get_unchecked(k) };
+                let at = |k: usize| unsafe { img.get_unchecked(k) };
                 let top = at(r0 + c0) * (1.0 - fx) + at(r0 + c1) * fx;
                 let bottom = at(r1 + c0) * (1.0 - fx) + at(r1 + c1) * fx;
                 top * (1.0 - fy) + bottom * fy
@@ -287,7 +384,7 @@ impl MipMap {
     /// (before its uv transform and resolution factors). Zero for nearest filtering (piecewise
     /// constant) and for non-finite uv.
     pub fn bilinear_gradient(&self, uv: Vec2, f: impl Fn(Vec3) -> f32) -> Vec2 {
-        let img = self.level(0);
+        let img = self.texels(0);
         if self.filter == FilterType::Nearest {
             return Vec2::ZERO;
         }
@@ -302,7 +399,7 @@ impl MipMap {
         let (w, h) = (img.width as i64, img.height as i64);
         let col = |i: i64| self.wrap.apply(i, w) as usize;
         let row = |j: i64| self.wrap.apply(j, h) as usize * img.width as usize;
-        let at = |r: usize, c: usize| f(img.pixels[r + c]);
+        let at = |r: usize, c: usize| f(img.get(r + c));
         let (c0, c1, r0, r1) = (col(i), col(i + 1), row(j), row(j + 1));
         let (f00, f10, f01, f11) = (at(r0, c0), at(r0, c1), at(r1, c0), at(r1, c1));
         Vec2::new(
@@ -315,12 +412,12 @@ impl MipMap {
     /// libm floor and i64 wrapping: the reference the fast path in `lookup_level` matches.
     #[cold]
     #[inline(never)]
-    fn bilinear_general(&self, img: &Image, x: f32, y: f32) -> Vec3 {
+    fn bilinear_general(&self, img: LevelTexels, x: f32, y: f32) -> Vec3 {
         let (w, h) = (img.width as i64, img.height as i64);
         let wrap = self.wrap;
         let row = |j: i64| wrap.apply(j, h) as usize * img.width as usize;
         let col = |i: i64| wrap.apply(i, w) as usize;
-        let px = &img.pixels;
+        let px = |k: usize| img.get(k);
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (fx, fy) = if fx.is_finite() && fy.is_finite() {
@@ -332,8 +429,8 @@ impl MipMap {
         // Wrap each of the two columns and rows once, then fetch the 4 texels.
         let (c0, c1) = (col(i), col(i + 1));
         let (r0, r1) = (row(j), row(j + 1));
-        let top = px[r0 + c0] * (1.0 - fx) + px[r0 + c1] * fx;
-        let bottom = px[r1 + c0] * (1.0 - fx) + px[r1 + c1] * fx;
+        let top = px(r0 + c0) * (1.0 - fx) + px(r0 + c1) * fx;
+        let bottom = px(r1 + c0) * (1.0 - fx) + px(r1 + c1) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 
@@ -345,7 +442,7 @@ impl MipMap {
         if texels.is_nan() || texels <= 1.0 {
             return 0.0;
         }
-        texels.log2().min((self.levels.len() - 1) as f32)
+        texels.log2().min((self.levels() - 1) as f32)
     }
 
     /// Trilinear lookup; `footprint` is the filter width in uv units (0 → finest level bilinear).
@@ -362,7 +459,7 @@ impl MipMap {
     /// (bilinear filter, coordinates below 2^23 texels): the same value to the bit.
     #[inline(always)]
     pub(crate) fn lookup_level_a(&self, level: usize, uv: Vec2) -> Vec3A {
-        if let Some(v) = self.packed.get(level).and_then(|p| p.bilinear(uv)) {
+        if let Some(v) = self.packed(level).and_then(|p| p.bilinear(uv)) {
             return v;
         }
         self.lookup_level_slow(level, uv)
@@ -384,16 +481,16 @@ impl MipMap {
     /// Trilinear lookups at `level` (finite, in [0, levels - 1]) with the levels resolved once.
     #[inline(always)]
     pub(crate) fn lod_lookup(&self, level: f32) -> LodLookup<'_> {
-        debug_assert!(level >= 0.0 && level <= (self.levels.len() - 1) as f32);
+        debug_assert!(level >= 0.0 && level <= (self.levels() - 1) as f32);
         // `level` is finite and in [0, levels - 1], so truncation is floor.
         let l0 = level as u32 as usize;
         let t = level - l0 as f32;
-        let blend = !(t <= 0.0 || l0 + 1 >= self.levels.len());
+        let blend = !(t <= 0.0 || l0 + 1 >= self.levels());
         LodLookup {
             mip: self,
             level,
-            lo: self.packed.get(l0),
-            hi: if blend { self.packed.get(l0 + 1) } else { None },
+            lo: self.packed(l0),
+            hi: if blend { self.packed(l0 + 1) } else { None },
             t,
         }
     }
@@ -408,12 +505,12 @@ impl MipMap {
     /// Trilinear lookup at a continuous pyramid `level`, finite and in [0, levels - 1].
     #[inline]
     pub fn lookup_lod(&self, uv: Vec2, level: f32) -> Vec3 {
-        debug_assert!(level >= 0.0 && level <= (self.levels.len() - 1) as f32);
+        debug_assert!(level >= 0.0 && level <= (self.levels() - 1) as f32);
         // `level` is finite and in [0, levels - 1], so truncation is floor.
         let l0 = level as usize;
         let t = level - l0 as f32;
         let a = self.lookup_level(l0, uv);
-        if t <= 0.0 || l0 + 1 >= self.levels.len() {
+        if t <= 0.0 || l0 + 1 >= self.levels() {
             return a;
         }
         a * (1.0 - t) + self.lookup_level(l0 + 1, uv) * t
@@ -551,8 +648,11 @@ mod tests {
             for (w, h) in [(37, 20), (1, 5), (5, 1), (64, 64), (1, 1), (2, 3), (32, 7)] {
                 let mip = MipMap::new(pattern(w, h), wrap, FilterType::Bilinear);
                 let packed = mip.clone().with_packed_texels();
+                assert_eq!(packed.levels(), mip.levels());
                 for level in 0..mip.levels() {
-                    let img = mip.level(level);
+                    // The packed pyramid keeps no other copy: its level, copied out, is the same.
+                    assert_eq!(*packed.level(level), *mip.level(level));
+                    let img = mip.texels(level);
                     let (fw, fh) = (img.width as f32, img.height as f32);
                     for k in 0..4000 {
                         // Inside, a few tiles out, far out (up to ~1e5 texels), both signs.
@@ -575,6 +675,13 @@ mod tests {
                             fast.to_array().map(f32::to_bits),
                             general.to_array().map(f32::to_bits),
                             "{wrap:?} {w}x{h} level {level} uv {uv}"
+                        );
+                        // The scalar paths read the packed texels to the same bits.
+                        let from_packed = packed.lookup_level(level, uv);
+                        assert_eq!(
+                            from_packed.to_array().map(f32::to_bits),
+                            fast.to_array().map(f32::to_bits),
+                            "packed scalar {wrap:?} {w}x{h} level {level} uv {uv}"
                         );
                         // The packed texels (the renderer's bitmaps) give the same bits.
                         let simd = Vec3::from(packed.lookup_level_a(level, uv));
@@ -609,7 +716,7 @@ mod tests {
                 let (x, y) = (uv.x * 5.0 - 0.5, uv.y * 3.0 - 0.5);
                 assert_eq!(
                     mip.lookup_level(0, uv),
-                    mip.bilinear_general(mip.level(0), x, y)
+                    mip.bilinear_general(mip.texels(0), x, y)
                 );
                 let _ = near.lookup_level(0, uv);
             }
@@ -672,7 +779,7 @@ mod tests {
             let last = mip.level(mip.levels() - 1);
             assert_eq!((last.width, last.height), (1, 1), "{w}x{h}");
             for i in 0..mip.levels() {
-                let m = mean(mip.level(i));
+                let m = mean(&mip.level(i));
                 assert!(m.abs_diff_eq(m0, 1e-5), "{w}x{h} level {i}: {m} vs {m0}");
             }
         }

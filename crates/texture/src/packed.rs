@@ -17,6 +17,7 @@ pub(crate) struct PackedLevel {
     /// `width * height` texels, row by row from the top.
     texels: Box<[Vec3A]>,
     width: u32,
+    height: u32,
     /// `(width, height)` as floats.
     size: Vec2,
     /// How column (x) and row (y) indices wrap.
@@ -38,10 +39,24 @@ impl PackedLevel {
         Self {
             texels,
             width: img.width,
+            height: img.height,
             size: Vec2::new(img.width as f32, img.height as f32),
             wrap_x: AxisWrap::new(wrap, img.width),
             wrap_y: AxisWrap::new(wrap, img.height),
         }
+    }
+
+    pub(crate) fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub(crate) fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The `width * height` texels, row by row from the top.
+    pub(crate) fn texels(&self) -> &[Vec3A] {
+        &self.texels
     }
 
     /// `MipMap::lookup_level`'s bilinear value at `uv`, to the bit; None for coordinates at or

@@ -94,7 +94,7 @@ pub(super) fn emission_texture(
     };
     let sampling = match (&textures[index as usize], map) {
         (Texture::Bitmap(b), Some(map)) if b.to_uv() == glam::Affine2::IDENTITY => {
-            TexelDistribution::new(b.mip().level(0)).map(|d| (d, map))
+            TexelDistribution::new(&b.mip().level(0)).map(|d| (d, map))
         }
         _ => None,
     };
