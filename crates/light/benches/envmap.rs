@@ -62,7 +62,7 @@ fn main() {
         torrey_texture::FilterType::Bilinear,
     )
     .level(3)
-    .clone();
+    .into_owned();
     for (label, image, to_world) in [
         ("512x256, identity", &image, Mat3::IDENTITY),
         ("512x256, rotated", &image, Mat3::from_rotation_y(0.7)),
