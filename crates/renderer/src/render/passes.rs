@@ -8,7 +8,7 @@
 //! - Adaptive sampling: a uniform pilot pass to the pilot size, then each pixel's count is
 //!   decided once from its neighbours' pilot ([`super::adaptive`]), then one pass renders every
 //!   pixel to its count. The counts depend only on the pilot samples, which are those of any
-//!   window or sample range of the same render: a `--crop` renders the pilot of a one-pixel ring
+//!   window or sample range of the same render: a `--crop` renders the pilot of a two-pixel ring
 //!   around it too and gives the one-piece render's pixels bit for bit; a `--sample-range` part
 //!   renders the whole pilot for its decisions (counting in its image only the samples of its
 //!   range) and holds exactly the one-piece render's samples of that range.
