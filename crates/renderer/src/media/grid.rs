@@ -6,11 +6,12 @@
 //! `dr::Texture` with `clamp`) or at the nearest sample.
 //!
 //! The majorant grid (beyond Mitsuba, which tracks against one global majorant): a coarse grid
-//! over the same unit cube, each cell holding the largest value any lookup inside it can return
-//! (the samples whose trilinear support reaches the cell, one more on each side for rounding).
+//! over the same unit cube, each cell holding the smallest and the largest value any lookup
+//! inside it can return (over the samples whose filter support overlaps the cell, no more).
 //! Rays walk its cells with a 3D DDA (pbrt-v4's `DDAMajorantIterator`); in each cell free
 //! flights are drawn against that cell's majorant, so empty space costs one step per cell and
-//! a sparse cloud is tracked with few null collisions.
+//! a sparse cloud is tracked with few null collisions; the minorant is residual ratio
+//! tracking's control (`tracking.rs`).
 
 use glam::{Mat4, Vec3A};
 use std::sync::OnceLock;
@@ -83,18 +84,21 @@ impl Grid {
         self.eval_local(self.to_local.transform_point3a(p))
     }
 
-    /// The largest value (every channel) among samples x0..=x1, y0..=y1, z0..=z1 (clamped).
-    fn max_in(&self, lo: [i32; 3], hi: [i32; 3]) -> f32 {
+    /// The smallest and the largest value (over every channel) among samples x0..=x1,
+    /// y0..=y1, z0..=z1 (clamped to the grid).
+    fn range_in(&self, lo: [i32; 3], hi: [i32; 3]) -> [f32; 2] {
         let clamp = |v: i32, a: usize| v.clamp(0, self.size[a] as i32 - 1);
-        let mut m = 0.0f32;
+        let (mut min, mut max) = (f32::INFINITY, 0.0f32);
         for z in clamp(lo[2], 2)..=clamp(hi[2], 2) {
             for y in clamp(lo[1], 1)..=clamp(hi[1], 1) {
                 for x in clamp(lo[0], 0)..=clamp(hi[0], 0) {
-                    m = m.max(self.at(x, y, z).max_element());
+                    let v = self.at(x, y, z);
+                    min = min.min(v.min_element());
+                    max = max.max(v.max_element());
                 }
             }
         }
-        m
+        [min.max(0.0), max]
     }
 }
 
@@ -113,15 +117,23 @@ fn majorant_cells(samples: u32) -> u32 {
     fixed.unwrap_or_else(|| samples.div_ceil(2).clamp(1, 64))
 }
 
-/// Local majorants of a grid over the unit cube.
+/// How far (in samples) a lookup point may stray out of its cell by rounding: positions and the
+/// walk's cell boundaries carry float error of about 1e-7 of the coordinates' size in samples.
+const ROUNDING: f32 = 0.01;
+
+/// Local bounds of a grid over the unit cube: per cell, the smallest and the largest value a
+/// lookup inside it can return (the samples whose filter support overlaps the cell, no more:
+/// 4 per axis at 2 samples a cell with trilinear filtering).
 #[derive(Clone, Debug)]
 pub struct MajorantGrid {
     pub res: [u32; 3],
-    values: Vec<f32>,
+    /// Per cell [minorant, majorant], before the medium's scale; the majorant never above the
+    /// grid's `max`.
+    values: Vec<[f32; 2]>,
 }
 
 impl MajorantGrid {
-    /// The majorants of `grid` (before the medium's scale), never above its `max`.
+    /// The bounds of `grid` (before the medium's scale).
     pub fn new(grid: &Grid) -> Self {
         let res = grid.size.map(majorant_cells);
         let mut values = Vec::with_capacity((res[0] * res[1] * res[2]) as usize);
@@ -133,19 +145,34 @@ impl MajorantGrid {
                     for a in 0..3 {
                         let n = grid.size[a] as f32;
                         let r = res[a] as f32;
-                        // Lookups in the cell read samples floor(p n − 0.5) and the next.
-                        lo[a] = (c[a] as f32 / r * n - 0.5).floor() as i32 - 1;
-                        hi[a] = ((c[a] + 1) as f32 / r * n - 0.5).floor() as i32 + 2;
+                        let (a0, a1) = (c[a] as f32 / r * n, (c[a] + 1) as f32 / r * n);
+                        if grid.nearest {
+                            // Lookups read sample floor(p n).
+                            lo[a] = (a0 - ROUNDING).floor() as i32;
+                            hi[a] = (a1 + ROUNDING).floor() as i32;
+                        } else {
+                            // Lookups read samples floor(p n − 0.5) and the next.
+                            lo[a] = (a0 - 0.5 - ROUNDING).floor() as i32;
+                            hi[a] = (a1 - 0.5 + ROUNDING).floor() as i32 + 1;
+                        }
                     }
-                    values.push(grid.max_in(lo, hi).min(grid.max));
+                    let [min, max] = grid.range_in(lo, hi);
+                    let max = max.min(grid.max);
+                    values.push([min.min(max), max]);
                 }
             }
         }
         MajorantGrid { res, values }
     }
 
+    /// Whether some cell's minorant is positive (for tests).
+    #[cfg(test)]
+    pub fn values_min_positive(&self) -> bool {
+        self.values.iter().any(|v| v[0] > 0.0)
+    }
+
     #[inline(always)]
-    fn value(&self, c: [i32; 3]) -> f32 {
+    fn value(&self, c: [i32; 3]) -> [f32; 2] {
         let [nx, ny, _] = self.res;
         self.values[((c[2] as u32 * ny + c[1] as u32) * nx + c[0] as u32) as usize]
     }
@@ -183,7 +210,7 @@ impl MajorantGrid {
     }
 }
 
-/// [`MajorantGrid::walk`]: yields (t_enter, t_exit, majorant) per cell.
+/// [`MajorantGrid::walk`]: yields (t_enter, t_exit, [minorant, majorant]) per cell.
 pub struct MajorantWalk<'a> {
     grid: &'a MajorantGrid,
     cell: [i32; 3],
@@ -195,10 +222,10 @@ pub struct MajorantWalk<'a> {
 }
 
 impl Iterator for MajorantWalk<'_> {
-    type Item = (f32, f32, f32);
+    type Item = (f32, f32, [f32; 2]);
 
     #[inline]
-    fn next(&mut self) -> Option<(f32, f32, f32)> {
+    fn next(&mut self) -> Option<Self::Item> {
         if !(self.t < self.t1) {
             return None;
         }
@@ -276,19 +303,30 @@ mod tests {
         assert_eq!(g.eval_local(Vec3A::new(0.99, 0.5, 0.5)).x, 3.0);
     }
 
-    /// Every lookup along random rays is at most its cell's majorant, and the walk covers the
-    /// ray's span inside the cube without gaps.
+    /// Every lookup along random rays (the cells' ends included) lies between its cell's
+    /// minorant and majorant, and the walk covers the ray's span inside the cube without gaps.
     #[test]
     fn majorants_bound_every_lookup_along_the_walk() {
         let mut rng = Rng::new(3);
-        let g = grid([13, 7, 9], |x, y, z| {
+        let sparse = grid([13, 7, 9], |x, y, z| {
             if (x * 7 + y * 3 + z * 5) % 11 == 0 {
                 5.0 + x as f32
             } else {
                 0.0
             }
         });
-        let m = MajorantGrid::new(&g);
+        let dense = grid([16, 10, 9], |x, y, z| {
+            1.0 + ((x * 5 + y * 3 + z * 7) % 6) as f32
+        });
+        let mut nearest = dense.clone();
+        nearest.nearest = true;
+        for g in [sparse, dense, nearest] {
+            let m = MajorantGrid::new(&g);
+            walk_within_bounds(&g, &m, &mut rng);
+        }
+    }
+
+    fn walk_within_bounds(g: &Grid, m: &MajorantGrid, rng: &mut Rng) {
         for _ in 0..2000 {
             let o = Vec3A::new(
                 rng.range(-1.0, 2.0),
@@ -305,12 +343,13 @@ mod tests {
             };
             let t0 = t0.max(0.0);
             let mut t = t0;
-            for (a, b, maj) in m.walk(o, d, t0, t1) {
+            for (a, b, [min, maj]) in m.walk(o, d, t0, t1) {
                 assert!((a - t).abs() <= 1e-4 * (1.0 + t.abs()), "gap at {t}: {a}");
-                for k in 0..8 {
-                    let s = a + (b - a) * (k as f32 + 0.5) / 8.0;
+                for k in 0..=8 {
+                    let s = a + (b - a) * k as f32 / 8.0;
                     let v = g.eval_local(o + d * s).x;
                     assert!(v <= maj + 1e-4, "{v} above {maj}");
+                    assert!(v >= min - 1e-4, "{v} below {min}");
                 }
                 t = b;
             }

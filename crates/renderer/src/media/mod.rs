@@ -12,6 +12,7 @@
 mod grid;
 mod medium;
 pub mod phase;
+mod tracking;
 
 pub use medium::{Flight, Medium};
 
