@@ -13,6 +13,7 @@
 //! a sparse cloud is tracked with few null collisions; the minorant is residual ratio
 //! tracking's control (`tracking.rs`).
 
+use super::walk::MajorantWalk;
 use glam::{Mat4, Vec3A};
 use std::sync::OnceLock;
 use torrey_parser as desc;
@@ -171,84 +172,10 @@ impl MajorantGrid {
         self.values.iter().any(|v| v[0] > 0.0)
     }
 
-    #[inline(always)]
-    fn value(&self, c: [i32; 3]) -> [f32; 2] {
-        let [nx, ny, _] = self.res;
-        self.values[((c[2] as u32 * ny + c[1] as u32) * nx + c[0] as u32) as usize]
-    }
-
     /// The cells a local-space ray `o + t d` crosses for t in [t0, t1] (inside the unit cube),
     /// in order.
     pub fn walk(&self, o: Vec3A, d: Vec3A, t0: f32, t1: f32) -> MajorantWalk<'_> {
-        let res = Vec3A::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
-        let p = (o + d * t0) * res;
-        let mut cell = [0i32; 3];
-        let mut next = [f32::INFINITY; 3];
-        let mut delta = [f32::INFINITY; 3];
-        let mut step = [0i32; 3];
-        for a in 0..3 {
-            cell[a] = (p[a].floor() as i32).clamp(0, self.res[a] as i32 - 1);
-            if d[a] > 0.0 {
-                step[a] = 1;
-                next[a] = t0 + ((cell[a] + 1) as f32 - p[a]) / (d[a] * res[a]);
-                delta[a] = 1.0 / (d[a] * res[a]);
-            } else if d[a] < 0.0 {
-                step[a] = -1;
-                next[a] = t0 + (cell[a] as f32 - p[a]) / (d[a] * res[a]);
-                delta[a] = -1.0 / (d[a] * res[a]);
-            }
-        }
-        MajorantWalk {
-            grid: self,
-            cell,
-            next,
-            delta,
-            step,
-            t: t0,
-            t1,
-        }
-    }
-}
-
-/// [`MajorantGrid::walk`]: yields (t_enter, t_exit, [minorant, majorant]) per cell.
-pub struct MajorantWalk<'a> {
-    grid: &'a MajorantGrid,
-    cell: [i32; 3],
-    next: [f32; 3],
-    delta: [f32; 3],
-    step: [i32; 3],
-    t: f32,
-    t1: f32,
-}
-
-impl Iterator for MajorantWalk<'_> {
-    type Item = (f32, f32, [f32; 2]);
-
-    #[inline]
-    fn next(&mut self) -> Option<Self::Item> {
-        if !(self.t < self.t1) {
-            return None;
-        }
-        let axis = if self.next[0] < self.next[1] {
-            if self.next[0] < self.next[2] {
-                0
-            } else {
-                2
-            }
-        } else if self.next[1] < self.next[2] {
-            1
-        } else {
-            2
-        };
-        let exit = self.next[axis].min(self.t1);
-        let item = (self.t, exit, self.grid.value(self.cell));
-        self.t = exit;
-        self.cell[axis] += self.step[axis];
-        self.next[axis] += self.delta[axis];
-        if self.cell[axis] < 0 || self.cell[axis] >= self.grid.res[axis] as i32 {
-            self.t = self.t1;
-        }
-        Some(item)
+        MajorantWalk::new(&self.values, self.res, o, d, t0, t1)
     }
 }
 

@@ -13,6 +13,7 @@ mod grid;
 mod medium;
 pub mod phase;
 mod tracking;
+mod walk;
 
 pub use medium::{Flight, Medium};
 
