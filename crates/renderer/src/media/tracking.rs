@@ -2,6 +2,11 @@
 //! spectral tracking against the cell's majorant) and transmittance (residual ratio tracking
 //! against the cell's minorant and majorant).
 //!
+//! Tentative collisions are drawn as one exponential optical depth spent across the cells
+//! (μ times the length of each cell crossed), not one exponential per cell: by memorylessness
+//! the same process, without a logarithm and a random number for every non-empty cell a ray
+//! crosses without a collision.
+//!
 //! Transmittance is Novák et al.'s residual ratio tracking (2014), per cell: the cell's
 //! minorant σc (the smallest value a lookup in it can return) is a control whose part
 //! exp(−σc ℓ) is exact, and ratio tracking estimates the rest, T ·= (μ − σt) / (μ − σc) at
@@ -61,6 +66,7 @@ impl GridDensity {
             return Flight::Pass;
         };
         let (t0, t1) = (t0.max(0.0), t1.min(tmax));
+        let mut depth = exponential(u);
         for (ta, tb, [_, max]) in self.majorants.walk(o_l, d_l, t0, t1) {
             let mu = max * self.scale;
             if !(mu > 0.0) {
@@ -68,10 +74,13 @@ impl GridDensity {
             }
             let mut t = ta;
             loop {
-                t -= (1.0 - u()).ln() / mu;
-                if !(t < tb) {
+                let to_collision = depth / mu;
+                if !(t + to_collision < tb) {
+                    depth = (depth - mu * (tb - t)).max(0.0);
                     break;
                 }
+                t += to_collision;
+                depth = exponential(u);
                 let sigma_t = self.sigma_t(o_l + d_l * t, mu);
                 let sigma_n = Vec3A::splat(mu) - sigma_t;
                 let w = *throughput;
@@ -108,6 +117,7 @@ impl GridDensity {
         };
         let (t0, t1) = (t0.max(0.0), t1.min(tmax));
         let mut tr = Vec3A::ONE;
+        let mut depth = exponential(u);
         for (ta, tb, [min, max]) in self.majorants.walk(o_l, d_l, t0, t1) {
             let (control, mu) = (min * self.scale, max * self.scale);
             if !(mu > 0.0) {
@@ -125,10 +135,13 @@ impl GridDensity {
             }
             let mut t = ta;
             loop {
-                t -= (1.0 - u()).ln() / residual;
-                if !(t < tb) {
+                let to_collision = depth / residual;
+                if !(t + to_collision < tb) {
+                    depth = (depth - residual * (tb - t)).max(0.0);
                     break;
                 }
+                t += to_collision;
+                depth = exponential(u);
                 let sigma_t = self.sigma_t(o_l + d_l * t, mu);
                 tr *= (Vec3A::splat(mu) - sigma_t) / residual;
                 if !roulette(&mut tr, u) {
@@ -138,6 +151,12 @@ impl GridDensity {
         }
         tr
     }
+}
+
+/// An exponentially distributed optical depth (mean 1): the depth to a tentative collision.
+#[inline(always)]
+fn exponential(u: &mut impl FnMut() -> f32) -> f32 {
+    -(1.0 - u()).ln()
 }
 
 /// Russian roulette on a transmittance weight below [`ROULETTE_BELOW`]: it survives with
