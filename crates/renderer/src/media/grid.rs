@@ -131,6 +131,9 @@ pub struct MajorantGrid {
     /// Per cell [minorant, majorant], before the medium's scale; the majorant never above the
     /// grid's `max`.
     values: Vec<[f32; 2]>,
+    /// The box (in the unit cube) of the cells with a positive majorant: rays are walked only
+    /// through it (empty when no cell is).
+    occupied: [Vec3A; 2],
 }
 
 impl MajorantGrid {
@@ -163,13 +166,42 @@ impl MajorantGrid {
                 }
             }
         }
-        MajorantGrid { res, values }
+        let (mut lo, mut hi) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+        let n = Vec3A::new(res[0] as f32, res[1] as f32, res[2] as f32);
+        for (i, v) in values.iter().enumerate() {
+            if v[1] > 0.0 {
+                let i = i as u32;
+                let c = Vec3A::new(
+                    (i % res[0]) as f32,
+                    (i / res[0] % res[1]) as f32,
+                    (i / (res[0] * res[1])) as f32,
+                );
+                lo = lo.min(c / n);
+                hi = hi.max((c + Vec3A::ONE) / n);
+            }
+        }
+        MajorantGrid {
+            res,
+            values,
+            occupied: [lo, hi],
+        }
     }
 
     /// Whether some cell's minorant is positive (for tests).
     #[cfg(test)]
     pub fn values_min_positive(&self) -> bool {
         self.values.iter().any(|v| v[0] > 0.0)
+    }
+
+    /// The parameter range [t0, t1] in which the local-space ray `o + t d` is inside the box
+    /// of the cells with a positive majorant (None when it misses the box).
+    #[inline]
+    pub fn span(&self, o: Vec3A, d: Vec3A) -> Option<(f32, f32)> {
+        let [lo, hi] = self.occupied;
+        if !(lo.x <= hi.x) {
+            return None;
+        }
+        box_span(o, d, lo, hi)
     }
 
     /// The cells a local-space ray `o + t d` crosses for t in [t0, t1] (inside the unit cube),
@@ -179,12 +211,18 @@ impl MajorantGrid {
     }
 }
 
-/// The parameter range [t0, t1] in which the ray `o + t d` is inside the unit cube.
-#[inline]
+/// The parameter range [t0, t1] in which the ray `o + t d` is inside the unit cube (for tests).
+#[cfg(test)]
 pub fn unit_cube_span(o: Vec3A, d: Vec3A) -> Option<(f32, f32)> {
+    box_span(o, d, Vec3A::ZERO, Vec3A::ONE)
+}
+
+/// The parameter range [t0, t1] in which the ray `o + t d` is inside the box [lo, hi].
+#[inline]
+fn box_span(o: Vec3A, d: Vec3A, lo: Vec3A, hi: Vec3A) -> Option<(f32, f32)> {
     let inv = d.recip();
-    let a = (Vec3A::ZERO - o) * inv;
-    let b = (Vec3A::ONE - o) * inv;
+    let a = (lo - o) * inv;
+    let b = (hi - o) * inv;
     let lo = a.min(b);
     let hi = a.max(b);
     // NaN (0 · inf, a ray in a face's plane) is dropped by max/min's handling of NaN.
@@ -231,7 +269,8 @@ mod tests {
     }
 
     /// Every lookup along random rays (the cells' ends included) lies between its cell's
-    /// minorant and majorant, and the walk covers the ray's span inside the cube without gaps.
+    /// minorant and majorant, the walk covers the ray's span inside the occupied box without
+    /// gaps, and lookups in the cube outside that box are 0.
     #[test]
     fn majorants_bound_every_lookup_along_the_walk() {
         let mut rng = Rng::new(3);
@@ -247,7 +286,20 @@ mod tests {
         });
         let mut nearest = dense.clone();
         nearest.nearest = true;
-        for g in [sparse, dense, nearest] {
+        // One blob off-centre in a 40³ grid: most of the cube is outside the occupied box.
+        let blob = grid([40, 40, 40], |x, y, z| {
+            let r2 = [x, y, z]
+                .map(|v| (v as i32 - 12).pow(2))
+                .iter()
+                .sum::<i32>();
+            if r2 < 16 {
+                2.0
+            } else {
+                0.0
+            }
+        });
+        let empty = grid([6, 6, 6], |_, _, _| 0.0);
+        for g in [sparse, dense, nearest, blob, empty] {
             let m = MajorantGrid::new(&g);
             walk_within_bounds(&g, &m, &mut rng);
         }
@@ -269,6 +321,20 @@ mod tests {
                 continue;
             };
             let t0 = t0.max(0.0);
+            let zero = |a: f32, b: f32| {
+                for k in 0..=32 {
+                    let v = g.eval_local(o + d * (a + (b - a) * k as f32 / 32.0)).x;
+                    assert!(!(b > a) || v == 0.0, "{v} outside the occupied box");
+                }
+            };
+            let Some((s0, s1)) = m.span(o, d) else {
+                zero(t0, t1);
+                continue;
+            };
+            let (s0, s1) = (s0.max(t0), s1.min(t1));
+            zero(t0, s0 - 1e-4);
+            zero(s1 + 1e-4, t1);
+            let (t0, t1) = (s0, s1);
             let mut t = t0;
             for (a, b, [min, maj]) in m.walk(o, d, t0, t1) {
                 assert!((a - t).abs() <= 1e-4 * (1.0 + t.abs()), "gap at {t}: {a}");

@@ -16,7 +16,9 @@
 //! are all equal costs one exponential and no lookup. Where the minorant is 0 (empty space
 //! near a cloud, one global bound over a sparse grid) it is plain ratio tracking.
 
-use super::grid::{unit_cube_span, Grid, MajorantGrid};
+#[cfg(test)]
+use super::grid::unit_cube_span;
+use super::grid::{Grid, MajorantGrid};
 use super::medium::{Field, Flight};
 use glam::Vec3A;
 
@@ -62,7 +64,7 @@ impl GridDensity {
     ) -> Flight {
         let o_l = self.grid.to_local.transform_point3a(o);
         let d_l = self.grid.to_local.transform_vector3a(d);
-        let Some((t0, t1)) = unit_cube_span(o_l, d_l) else {
+        let Some((t0, t1)) = self.majorants.span(o_l, d_l) else {
             return Flight::Pass;
         };
         let (t0, t1) = (t0.max(0.0), t1.min(tmax));
@@ -112,7 +114,7 @@ impl GridDensity {
     ) -> Vec3A {
         let o_l = self.grid.to_local.transform_point3a(o);
         let d_l = self.grid.to_local.transform_vector3a(d);
-        let Some((t0, t1)) = unit_cube_span(o_l, d_l) else {
+        let Some((t0, t1)) = self.majorants.span(o_l, d_l) else {
             return Vec3A::ONE;
         };
         let (t0, t1) = (t0.max(0.0), t1.min(tmax));
