@@ -6,12 +6,14 @@
 //! `dr::Texture` with `clamp`) or at the nearest sample.
 //!
 //! The majorant grid (beyond Mitsuba, which tracks against one global majorant): a coarse grid
-//! over the same unit cube, each cell holding the largest value any lookup inside it can return
-//! (the samples whose trilinear support reaches the cell, one more on each side for rounding).
+//! over the same unit cube, each cell holding the smallest and the largest value any lookup
+//! inside it can return (over the samples whose filter support overlaps the cell, no more).
 //! Rays walk its cells with a 3D DDA (pbrt-v4's `DDAMajorantIterator`); in each cell free
 //! flights are drawn against that cell's majorant, so empty space costs one step per cell and
-//! a sparse cloud is tracked with few null collisions.
+//! a sparse cloud is tracked with few null collisions; the minorant is residual ratio
+//! tracking's control (`tracking.rs`).
 
+use super::walk::MajorantWalk;
 use glam::{Mat4, Vec3A};
 use std::sync::OnceLock;
 use torrey_parser as desc;
@@ -83,18 +85,21 @@ impl Grid {
         self.eval_local(self.to_local.transform_point3a(p))
     }
 
-    /// The largest value (every channel) among samples x0..=x1, y0..=y1, z0..=z1 (clamped).
-    fn max_in(&self, lo: [i32; 3], hi: [i32; 3]) -> f32 {
+    /// The smallest and the largest value (over every channel) among samples x0..=x1,
+    /// y0..=y1, z0..=z1 (clamped to the grid).
+    fn range_in(&self, lo: [i32; 3], hi: [i32; 3]) -> [f32; 2] {
         let clamp = |v: i32, a: usize| v.clamp(0, self.size[a] as i32 - 1);
-        let mut m = 0.0f32;
+        let (mut min, mut max) = (f32::INFINITY, 0.0f32);
         for z in clamp(lo[2], 2)..=clamp(hi[2], 2) {
             for y in clamp(lo[1], 1)..=clamp(hi[1], 1) {
                 for x in clamp(lo[0], 0)..=clamp(hi[0], 0) {
-                    m = m.max(self.at(x, y, z).max_element());
+                    let v = self.at(x, y, z);
+                    min = min.min(v.min_element());
+                    max = max.max(v.max_element());
                 }
             }
         }
-        m
+        [min.max(0.0), max]
     }
 }
 
@@ -113,15 +118,26 @@ fn majorant_cells(samples: u32) -> u32 {
     fixed.unwrap_or_else(|| samples.div_ceil(2).clamp(1, 64))
 }
 
-/// Local majorants of a grid over the unit cube.
+/// How far (in samples) a lookup point may stray out of its cell by rounding: positions and the
+/// walk's cell boundaries carry float error of about 1e-7 of the coordinates' size in samples.
+const ROUNDING: f32 = 0.01;
+
+/// Local bounds of a grid over the unit cube: per cell, the smallest and the largest value a
+/// lookup inside it can return (the samples whose filter support overlaps the cell, no more:
+/// 4 per axis at 2 samples a cell with trilinear filtering).
 #[derive(Clone, Debug)]
 pub struct MajorantGrid {
     pub res: [u32; 3],
-    values: Vec<f32>,
+    /// Per cell [minorant, majorant], before the medium's scale; the majorant never above the
+    /// grid's `max`.
+    values: Vec<[f32; 2]>,
+    /// The box (in the unit cube) of the cells with a positive majorant: rays are walked only
+    /// through it (empty when no cell is).
+    occupied: [Vec3A; 2],
 }
 
 impl MajorantGrid {
-    /// The majorants of `grid` (before the medium's scale), never above its `max`.
+    /// The bounds of `grid` (before the medium's scale).
     pub fn new(grid: &Grid) -> Self {
         let res = grid.size.map(majorant_cells);
         let mut values = Vec::with_capacity((res[0] * res[1] * res[2]) as usize);
@@ -133,104 +149,80 @@ impl MajorantGrid {
                     for a in 0..3 {
                         let n = grid.size[a] as f32;
                         let r = res[a] as f32;
-                        // Lookups in the cell read samples floor(p n − 0.5) and the next.
-                        lo[a] = (c[a] as f32 / r * n - 0.5).floor() as i32 - 1;
-                        hi[a] = ((c[a] + 1) as f32 / r * n - 0.5).floor() as i32 + 2;
+                        let (a0, a1) = (c[a] as f32 / r * n, (c[a] + 1) as f32 / r * n);
+                        if grid.nearest {
+                            // Lookups read sample floor(p n).
+                            lo[a] = (a0 - ROUNDING).floor() as i32;
+                            hi[a] = (a1 + ROUNDING).floor() as i32;
+                        } else {
+                            // Lookups read samples floor(p n − 0.5) and the next.
+                            lo[a] = (a0 - 0.5 - ROUNDING).floor() as i32;
+                            hi[a] = (a1 - 0.5 + ROUNDING).floor() as i32 + 1;
+                        }
                     }
-                    values.push(grid.max_in(lo, hi).min(grid.max));
+                    let [min, max] = grid.range_in(lo, hi);
+                    let max = max.min(grid.max);
+                    values.push([min.min(max), max]);
                 }
             }
         }
-        MajorantGrid { res, values }
+        let (mut lo, mut hi) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
+        let n = Vec3A::new(res[0] as f32, res[1] as f32, res[2] as f32);
+        for (i, v) in values.iter().enumerate() {
+            if v[1] > 0.0 {
+                let i = i as u32;
+                let c = Vec3A::new(
+                    (i % res[0]) as f32,
+                    (i / res[0] % res[1]) as f32,
+                    (i / (res[0] * res[1])) as f32,
+                );
+                lo = lo.min(c / n);
+                hi = hi.max((c + Vec3A::ONE) / n);
+            }
+        }
+        MajorantGrid {
+            res,
+            values,
+            occupied: [lo, hi],
+        }
     }
 
-    #[inline(always)]
-    fn value(&self, c: [i32; 3]) -> f32 {
-        let [nx, ny, _] = self.res;
-        self.values[((c[2] as u32 * ny + c[1] as u32) * nx + c[0] as u32) as usize]
+    /// Whether some cell's minorant is positive (for tests).
+    #[cfg(test)]
+    pub fn values_min_positive(&self) -> bool {
+        self.values.iter().any(|v| v[0] > 0.0)
+    }
+
+    /// The parameter range [t0, t1] in which the local-space ray `o + t d` is inside the box
+    /// of the cells with a positive majorant (None when it misses the box).
+    #[inline]
+    pub fn span(&self, o: Vec3A, d: Vec3A) -> Option<(f32, f32)> {
+        let [lo, hi] = self.occupied;
+        if !(lo.x <= hi.x) {
+            return None;
+        }
+        box_span(o, d, lo, hi)
     }
 
     /// The cells a local-space ray `o + t d` crosses for t in [t0, t1] (inside the unit cube),
     /// in order.
     pub fn walk(&self, o: Vec3A, d: Vec3A, t0: f32, t1: f32) -> MajorantWalk<'_> {
-        let res = Vec3A::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32);
-        let p = (o + d * t0) * res;
-        let mut cell = [0i32; 3];
-        let mut next = [f32::INFINITY; 3];
-        let mut delta = [f32::INFINITY; 3];
-        let mut step = [0i32; 3];
-        for a in 0..3 {
-            cell[a] = (p[a].floor() as i32).clamp(0, self.res[a] as i32 - 1);
-            if d[a] > 0.0 {
-                step[a] = 1;
-                next[a] = t0 + ((cell[a] + 1) as f32 - p[a]) / (d[a] * res[a]);
-                delta[a] = 1.0 / (d[a] * res[a]);
-            } else if d[a] < 0.0 {
-                step[a] = -1;
-                next[a] = t0 + (cell[a] as f32 - p[a]) / (d[a] * res[a]);
-                delta[a] = -1.0 / (d[a] * res[a]);
-            }
-        }
-        MajorantWalk {
-            grid: self,
-            cell,
-            next,
-            delta,
-            step,
-            t: t0,
-            t1,
-        }
+        MajorantWalk::new(&self.values, self.res, o, d, t0, t1)
     }
 }
 
-/// [`MajorantGrid::walk`]: yields (t_enter, t_exit, majorant) per cell.
-pub struct MajorantWalk<'a> {
-    grid: &'a MajorantGrid,
-    cell: [i32; 3],
-    next: [f32; 3],
-    delta: [f32; 3],
-    step: [i32; 3],
-    t: f32,
-    t1: f32,
-}
-
-impl Iterator for MajorantWalk<'_> {
-    type Item = (f32, f32, f32);
-
-    #[inline]
-    fn next(&mut self) -> Option<(f32, f32, f32)> {
-        if !(self.t < self.t1) {
-            return None;
-        }
-        let axis = if self.next[0] < self.next[1] {
-            if self.next[0] < self.next[2] {
-                0
-            } else {
-                2
-            }
-        } else if self.next[1] < self.next[2] {
-            1
-        } else {
-            2
-        };
-        let exit = self.next[axis].min(self.t1);
-        let item = (self.t, exit, self.grid.value(self.cell));
-        self.t = exit;
-        self.cell[axis] += self.step[axis];
-        self.next[axis] += self.delta[axis];
-        if self.cell[axis] < 0 || self.cell[axis] >= self.grid.res[axis] as i32 {
-            self.t = self.t1;
-        }
-        Some(item)
-    }
-}
-
-/// The parameter range [t0, t1] in which the ray `o + t d` is inside the unit cube.
-#[inline]
+/// The parameter range [t0, t1] in which the ray `o + t d` is inside the unit cube (for tests).
+#[cfg(test)]
 pub fn unit_cube_span(o: Vec3A, d: Vec3A) -> Option<(f32, f32)> {
+    box_span(o, d, Vec3A::ZERO, Vec3A::ONE)
+}
+
+/// The parameter range [t0, t1] in which the ray `o + t d` is inside the box [lo, hi].
+#[inline]
+fn box_span(o: Vec3A, d: Vec3A, lo: Vec3A, hi: Vec3A) -> Option<(f32, f32)> {
     let inv = d.recip();
-    let a = (Vec3A::ZERO - o) * inv;
-    let b = (Vec3A::ONE - o) * inv;
+    let a = (lo - o) * inv;
+    let b = (hi - o) * inv;
     let lo = a.min(b);
     let hi = a.max(b);
     // NaN (0 · inf, a ray in a face's plane) is dropped by max/min's handling of NaN.
@@ -276,19 +268,44 @@ mod tests {
         assert_eq!(g.eval_local(Vec3A::new(0.99, 0.5, 0.5)).x, 3.0);
     }
 
-    /// Every lookup along random rays is at most its cell's majorant, and the walk covers the
-    /// ray's span inside the cube without gaps.
+    /// Every lookup along random rays (the cells' ends included) lies between its cell's
+    /// minorant and majorant, the walk covers the ray's span inside the occupied box without
+    /// gaps, and lookups in the cube outside that box are 0.
     #[test]
     fn majorants_bound_every_lookup_along_the_walk() {
         let mut rng = Rng::new(3);
-        let g = grid([13, 7, 9], |x, y, z| {
+        let sparse = grid([13, 7, 9], |x, y, z| {
             if (x * 7 + y * 3 + z * 5) % 11 == 0 {
                 5.0 + x as f32
             } else {
                 0.0
             }
         });
-        let m = MajorantGrid::new(&g);
+        let dense = grid([16, 10, 9], |x, y, z| {
+            1.0 + ((x * 5 + y * 3 + z * 7) % 6) as f32
+        });
+        let mut nearest = dense.clone();
+        nearest.nearest = true;
+        // One blob off-centre in a 40³ grid: most of the cube is outside the occupied box.
+        let blob = grid([40, 40, 40], |x, y, z| {
+            let r2 = [x, y, z]
+                .map(|v| (v as i32 - 12).pow(2))
+                .iter()
+                .sum::<i32>();
+            if r2 < 16 {
+                2.0
+            } else {
+                0.0
+            }
+        });
+        let empty = grid([6, 6, 6], |_, _, _| 0.0);
+        for g in [sparse, dense, nearest, blob, empty] {
+            let m = MajorantGrid::new(&g);
+            walk_within_bounds(&g, &m, &mut rng);
+        }
+    }
+
+    fn walk_within_bounds(g: &Grid, m: &MajorantGrid, rng: &mut Rng) {
         for _ in 0..2000 {
             let o = Vec3A::new(
                 rng.range(-1.0, 2.0),
@@ -304,13 +321,28 @@ mod tests {
                 continue;
             };
             let t0 = t0.max(0.0);
+            let zero = |a: f32, b: f32| {
+                for k in 0..=32 {
+                    let v = g.eval_local(o + d * (a + (b - a) * k as f32 / 32.0)).x;
+                    assert!(!(b > a) || v == 0.0, "{v} outside the occupied box");
+                }
+            };
+            let Some((s0, s1)) = m.span(o, d) else {
+                zero(t0, t1);
+                continue;
+            };
+            let (s0, s1) = (s0.max(t0), s1.min(t1));
+            zero(t0, s0 - 1e-4);
+            zero(s1 + 1e-4, t1);
+            let (t0, t1) = (s0, s1);
             let mut t = t0;
-            for (a, b, maj) in m.walk(o, d, t0, t1) {
+            for (a, b, [min, maj]) in m.walk(o, d, t0, t1) {
                 assert!((a - t).abs() <= 1e-4 * (1.0 + t.abs()), "gap at {t}: {a}");
-                for k in 0..8 {
-                    let s = a + (b - a) * (k as f32 + 0.5) / 8.0;
+                for k in 0..=8 {
+                    let s = a + (b - a) * k as f32 / 8.0;
                     let v = g.eval_local(o + d * s).x;
                     assert!(v <= maj + 1e-4, "{v} above {maj}");
+                    assert!(v >= min - 1e-4, "{v} below {min}");
                 }
                 t = b;
             }

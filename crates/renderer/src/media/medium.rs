@@ -10,21 +10,22 @@
 //!   is the albedo at a scattering event and one past the segment, exactly Mitsuba's (computed
 //!   so, without exponentials). The transmittance of a shadow segment is exp(−σt d), exactly
 //!   (Mitsuba ratio-tracks it: its estimate is 0 or 1 per shadow ray).
-//! - Heterogeneous: delta tracking against the majorant grid's local majorant μ (one scalar for
-//!   all channels), with Kutz et al.'s spectral tracking at each tentative collision: a real
-//!   event with probability P = ⟨w σt⟩ / (⟨w σt⟩ + ⟨w σn⟩) (⟨⟩ the channel mean, w the
-//!   throughput, σn = μ − σt), weighted σs / (μ P), else a null event weighted σn / (μ (1 − P)).
-//!   For a grey medium this is Mitsuba's delta tracking with albedo weighting. Shadow segments
-//!   use ratio tracking: T ·= σn / μ at each tentative collision (Russian roulette below 0.05).
+//! - Heterogeneous ([`GridDensity`]): delta tracking against the majorant grid's local majorant
+//!   μ (one scalar for all channels), with Kutz et al.'s spectral tracking at each tentative
+//!   collision: a real event with probability P = ⟨w σt⟩ / (⟨w σt⟩ + ⟨w σn⟩) (⟨⟩ the channel
+//!   mean, w the throughput, σn = μ − σt), weighted σs / (μ P), else a null event weighted
+//!   σn / (μ (1 − P)). For a grey medium this is Mitsuba's delta tracking with albedo
+//!   weighting. Shadow segments use residual ratio tracking against the cells' minorants.
 
-use super::grid::{unit_cube_span, Grid, MajorantGrid};
+use super::grid::Grid;
 use super::phase::PhaseFunction;
+use super::tracking::GridDensity;
 use glam::{Vec2, Vec3A};
 use torrey_parser as desc;
 
 /// A volume field: constant or a grid.
 #[derive(Clone, Debug)]
-pub enum Field {
+pub(super) enum Field {
     Constant(Vec3A),
     Grid(Box<Grid>),
 }
@@ -38,7 +39,7 @@ impl Field {
     }
 
     #[inline]
-    fn eval(&self, p: Vec3A) -> Vec3A {
+    pub(super) fn eval(&self, p: Vec3A) -> Vec3A {
         match self {
             Field::Constant(c) => *c,
             Field::Grid(g) => g.eval(p),
@@ -50,12 +51,7 @@ impl Field {
 #[derive(Clone, Debug)]
 enum Density {
     Homogeneous(Vec3A),
-    /// The grid's values times `scale`, tracked against `majorants` (times `scale`).
-    Grid {
-        grid: Box<Grid>,
-        majorants: MajorantGrid,
-        scale: f32,
-    },
+    Grid(Box<GridDensity>),
 }
 
 #[derive(Clone, Debug)]
@@ -79,13 +75,7 @@ impl Medium {
         let density = match &m.sigma_t {
             desc::Volume::Constant(c) => Density::Homogeneous(Vec3A::from(*c) * m.scale),
             desc::Volume::Grid(g) => {
-                let grid = Box::new(Grid::from_desc(g));
-                let majorants = MajorantGrid::new(&grid);
-                Density::Grid {
-                    grid,
-                    majorants,
-                    scale: m.scale,
-                }
+                Density::Grid(Box::new(GridDensity::new(Grid::from_desc(g), m.scale)))
             }
         };
         Medium {
@@ -145,48 +135,7 @@ impl Medium {
                 });
                 self.weigh_homogeneous(*sigma, o, d, t, tmax, throughput)
             }
-            Density::Grid {
-                grid,
-                majorants,
-                scale,
-            } => {
-                let o_l = grid.to_local.transform_point3a(o);
-                let d_l = grid.to_local.transform_vector3a(d);
-                let Some((t0, t1)) = unit_cube_span(o_l, d_l) else {
-                    return Flight::Pass;
-                };
-                let (t0, t1) = (t0.max(0.0), t1.min(tmax));
-                for (ta, tb, maj) in majorants.walk(o_l, d_l, t0, t1) {
-                    let mu = maj * scale;
-                    if !(mu > 0.0) {
-                        continue;
-                    }
-                    let mut t = ta;
-                    loop {
-                        t -= (1.0 - u()).ln() / mu;
-                        if !(t < tb) {
-                            break;
-                        }
-                        let sigma_t =
-                            (grid.eval_local(o_l + d_l * t) * *scale).min(Vec3A::splat(mu));
-                        let sigma_n = Vec3A::splat(mu) - sigma_t;
-                        let w = *throughput;
-                        let (a, n) = ((w * sigma_t).element_sum(), (w * sigma_n).element_sum());
-                        if !(a + n > 0.0) {
-                            *throughput = Vec3A::ZERO;
-                            return Flight::Pass;
-                        }
-                        let p_real = a / (a + n);
-                        if u() < p_real {
-                            let sigma_s = sigma_t * self.albedo.eval(o + d * t);
-                            *throughput *= sigma_s / (mu * p_real);
-                            return Flight::Scatter(t);
-                        }
-                        *throughput *= sigma_n / (mu * (1.0 - p_real));
-                    }
-                }
-                Flight::Pass
-            }
+            Density::Grid(g) => g.sample(o, d, tmax, &self.albedo, throughput, u),
         }
     }
 
@@ -253,44 +202,7 @@ impl Medium {
                     Vec3A::ONE
                 }
             }
-            Density::Grid {
-                grid,
-                majorants,
-                scale,
-            } => {
-                let o_l = grid.to_local.transform_point3a(o);
-                let d_l = grid.to_local.transform_vector3a(d);
-                let Some((t0, t1)) = unit_cube_span(o_l, d_l) else {
-                    return Vec3A::ONE;
-                };
-                let (t0, t1) = (t0.max(0.0), t1.min(tmax));
-                let mut tr = Vec3A::ONE;
-                for (ta, tb, maj) in majorants.walk(o_l, d_l, t0, t1) {
-                    let mu = maj * scale;
-                    if !(mu > 0.0) {
-                        continue;
-                    }
-                    let mut t = ta;
-                    loop {
-                        t -= (1.0 - u()).ln() / mu;
-                        if !(t < tb) {
-                            break;
-                        }
-                        let sigma_t =
-                            (grid.eval_local(o_l + d_l * t) * *scale).min(Vec3A::splat(mu));
-                        tr *= (Vec3A::splat(mu) - sigma_t) / mu;
-                        let m = tr.max_element();
-                        if m < 0.05 {
-                            // Russian roulette: survive with probability 1/2.
-                            if !(m > 0.0) || u() < 0.5 {
-                                return Vec3A::ZERO;
-                            }
-                            tr *= 2.0;
-                        }
-                    }
-                }
-                tr
-            }
+            Density::Grid(g) => g.transmittance(o, d, tmax, u),
         }
     }
 }
@@ -349,11 +261,7 @@ mod tests {
             max: 6.0,
         });
         let heterogeneous = Medium {
-            density: Density::Grid {
-                majorants: MajorantGrid::new(&grid),
-                grid: Box::new(grid),
-                scale: 1.0,
-            },
+            density: Density::Grid(Box::new(GridDensity::new(grid, 1.0))),
             albedo: Field::Constant(albedo),
             phase: PhaseFunction::Isotropic,
             sample_emitters: true,

@@ -12,6 +12,8 @@
 mod grid;
 mod medium;
 pub mod phase;
+mod tracking;
+mod walk;
 
 pub use medium::{Flight, Medium};
 
