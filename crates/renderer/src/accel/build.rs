@@ -160,11 +160,14 @@ impl WideBuilder<'_> {
 /// the slowest, best one, which would take seconds.
 pub(super) const LARGE_SCENE: usize = 100_000;
 
-/// Camera samples per primitive from which the slowest, best build pays for itself. Measured
-/// (callgrind, one thread) on matpreview-copper (61.6k triangles) and bunny-sss (70k): the best
-/// build costs about 28k instructions per primitive more than the medium one and saves 2.5% and
-/// 0.8% of the render's instructions, which breaks even at 117 and 138 samples per primitive.
-pub(crate) const HIGH_QUALITY_SAMPLES_PER_PRIM: u64 = 128;
+/// Camera samples per primitive from which the slowest, best build is taken. Measured
+/// (callgrind, one thread): it costs about 28k instructions per primitive more than the medium
+/// one and saves 3.2% of matpreview-glass's render instructions (many rays per sample), 2.5%
+/// of matpreview-copper's, 0.8% of bunny-sss's: break-even at 60, 117 and 138 samples per
+/// primitive. A worse tree also costs cache misses that instructions do not show (glass's
+/// render CPU rose more than its instructions), so the medium build is kept to renders well
+/// below the lowest break-even: previews, where the build is most of the wait.
+pub(crate) const HIGH_QUALITY_SAMPLES_PER_PRIM: u64 = 32;
 
 /// Whether `prims` primitives serving `samples` camera samples get the slowest, best build.
 fn high_quality(prims: usize, samples: u64) -> bool {
@@ -236,11 +239,11 @@ pub(super) fn build(
 mod tests {
     use super::*;
 
-    /// The best build from 128 camera samples per primitive, below the large-scene size.
+    /// The best build from 32 camera samples per primitive, below the large-scene size.
     #[test]
     fn the_best_build_serves_enough_samples_per_primitive() {
-        assert!(high_quality(61_600, 61_600 * 128));
-        assert!(!high_quality(61_600, 61_600 * 128 - 1));
+        assert!(high_quality(61_600, 61_600 * 32));
+        assert!(!high_quality(61_600, 61_600 * 32 - 1));
         assert!(high_quality(12, 320 * 213));
         assert!(!high_quality(LARGE_SCENE, u64::MAX));
         assert!(high_quality(LARGE_SCENE - 1, u64::MAX));
