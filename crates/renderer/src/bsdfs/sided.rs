@@ -149,8 +149,7 @@ impl SidedBsdf<'_> {
         let (f, pdf) = self.bsdf.eval_pdf(self.local(wo), self.local(wi));
         match &self.perturbation {
             None => (f, pdf),
-            Some(p) if p.same_side(wi) => (f * p.factor(wi), pdf),
-            Some(p) => (f * p.factor(wi), 0.0),
+            Some(p) => (f * p.factor(wi), if p.same_side(wi) { pdf } else { 0.0 }),
         }
     }
 

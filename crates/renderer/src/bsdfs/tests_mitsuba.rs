@@ -395,27 +395,6 @@ pub(super) fn chi2_sphere(dirs: &[Option<Vec3A>], pdf: impl Fn(Vec3A) -> f64, wh
     }
 }
 
-/// Next-event estimation takes f and the pdf from one [`Bsdf::eval_pdf`]: the same bits as
-/// [`Bsdf::eval`] and [`Bsdf::pdf`] apart, over the whole sphere, for every model.
-#[test]
-fn eval_pdf_is_eval_and_pdf() {
-    let mut rng = Rng::new(77);
-    for (name, b, _) in glossy_models() {
-        for _ in 0..2000 {
-            let mut dir = || {
-                let u = rng.vec2();
-                crate::sampling::square_to_uniform_sphere(u)
-            };
-            let (wo, wi) = (dir(), dir());
-            assert_eq!(
-                b.eval_pdf(wo, wi),
-                (b.eval(wo, wi), b.pdf(wo, wi)),
-                "{name}"
-            );
-        }
-    }
-}
-
 #[test]
 fn sampling_matches_pdf_over_the_sphere() {
     let mut seed = 1000;

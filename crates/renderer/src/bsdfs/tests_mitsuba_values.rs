@@ -1,5 +1,5 @@
-//! Mitsuba's models at fixed directions: reciprocity, the dielectric's refraction and eta, and
-//! eval and pdf against Mitsuba 3.9.1's own values.
+//! Mitsuba's models at fixed directions: reciprocity, the dielectric's refraction and eta, eval
+//! and pdf against Mitsuba 3.9.1's own values, and `eval_pdf` against the two.
 
 use super::tests_mitsuba::{
     dir_at, glossy_models, rough_conductor, rough_dielectric, rough_plastic, smooth_plastic,
@@ -173,4 +173,25 @@ fn eval_and_pdf_match_mitsuba() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Next-event estimation takes f and the pdf from one [`Bsdf::eval_pdf`]: the same bits as
+/// [`Bsdf::eval`] and [`Bsdf::pdf`] apart, over the whole sphere, for every model.
+#[test]
+fn eval_pdf_is_eval_and_pdf() {
+    let mut rng = Rng::new(77);
+    for (name, b, _) in glossy_models() {
+        for _ in 0..2000 {
+            let mut dir = || {
+                let u = rng.vec2();
+                crate::sampling::square_to_uniform_sphere(u)
+            };
+            let (wo, wi) = (dir(), dir());
+            assert_eq!(
+                b.eval_pdf(wo, wi),
+                (b.eval(wo, wi), b.pdf(wo, wi)),
+                "{name}"
+            );
+        }
+    }
 }

@@ -50,6 +50,16 @@ impl GridDensity {
         (self.grid.eval_local(p) * self.scale).min(Vec3A::splat(bound))
     }
 
+    /// The ray `o + t d` (world space) in the grid's local space, and the span of t in which
+    /// it is inside the grid, clipped to [0, `tmax`]; None when it misses the grid.
+    #[inline(always)]
+    fn local_span(&self, o: Vec3A, d: Vec3A, tmax: f32) -> Option<(Vec3A, Vec3A, f32, f32)> {
+        let o_l = self.grid.to_local.transform_point3a(o);
+        let d_l = self.grid.to_local.transform_vector3a(d);
+        let (t0, t1) = self.majorants.span(o_l, d_l)?;
+        Some((o_l, d_l, t0.max(0.0), t1.min(tmax)))
+    }
+
     /// The next interaction along `o + t d` (world space) for t in [0, `tmax`]: spectral
     /// tracking against each cell's majorant, weighting `throughput`; `albedo` at a scattering
     /// event.
@@ -62,12 +72,9 @@ impl GridDensity {
         throughput: &mut Vec3A,
         u: &mut impl FnMut() -> f32,
     ) -> Flight {
-        let o_l = self.grid.to_local.transform_point3a(o);
-        let d_l = self.grid.to_local.transform_vector3a(d);
-        let Some((t0, t1)) = self.majorants.span(o_l, d_l) else {
+        let Some((o_l, d_l, t0, t1)) = self.local_span(o, d, tmax) else {
             return Flight::Pass;
         };
-        let (t0, t1) = (t0.max(0.0), t1.min(tmax));
         let mut depth = exponential(u);
         for (ta, tb, [_, max]) in self.majorants.walk(o_l, d_l, t0, t1) {
             let mu = max * self.scale;
@@ -75,14 +82,7 @@ impl GridDensity {
                 continue;
             }
             let mut t = ta;
-            loop {
-                let to_collision = depth / mu;
-                if !(t + to_collision < tb) {
-                    depth = (depth - mu * (tb - t)).max(0.0);
-                    break;
-                }
-                t += to_collision;
-                depth = exponential(u);
+            while next_collision(&mut t, tb, mu, &mut depth, u) {
                 let sigma_t = self.sigma_t(o_l + d_l * t, mu);
                 let sigma_n = Vec3A::splat(mu) - sigma_t;
                 let w = *throughput;
@@ -112,12 +112,9 @@ impl GridDensity {
         tmax: f32,
         u: &mut impl FnMut() -> f32,
     ) -> Vec3A {
-        let o_l = self.grid.to_local.transform_point3a(o);
-        let d_l = self.grid.to_local.transform_vector3a(d);
-        let Some((t0, t1)) = self.majorants.span(o_l, d_l) else {
+        let Some((o_l, d_l, t0, t1)) = self.local_span(o, d, tmax) else {
             return Vec3A::ONE;
         };
-        let (t0, t1) = (t0.max(0.0), t1.min(tmax));
         let mut tr = Vec3A::ONE;
         let mut depth = exponential(u);
         for (ta, tb, [min, max]) in self.majorants.walk(o_l, d_l, t0, t1) {
@@ -136,14 +133,7 @@ impl GridDensity {
                 continue;
             }
             let mut t = ta;
-            loop {
-                let to_collision = depth / residual;
-                if !(t + to_collision < tb) {
-                    depth = (depth - residual * (tb - t)).max(0.0);
-                    break;
-                }
-                t += to_collision;
-                depth = exponential(u);
+            while next_collision(&mut t, tb, residual, &mut depth, u) {
                 let sigma_t = self.sigma_t(o_l + d_l * t, mu);
                 tr *= (Vec3A::splat(mu) - sigma_t) / residual;
                 if !roulette(&mut tr, u) {
@@ -153,6 +143,27 @@ impl GridDensity {
         }
         tr
     }
+}
+
+/// Moves `t` to the next tentative collision at `rate` (per unit length) before the cell's end
+/// `tb`, spending the exponential optical `depth` carried across cells and drawing the next one:
+/// false when the cell ends first (its share of the depth spent).
+#[inline(always)]
+fn next_collision(
+    t: &mut f32,
+    tb: f32,
+    rate: f32,
+    depth: &mut f32,
+    u: &mut impl FnMut() -> f32,
+) -> bool {
+    let to_collision = *depth / rate;
+    if !(*t + to_collision < tb) {
+        *depth = (*depth - rate * (tb - *t)).max(0.0);
+        return false;
+    }
+    *t += to_collision;
+    *depth = exponential(u);
+    true
 }
 
 /// An exponentially distributed optical depth (mean 1): the depth to a tentative collision.
