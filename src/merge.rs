@@ -14,6 +14,10 @@ pub struct MergeArgs {
     /// part's own denoised image is not merged: denoising does not commute with averaging).
     #[arg(long)]
     denoise: bool,
+    /// With --denoise, how the noisy guides are treated: `accurate` (each denoised first) or
+    /// `fast` (see `torrey --help`).
+    #[arg(long, value_name = "accurate|fast", default_value = "accurate")]
+    denoise_prefilter: torrey_denoise::Prefilter,
 }
 
 pub fn run(args: &MergeArgs) -> Result<(), String> {
@@ -27,7 +31,7 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         .collect::<Result<Vec<_>, String>>()?;
     let mut merged = torrey_parts::merge(&parts)?;
     if args.denoise {
-        let seconds = torrey_parts::denoise_part(&mut merged)?;
+        let seconds = torrey_parts::denoise_part(&mut merged, args.denoise_prefilter)?;
         eprintln!("denoised in {seconds:.2} s");
     }
     let png = crate::slicing::write_outputs(&args.output, &merged)?;

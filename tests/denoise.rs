@@ -127,3 +127,17 @@ fn denoise_flattens_a_flat_image_or_says_how_to_get_oidn() {
     );
     assert!(spread(merged.denoised.as_ref().unwrap()) < 0.02);
 }
+
+/// `--denoise-prefilter` takes Cycles' names; anything else is an error that lists them, before
+/// anything is rendered.
+#[test]
+fn an_unknown_denoise_prefilter_is_a_clear_error() {
+    let out = torrey(&["scene.xml", "--denoise", "--denoise-prefilter", "slow"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("'--denoise-prefilter <accurate|fast>'")
+            && stderr.contains("unknown denoise prefilter 'slow' (expected 'accurate' or 'fast')"),
+        "{stderr}"
+    );
+}

@@ -203,10 +203,13 @@ impl PyPart {
         Ok(PyBytes::new(py, &bytes))
     }
     /// A copy denoised with Intel Open Image Denoise (the part must carry the guides: render it
-    /// with `denoise=True`); errors if this build has no OIDN.
-    fn denoised(&self, py: Python<'_>) -> PyResult<Self> {
+    /// with `denoise=True`), the guides treated as `prefilter` says ("accurate" or "fast");
+    /// errors if this build has no OIDN.
+    #[pyo3(signature = (prefilter = "accurate"))]
+    fn denoised(&self, py: Python<'_>, prefilter: &str) -> PyResult<Self> {
+        let prefilter = prefilter.parse().map_err(PyValueError::new_err)?;
         let mut part = self.0.clone();
-        py.detach(|| torrey_parts::denoise_part(&mut part))
+        py.detach(|| torrey_parts::denoise_part(&mut part, prefilter))
             .map_err(PyRuntimeError::new_err)?;
         Ok(PyPart(part))
     }
@@ -289,7 +292,7 @@ fn merge(py: Python<'_>, parts: Vec<Py<PyPart>>, names: Vec<String>) -> PyResult
 /// Renders a slice of the scene with the command line's settings; `None` takes the scene's
 /// value. `progress(done, total)` is called with the GIL after each tile.
 #[pyfunction]
-#[pyo3(signature = (scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler, progress, label, denoise = false, noise_threshold = None, time_limit = None))]
+#[pyo3(signature = (scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler, progress, label, denoise = false, noise_threshold = None, time_limit = None, denoise_prefilter = "accurate"))]
 #[allow(clippy::too_many_arguments)]
 fn render(
     py: Python<'_>,
@@ -307,7 +310,10 @@ fn render(
     denoise: bool,
     noise_threshold: Option<f32>,
     time_limit: Option<f64>,
+    denoise_prefilter: &str,
 ) -> PyResult<PyPart> {
+    let prefilter: torrey_denoise::Prefilter =
+        denoise_prefilter.parse().map_err(PyValueError::new_err)?;
     let desc = &scene.desc;
     if denoise && !torrey_denoise::AVAILABLE {
         return Err(PyRuntimeError::new_err(format!(
@@ -400,7 +406,7 @@ fn render(
     meta.nonfinite = result.nonfinite_samples;
     let mut part = Part::from_output(meta, &result);
     if denoise {
-        py.detach(|| torrey_parts::denoise_part(&mut part))
+        py.detach(|| torrey_parts::denoise_part(&mut part, prefilter))
             .map_err(PyRuntimeError::new_err)?;
     }
     Ok(PyPart(part))

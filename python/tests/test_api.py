@@ -172,3 +172,9 @@ def test_denoise_or_a_clear_error():
     assert np.array_equal(torrey.part_to_array(part, denoised=True), image)
     assert not np.array_equal(torrey.part_to_array(part), image)
     assert {"albedo.R", "normal.Z"} <= set(part.channels)
+    # The guides' prefilter: "fast" is another image, "accurate" the default; a typo is an error.
+    fast = torrey.part_to_array(part.denoised("fast"), denoised=True)
+    assert np.array_equal(torrey.part_to_array(part.denoised(), denoised=True), image)
+    assert not np.array_equal(fast, image)
+    with pytest.raises(ValueError, match="expected 'accurate' or 'fast'"):
+        part.denoised("slow")

@@ -71,10 +71,13 @@ def render_part(
     denoise: bool = False,
     noise_threshold: Optional[float] = None,
     time_limit: Optional[float] = None,
+    denoise_prefilter: str = "accurate",
 ) -> Part:
     """Renders a slice and returns it as a `Part` (mean, variance, per-pixel counts, the AOV and
     guide channels, and the metadata `merge` checks). `label` replaces the scene path recorded
-    in the metadata. denoise: take the guides and denoise (`part_to_array(part, denoised=True)`).
+    in the metadata. denoise: take the guides and denoise (`part_to_array(part, denoised=True)`);
+    denoise_prefilter: "accurate" (each noisy guide denoised first) or "fast" (the command line's
+    --denoise-prefilter).
     noise_threshold: adaptive sampling, each pixel until its relative standard error is under it
     (spp the cap). time_limit: seconds, rendering in passes until they are up."""
     return _native.render(
@@ -92,6 +95,7 @@ def render_part(
         denoise,
         None if noise_threshold is None else float(noise_threshold),
         None if time_limit is None else float(time_limit),
+        denoise_prefilter,
     )
 
 
@@ -139,6 +143,7 @@ def render(
     denoise: bool = False,
     noise_threshold: Optional[float] = None,
     time_limit: Optional[float] = None,
+    denoise_prefilter: str = "accurate",
 ) -> np.ndarray:
     """Renders `scene` and returns the mean radiance (with denoise=True the denoised image) as
     float32 (height, width, 3).
@@ -148,10 +153,10 @@ def render(
     (default all of 0..spp). crop: (x, y, width, height) window of the film; the array then has
     the window's size. threads: worker threads (default all cores). sampler: "sobol" or
     "independent". progress(done, total): called after each tile, with the GIL. denoise,
-    noise_threshold, time_limit: see `render_part`.
+    noise_threshold, time_limit, denoise_prefilter: see `render_part`.
     """
     part = render_part(scene, spp, seed, size, max_depth, sample_range, crop, threads, sampler,
-                       progress, None, denoise, noise_threshold, time_limit)
+                       progress, None, denoise, noise_threshold, time_limit, denoise_prefilter)
     return part_to_array(part, denoised=denoise)
 
 

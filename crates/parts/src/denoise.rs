@@ -5,11 +5,12 @@
 use crate::Part;
 use glam::Vec3;
 use std::time::Instant;
+use torrey_denoise::Prefilter;
 use torrey_renderer::GUIDE_CHANNELS;
 
-/// Denoises `part` (its `denoised` image; the mean stays as the noisy one); returns the seconds
-/// the denoiser took.
-pub fn denoise_part(part: &mut Part) -> Result<f64, String> {
+/// Denoises `part` (its `denoised` image; the mean stays as the noisy one), its guides treated
+/// as `prefilter` says; returns the seconds the denoiser took.
+pub fn denoise_part(part: &mut Part, prefilter: Prefilter) -> Result<f64, String> {
     let (w, h) = (part.meta.crop.2 as usize, part.meta.crop.3 as usize);
     let guide = |names: &[&str]| {
         part.channel_values(names).ok_or_else(|| {
@@ -28,6 +29,7 @@ pub fn denoise_part(part: &mut Part) -> Result<f64, String> {
             albedo: &albedo,
             normal: &normal,
         }),
+        prefilter,
     )?;
     let seconds = start.elapsed().as_secs_f64();
     part.denoised = Some(out.chunks_exact(3).map(Vec3::from_slice).collect());
