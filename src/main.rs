@@ -80,9 +80,9 @@ struct RenderArgs {
     /// docs/robustness.md.
     #[arg(long = "limit", value_parser = limits::parse_limit)]
     limits: Vec<(String, u64)>,
-    /// BVH node width: `auto` (8 with AVX2 and FMA, else 4), `4`, `8` (needs AVX2 and FMA, else
-    /// 4 is used) or `16` (needs AVX-512, else the widest available). All find the same hits;
-    /// this is for comparing their speed.
+    /// BVH node width: `auto` (8 with AVX2 and FMA, 16 with AVX-512 from 10k primitives, else
+    /// 4), `4`, `8` (needs AVX2 and FMA, else 4 is used) or `16` (needs AVX-512, else the widest
+    /// available). All find the same hits; this is for comparing their speed.
     #[arg(long, value_enum, default_value_t = BvhWidthArg::Auto)]
     bvh_width: BvhWidthArg,
     /// Trace every camera ray alone instead of each pixel's in packets of eight (packets need

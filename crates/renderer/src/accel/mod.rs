@@ -133,24 +133,27 @@ impl Simd {
         }
     }
 
-    /// The node width [`BvhWidth::Auto`] builds at this level.
-    pub fn auto_width(self) -> usize {
+    /// The node width [`BvhWidth::Auto`] builds at this level for `primitives` primitives.
+    pub fn auto_width(self, primitives: usize) -> usize {
         match self {
             Simd::Portable => 4,
             Simd::Avx2 => 8,
-            Simd::Avx512 => AVX512_AUTO_WIDTH,
+            Simd::Avx512 if primitives >= AVX512_SIXTEEN_FROM => 16,
+            Simd::Avx512 => 8,
         }
     }
 }
 
-/// The node width chosen by default on AVX-512 CPUs: eight. Sixteen-wide nodes measured no
-/// faster on an AMD EPYC (Zen 5) with full-width AVX-512 (renders, one thread, 5 rounds
-/// round-robin, 16 against 8: cbox 0%, textured_mesh +4.5%, envmap_sky -1.3%, living room 0%):
-/// a node test covers twice the boxes for a quarter fewer levels, and the nearest-first order of
-/// up to sixteen children costs what the shallower tree saves. `--bvh-width 16` selects them.
-/// Re-measured with the leaner per-query set-up (7 rounds, fastest, 16 against 8): cbox 0.99 vs
-/// 1.00 s, textured_mesh 0.50 vs 0.52 s, living room 0.72 vs 0.71 s.
-const AVX512_AUTO_WIDTH: usize = 8;
+/// From how many primitives the default on AVX-512 CPUs is sixteen-wide nodes (eight below).
+/// Measured on an Intel Xeon (Sapphire Rapids), render CPU seconds, one thread, the fastest of
+/// five alternated runs, 16 against 8: staircase (263k triangles) +10%, matpreview-glass and
+/// -copper (62k) +10% and +6%, bunny-sss (70k) +10%, clover-banner (62k) +12%, stage-lights
+/// (112k) +3%, the living room (296k, two bounces, mostly camera packets) 0%; on small scenes
+/// no gain or a loss: textured_mesh (4k) 0%, cbox (38) -5%. A node test covers twice the boxes
+/// for a quarter fewer levels, which pays where deep trees are walked by incoherent rays (an
+/// earlier measurement on an AMD EPYC, Zen 5, found 16 no faster on the four benchmark scenes,
+/// all below 10k primitives but the living room). `--bvh-width` overrides.
+const AVX512_SIXTEEN_FROM: usize = 10_000;
 
 /// Whether camera packets are sixteen rays wide: on CPUs with AVX-512, unless the environment
 /// variable `TORREY_PACKET=8` asks for eight.
@@ -204,7 +207,7 @@ impl Accel {
             Simd::Avx512 => 16,
         };
         let width = match options.width {
-            BvhWidth::Auto => simd.auto_width(),
+            BvhWidth::Auto => simd.auto_width(geoms.len()),
             BvhWidth::Four => 4,
             BvhWidth::Eight => 8,
             BvhWidth::Sixteen => 16,

@@ -309,8 +309,18 @@ fn width_follows_the_request() {
     assert_eq!(sixteen, widest);
     assert_eq!(
         Accel::build(&geoms, BvhWidth::Auto).bvh_width(),
-        simd.auto_width()
+        simd.auto_width(geoms.len())
     );
+}
+
+/// The default width: eight with AVX2, and with AVX-512 sixteen from 10k primitives (deep trees
+/// walked by incoherent rays), eight below; four without either.
+#[test]
+fn the_default_width_follows_the_instruction_set_and_the_scene_size() {
+    assert_eq!(Simd::Portable.auto_width(1 << 20), 4);
+    assert_eq!(Simd::Avx2.auto_width(1 << 20), 8);
+    assert_eq!(Simd::Avx512.auto_width(9_999), 8);
+    assert_eq!(Simd::Avx512.auto_width(10_000), 16);
 }
 
 /// Rays with NaN or infinite components pass every box test (the SIMD minimum and maximum
