@@ -154,9 +154,11 @@ impl Table {
     #[inline(never)]
     fn fill(&mut self, pixel_seed: u32, upto: u32) {
         let upto = upto.min(TABLE_REQUESTS as u32);
-        // Whole vectors of sixteen lanes: the few extra samples past the block's end are
-        // computed and never read.
-        let n = (self.len as usize).next_multiple_of(16).min(BLOCK);
+        // Whole vectors (sixteen lanes with AVX-512, eight otherwise): the few extra samples
+        // past the block's end are computed and never read.
+        let n = (self.len as usize)
+            .next_multiple_of(column_lanes_width())
+            .min(BLOCK);
         for request in self.filled..upto {
             let seed = dimension_seed(pixel_seed, request);
             let (sx, sy) = axis_seeds(seed);
@@ -168,6 +170,15 @@ impl Table {
         }
         self.filled = upto;
     }
+}
+
+/// The samples one vector of [`column`] computes: sixteen with AVX-512, else eight.
+fn column_lanes_width() -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if Simd::detect() == Simd::Avx512 {
+        return 16;
+    }
+    8
 }
 
 /// One request's points for samples `base`, `base + 1`, ... (as many as `x` holds), in the
@@ -238,7 +249,10 @@ impl Sampler for SobolSampler {
         self.dimension = 0;
         if let Some(table) = &mut self.table {
             if index.wrapping_sub(table.base) >= table.len {
-                table.base = index - index % BLOCK as u32;
+                // The block starts at the first sample drawn in it, not at a multiple of
+                // BLOCK: a pass or a sample range that starts mid-block (32..64 of a time
+                // limit's doubling passes) then fills only the columns' samples it draws.
+                table.base = index;
                 table.len = if table.base < self.spp {
                     (self.spp - table.base).min(BLOCK as u32)
                 } else {
@@ -574,8 +588,9 @@ mod tests {
     }
 
     /// The tabled sampler draws exactly the points of the one-at-a-time one, with packets'
-    /// out-of-order starts and resumes, across block boundaries, past the table's requests and
-    /// when restarted for another pixel, whatever the SIMD level.
+    /// out-of-order starts and resumes, across block boundaries, past the table's requests,
+    /// when restarted for another pixel, and in passes that start mid-block, whatever the SIMD
+    /// level.
     #[test]
     fn tabled_sampler_matches_the_one_at_a_time_points() {
         let spp = 150; // two full blocks and a partial one
@@ -601,6 +616,19 @@ mod tests {
                             assert_eq!(tabled.next_2d(), plain.next_2d(), "sample {k} {r}");
                         }
                     }
+                }
+            }
+        }
+        // Passes and sample ranges that start mid-block (a block then starts at their first
+        // sample), on a sampler restarted per pixel and pass as a render's tiles do.
+        for range in [37..101u32, 101..150, 1..3, 3..4] {
+            tabled.restart(7, 5, range.end);
+            let mut plain = SobolSampler::new(7, 5);
+            for k in range {
+                tabled.start_sample(k);
+                plain.start_sample(k);
+                for r in 0..(k % 11) * 4 {
+                    assert_eq!(tabled.next_2d(), plain.next_2d(), "sample {k} {r}");
                 }
             }
         }
