@@ -100,8 +100,13 @@ const BYTES_PER_PIXEL_BUDGET: u64 = 16;
 /// and images larger than [`image_pixel_limit`] (or files larger than such an image's samples
 /// plus 64 MiB) are refused before decoding.
 pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
-    let (mut image, mut warnings) = load_unchecked(path, raw)?;
-    let bad = sanitize(&mut image.pixels);
+    let (mut image, mut warnings, float) = load_unchecked(path, raw)?;
+    // Integer texels decode to finite, non-negative values: only float images are checked.
+    let bad = if float {
+        sanitize(&mut image.pixels)
+    } else {
+        0
+    };
     if bad > 0 {
         warnings.push(format!(
             "{}: {bad} texel channel(s) were NaN, infinite or negative and were clamped to 0",
@@ -114,7 +119,7 @@ pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
 /// Like [`load_image`] (8-bit images sRGB-decoded), but NaN, infinite and negative values are
 /// kept as the file stores them: for comparing images, where they must be seen, not hidden.
 pub fn load_image_as_stored(path: &Path) -> Result<LoadedImage, TextureError> {
-    let (image, warnings) = load_unchecked(path, false)?;
+    let (image, warnings, _) = load_unchecked(path, false)?;
     Ok(LoadedImage { image, warnings })
 }
 
@@ -166,7 +171,7 @@ fn load_unchecked(path: &Path, raw: bool) -> Result<Decoded, TextureError> {
             .unwrap_or_else(|| "unknown".to_string());
         decode_err(format!("decoder panicked: {msg}"))
     })??;
-    let (image, _) = &decoded;
+    let (image, _, _) = &decoded;
     if image.width == 0 || image.height == 0 {
         return Err(decode_err(format!(
             "image has zero size ({}x{})",
@@ -258,7 +263,9 @@ fn sanitize(pixels: &mut [Vec3]) -> usize {
         .sum()
 }
 
-type Decoded = (Image, Vec<String>);
+/// A decoded image, the decoder's warnings, and whether its samples were floats (which may be
+/// NaN, infinite or negative; integer samples decode to finite, non-negative values).
+type Decoded = (Image, Vec<String>, bool);
 
 fn decode_with_image_crate(
     bytes: &[u8],
@@ -315,6 +322,17 @@ fn decode_with_image_crate(
         reason: e.to_string(),
     })?;
     let (w, h) = (dynimg.width(), dynimg.height());
+    let float = !matches!(
+        dynimg,
+        D::ImageLuma8(_)
+            | D::ImageLumaA8(_)
+            | D::ImageRgb8(_)
+            | D::ImageRgba8(_)
+            | D::ImageLuma16(_)
+            | D::ImageLumaA16(_)
+            | D::ImageRgb16(_)
+            | D::ImageRgba16(_)
+    );
     let pixels: Vec<Vec3> = match dynimg {
         D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
             let table = srgb8_table();
@@ -353,7 +371,7 @@ fn decode_with_image_crate(
             rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect()
         }
     };
-    Ok((Image::new(w, h, pixels), Vec::new()))
+    Ok((Image::new(w, h, pixels), Vec::new(), float))
 }
 
 /// The JPEG decoder fills a truncated scan with filler and reports success, so check the
@@ -467,7 +485,7 @@ fn decode_exr(bytes: &[u8], path: &Path) -> Result<Decoded, TextureError> {
         u32::try_from(w).map_err(|_| err("width too large".into()))?,
         u32::try_from(h).map_err(|_| err("height too large".into()))?,
     );
-    Ok((crate::image::Image::new(w, h, pixels), warnings))
+    Ok((crate::image::Image::new(w, h, pixels), warnings, true))
 }
 
 fn convert(pixels: &mut [Vec3], m: Mat3) {
