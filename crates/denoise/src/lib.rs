@@ -1,5 +1,6 @@
 //! Denoising a rendered image with Intel Open Image Denoise (OIDN 2.x, its `RT` filter in HDR
-//! mode with albedo and normal guides), through the `oidn` crate. No denoiser is written here.
+//! mode with albedo and normal guides, the guides prefiltered), through the `oidn` crate's
+//! device and OIDN's C API. No denoiser is written here.
 //!
 //! The library is optional: built without the `oidn` feature, [`denoise`] is an error that says
 //! how to get it ([`HOW_TO_GET`]). `bash crates/denoise/install-oidn.sh` installs OIDN 2.5.1 from
@@ -173,9 +174,9 @@ mod imp {
     }
 
     /// OIDN's `RT` filter on `images` (each `width * height` RGB floats, named as OIDN names its
-    /// inputs), its output returned; `hdr`, `cleanAux` and `quality` as given. Driven through OIDN's C API:
-    /// the `oidn` crate cannot run the filter on a guide alone (it always sets a colour) and
-    /// sets `cleanAux` under a name OIDN does not know (`clean_aux`, oidn 2.5.1).
+    /// inputs), its output returned; `hdr`, `cleanAux` and `quality` as given. Driven through
+    /// OIDN's C API: the `oidn` crate cannot run the filter on a guide alone (it always sets a
+    /// colour) and sets `cleanAux` under a name OIDN does not know (`clean_aux`, oidn 2.5.1).
     fn run_rt(
         device: &oidn::Device,
         width: usize,
