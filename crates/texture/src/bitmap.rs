@@ -17,8 +17,14 @@ impl BitmapTexture {
     /// Wraps a pyramid with its uv transform; lookups read a packed copy of its texels
     /// ([`MipMap::with_packed_texels`]).
     pub fn new(mip: MipMap, to_uv: Affine2) -> Self {
+        Self::with_codes(mip, to_uv, None)
+    }
+
+    /// [`BitmapTexture::new`] with the 8-bit `codes` the pyramid's finest level was decoded
+    /// from, kept instead of its floats ([`MipMap::with_packed_texels_from`]).
+    pub fn with_codes(mip: MipMap, to_uv: Affine2, codes: Option<crate::Codes8>) -> Self {
         Self {
-            mip: mip.with_packed_texels(),
+            mip: mip.with_packed_texels_from(codes),
             to_uv,
         }
     }

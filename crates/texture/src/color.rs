@@ -26,6 +26,18 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// [`srgb8_table`] computed once.
+pub(crate) fn srgb8_lut() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(srgb8_table)
+}
+
+/// Each 8-bit code's value as raw data (`code / 255`), computed once.
+pub(crate) fn unorm8_lut() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|v| v as f32 / 255.0))
+}
+
 /// Lookup table for 8-bit sRGB decoding, so loading a large JPEG costs no `powf` per channel.
 pub(crate) fn srgb8_table() -> [f32; 256] {
     let mut t = [0.0; 256];

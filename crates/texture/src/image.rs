@@ -36,3 +36,15 @@ impl Image {
         self.pixels[y as usize * self.width as usize + x as usize]
     }
 }
+
+/// An 8-bit image's texels as the file stores them, with the table that gives each code's
+/// linear value: the [`Image`] loaded from it holds exactly `table[code]` per channel. A pyramid
+/// keeps its finest level this way ([`crate::MipMap::with_packed_texels_from`]): 3 bytes a texel
+/// instead of 16, the same values to the bit.
+#[derive(Clone, Debug)]
+pub struct Codes8 {
+    /// `width * height` RGB codes, row by row from the top.
+    pub texels: Box<[[u8; 3]]>,
+    /// The linear value of each code (sRGB-decoded, or code / 255 for raw data).
+    pub table: &'static [f32; 256],
+}

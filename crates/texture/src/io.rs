@@ -11,9 +11,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::{Mat3, Vec3};
 
 use crate::color::{
-    srgb8_table, srgb_to_linear, to_rec709_matrix, Chromaticities, WhiteAdaptation,
+    srgb8_lut, srgb_to_linear, to_rec709_matrix, unorm8_lut, Chromaticities, WhiteAdaptation,
 };
-use crate::image::Image;
+use crate::image::{Codes8, Image};
 
 /// What went wrong while reading or writing an image; the `Display` text always names the file.
 #[derive(Debug, thiserror::Error)]
@@ -61,6 +61,8 @@ pub struct LoadedImage {
     pub image: Image,
     /// Non-fatal problems, each naming the file; empty for a clean file.
     pub warnings: Vec<String>,
+    /// An 8-bit image's codes, from which `image` was decoded (None for other images).
+    pub codes: Option<Codes8>,
 }
 
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
@@ -100,7 +102,12 @@ const BYTES_PER_PIXEL_BUDGET: u64 = 16;
 /// and images larger than [`image_pixel_limit`] (or files larger than such an image's samples
 /// plus 64 MiB) are refused before decoding.
 pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
-    let (mut image, mut warnings, float) = load_unchecked(path, raw)?;
+    let (mut image, mut warnings, source) = load_unchecked(path, raw)?;
+    let (float, codes) = match source {
+        Samples::Float => (true, None),
+        Samples::Integer => (false, None),
+        Samples::Codes8(codes) => (false, Some(codes)),
+    };
     // Integer texels decode to finite, non-negative values: only float images are checked.
     let bad = if float {
         sanitize(&mut image.pixels)
@@ -113,14 +120,22 @@ pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
             path.display()
         ));
     }
-    Ok(LoadedImage { image, warnings })
+    Ok(LoadedImage {
+        image,
+        warnings,
+        codes,
+    })
 }
 
 /// Like [`load_image`] (8-bit images sRGB-decoded), but NaN, infinite and negative values are
 /// kept as the file stores them: for comparing images, where they must be seen, not hidden.
 pub fn load_image_as_stored(path: &Path) -> Result<LoadedImage, TextureError> {
     let (image, warnings, _) = load_unchecked(path, false)?;
-    Ok(LoadedImage { image, warnings })
+    Ok(LoadedImage {
+        image,
+        warnings,
+        codes: None,
+    })
 }
 
 fn load_unchecked(path: &Path, raw: bool) -> Result<Decoded, TextureError> {
@@ -263,9 +278,18 @@ fn sanitize(pixels: &mut [Vec3]) -> usize {
         .sum()
 }
 
-/// A decoded image, the decoder's warnings, and whether its samples were floats (which may be
-/// NaN, infinite or negative; integer samples decode to finite, non-negative values).
-type Decoded = (Image, Vec<String>, bool);
+/// A decoded image, the decoder's warnings, and what its samples were.
+type Decoded = (Image, Vec<String>, Samples);
+
+/// What a decoded image's samples were in the file.
+enum Samples {
+    /// Floats, which may be NaN, infinite or negative.
+    Float,
+    /// 16-bit integers: finite, non-negative values.
+    Integer,
+    /// 8-bit codes, kept: the image holds their table's values.
+    Codes8(Codes8),
+}
 
 fn decode_with_image_crate(
     bytes: &[u8],
@@ -322,34 +346,27 @@ fn decode_with_image_crate(
         reason: e.to_string(),
     })?;
     let (w, h) = (dynimg.width(), dynimg.height());
-    let float = !matches!(
-        dynimg,
-        D::ImageLuma8(_)
-            | D::ImageLumaA8(_)
-            | D::ImageRgb8(_)
-            | D::ImageRgba8(_)
-            | D::ImageLuma16(_)
-            | D::ImageLumaA16(_)
-            | D::ImageRgb16(_)
-            | D::ImageRgba16(_)
-    );
+    let mut samples = Samples::Float;
     let pixels: Vec<Vec3> = match dynimg {
         D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
-            let table = srgb8_table();
-            let conv = |v: u8| {
-                if raw {
-                    v as f32 / 255.0
-                } else {
-                    table[v as usize]
-                }
-            };
+            let table = if raw { unorm8_lut() } else { srgb8_lut() };
+            let conv = |v: u8| table[v as usize];
             let rgb = dynimg.into_rgb8();
             use rayon::prelude::*;
-            rgb.as_raw()
+            let pixels = rgb
+                .as_raw()
                 .par_chunks_exact(3)
                 .with_min_len(1 << 14)
                 .map(|p| Vec3::new(conv(p[0]), conv(p[1]), conv(p[2])))
-                .collect()
+                .collect();
+            let texels = rgb
+                .as_raw()
+                .par_chunks_exact(3)
+                .with_min_len(1 << 14)
+                .map(|p| [p[0], p[1], p[2]])
+                .collect();
+            samples = Samples::Codes8(Codes8 { texels, table });
+            pixels
         }
         D::ImageLuma16(_) | D::ImageLumaA16(_) | D::ImageRgb16(_) | D::ImageRgba16(_) => {
             let conv = |v: u16| {
@@ -360,6 +377,7 @@ fn decode_with_image_crate(
                     srgb_to_linear(x)
                 }
             };
+            samples = Samples::Integer;
             let rgb = dynimg.into_rgb16();
             rgb.pixels()
                 .map(|p| Vec3::new(conv(p[0]), conv(p[1]), conv(p[2])))
@@ -371,7 +389,7 @@ fn decode_with_image_crate(
             rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect()
         }
     };
-    Ok((Image::new(w, h, pixels), Vec::new(), float))
+    Ok((Image::new(w, h, pixels), Vec::new(), samples))
 }
 
 /// The JPEG decoder fills a truncated scan with filler and reports success, so check the
@@ -485,7 +503,11 @@ fn decode_exr(bytes: &[u8], path: &Path) -> Result<Decoded, TextureError> {
         u32::try_from(w).map_err(|_| err("width too large".into()))?,
         u32::try_from(h).map_err(|_| err("height too large".into()))?,
     );
-    Ok((crate::image::Image::new(w, h, pixels), warnings, true))
+    Ok((
+        crate::image::Image::new(w, h, pixels),
+        warnings,
+        Samples::Float,
+    ))
 }
 
 fn convert(pixels: &mut [Vec3], m: Mat3) {

@@ -20,7 +20,7 @@ pub use aniso::{MAX_ANISOTROPY, MAX_PROBES};
 pub use bitmap::BitmapTexture;
 pub use color::{linear_to_srgb, srgb_to_linear, Chromaticities, WhiteAdaptation};
 pub use footprint::{centre_weight, spp_scale, Footprint};
-pub use image::Image;
+pub use image::{Codes8, Image};
 pub use io::{
     image_pixel_limit, load_image, load_image_as_stored, set_image_pixel_limit, write_exr,
     write_png_srgb, LoadedImage, TextureError, DEFAULT_IMAGE_PIXEL_LIMIT,

@@ -8,8 +8,8 @@ use std::borrow::Cow;
 
 use glam::{Vec2, Vec3, Vec3A};
 
-use crate::image::Image;
-use crate::packed::{LodLookup, PackedLevel};
+use crate::image::{Codes8, Image};
+use crate::packed::{LodLookup, PackedLevel, Texels};
 
 /// How texel indices outside the image are mapped back inside; applied per axis to integer
 /// texel indices so bilinear neighbours wrap the same way as the lookup point.
@@ -130,7 +130,7 @@ struct LevelTexels<'a> {
 #[derive(Clone, Copy)]
 enum TexelData<'a> {
     Rgb(&'a [Vec3]),
-    Packed(&'a [Vec3A]),
+    Packed(&'a Texels),
 }
 
 impl LevelTexels<'_> {
@@ -139,7 +139,7 @@ impl LevelTexels<'_> {
     fn get(&self, k: usize) -> Vec3 {
         match self.data {
             TexelData::Rgb(px) => px[k],
-            TexelData::Packed(px) => px[k].into(),
+            TexelData::Packed(px) => px.get(k).into(),
         }
     }
 
@@ -153,7 +153,7 @@ impl LevelTexels<'_> {
         unsafe {
             match self.data {
                 TexelData::Rgb(px) => *px.get_unchecked(k),
-                TexelData::Packed(px) => (*px.get_unchecked(k)).into(),
+                TexelData::Packed(px) => px.get_unchecked(k).into(),
             }
         }
     }
@@ -246,14 +246,22 @@ impl MipMap {
     /// The pyramid with its levels as 16-byte texels instead of three floats, which the filtered
     /// lookups (`lookup_lod_a`, [`MipMap::lookup_aniso`]) read with one aligned load each: the
     /// same values to the bit, about half the instructions per bilinear lookup, for 16/12 of the
-    /// memory. One copy only (a textured interior's pyramids are hundreds of megabytes). For the
-    /// renderer's bitmaps with bilinear filtering; an environment map keeps its own texel records.
-    pub fn with_packed_texels(mut self) -> Self {
+    /// memory (an 8-bit image's finest level less: [`MipMap::with_packed_texels_from`]). One
+    /// copy only (a textured interior's pyramids are hundreds of megabytes). For the renderer's
+    /// bitmaps with bilinear filtering; an environment map keeps its own texel records.
+    pub fn with_packed_texels(self) -> Self {
+        self.with_packed_texels_from(None)
+    }
+
+    /// [`MipMap::with_packed_texels`], the finest level kept as `codes` (3 bytes a texel) when
+    /// they are the 8-bit codes level 0 was decoded from (checked: otherwise 16-byte texels).
+    pub fn with_packed_texels_from(mut self, codes: Option<Codes8>) -> Self {
         if self.filter == FilterType::Bilinear {
             if let Levels::Rgb(levels) = &self.levels {
+                let mut codes = codes;
                 let packed = levels
                     .iter()
-                    .map(|img| PackedLevel::new(img, self.wrap))
+                    .map(|img| PackedLevel::new(img, self.wrap, codes.take()))
                     .collect();
                 self.levels = Levels::Packed(packed);
             }
@@ -638,6 +646,65 @@ mod tests {
                     assert_eq!(wrap.apply_pair(i, n), want, "{wrap:?} n {n} i {i}");
                 }
             }
+        }
+    }
+
+    /// An 8-bit image's pyramid with its finest level kept as codes gives every lookup the bits
+    /// of the 16-byte layout; codes that are not the image's values are not used.
+    #[test]
+    fn coded_finest_level_matches_the_float_texels() {
+        use crate::color::{srgb8_lut, unorm8_lut};
+        use crate::footprint::Footprint;
+        let mut rng = torrey_testkit::Rng::new(0xC0DE);
+        for (table, wrap, (w, h)) in [
+            (srgb8_lut(), WrapMode::Repeat, (37, 20)),
+            (unorm8_lut(), WrapMode::Mirror, (64, 64)),
+            (srgb8_lut(), WrapMode::Clamp, (1, 5)),
+        ] {
+            let texels: Box<[[u8; 3]]> = (0..w * h)
+                .map(|_| std::array::from_fn(|_| (rng.next_u64() % 256) as u8))
+                .collect();
+            let px = texels
+                .iter()
+                .map(|c| Vec3::from_array(c.map(|v| table[v as usize])))
+                .collect();
+            let mip = MipMap::new(Image::new(w, h, px), wrap, FilterType::Bilinear);
+            let floats = mip.clone().with_packed_texels();
+            let codes = Codes8 { texels, table };
+            let coded = mip.clone().with_packed_texels_from(Some(codes.clone()));
+            assert!(matches!(
+                coded.packed(0).unwrap().texels(),
+                Texels::Codes8(_)
+            ));
+            for level in 0..mip.levels() {
+                assert_eq!(*coded.level(level), *floats.level(level));
+            }
+            let bits = |v: Vec3A| v.to_array().map(f32::to_bits);
+            for k in 0..3000 {
+                let uv = Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
+                assert_eq!(
+                    bits(coded.lookup_level_a(0, uv)),
+                    bits(floats.lookup_level_a(0, uv))
+                );
+                let fp = Footprint::new(
+                    Vec2::new(rng.range(-0.2, 0.2), rng.range(-0.2, 0.2)),
+                    Vec2::new(rng.range(-0.05, 0.05), rng.range(-0.05, 0.05)),
+                );
+                let fp = if k % 4 == 0 { Footprint::POINT } else { fp };
+                assert_eq!(
+                    bits(coded.lookup_aniso(uv, fp)),
+                    bits(floats.lookup_aniso(uv, fp))
+                );
+            }
+            // Codes of another image: the 16-byte layout, the image's own values.
+            let mut wrong = codes.clone();
+            wrong.texels[0][0] = wrong.texels[0][0].wrapping_add(1);
+            let checked = mip.clone().with_packed_texels_from(Some(wrong));
+            assert!(matches!(
+                checked.packed(0).unwrap().texels(),
+                Texels::Float(_)
+            ));
+            assert_eq!(*checked.level(0), *floats.level(0));
         }
     }
 

@@ -1,21 +1,25 @@
-//! One mip level stored as 16-byte texels for the renderer's bitmap lookups.
+//! One mip level stored for the renderer's bitmap lookups: 16-byte texels, or an 8-bit image's
+//! codes.
 //!
 //! [`crate::Image`] keeps three floats per texel (12 bytes), so a bilinear lookup there is twelve
 //! scalar loads and lerps. Here each texel is a [`Vec3A`] (RGB plus an unused lane): one aligned
 //! load per texel and the lerps run on whole vectors. Every lane does the same IEEE operations in
 //! the same order as the scalar path (`a * (1 - f) + b * f`; Rust never fuses them), so the
-//! results are the same to the bit; `MipMap`'s tests check that.
+//! results are the same to the bit; `MipMap`'s tests check that. The finest level of an 8-bit
+//! image keeps its 3-byte codes instead, each texel read through the code table into the same
+//! [`Vec3A`]: the same values, a fifth of the memory (most lookups at high sample counts read the
+//! finest level, whose texels otherwise come from main memory).
 
 use glam::{Vec2, Vec3A};
 
-use crate::image::Image;
+use crate::image::{Codes8, Image};
 use crate::mipmap::{floor_i32, MipMap, WrapMode, TWO_POW_23};
 
-/// A pyramid level as 16-byte texels, with what its bilinear lookup precomputes.
+/// A pyramid level's texels, with what its bilinear lookup precomputes.
 #[derive(Clone, Debug)]
 pub(crate) struct PackedLevel {
     /// `width * height` texels, row by row from the top.
-    texels: Box<[Vec3A]>,
+    texels: Texels,
     width: u32,
     height: u32,
     /// `(width, height)` as floats.
@@ -25,17 +29,87 @@ pub(crate) struct PackedLevel {
     wrap_y: AxisWrap,
 }
 
+/// A level's texels in one of two layouts.
+#[derive(Clone, Debug)]
+pub(crate) enum Texels {
+    /// RGB plus an unused lane.
+    Float(Box<[Vec3A]>),
+    /// An 8-bit image's codes and their table.
+    Codes8(Codes8),
+}
+
+impl Texels {
+    /// Texel `k`.
+    ///
+    /// # Safety
+    /// `k` is below the level's `width * height`.
+    #[inline(always)]
+    pub(crate) unsafe fn get_unchecked(&self, k: usize) -> Vec3A {
+        // SAFETY: (both arms) k < width * height, the texel count of either layout.
+        unsafe {
+            match self {
+                Texels::Float(px) => *px.get_unchecked(k),
+                Texels::Codes8(c) => {
+                    let [r, g, b] = *c.texels.get_unchecked(k);
+                    Vec3A::new(
+                        c.table[r as usize],
+                        c.table[g as usize],
+                        c.table[b as usize],
+                    )
+                }
+            }
+        }
+    }
+
+    /// Texel `k`; panics past the end.
+    #[inline(always)]
+    pub(crate) fn get(&self, k: usize) -> Vec3A {
+        match self {
+            Texels::Float(px) => px[k],
+            Texels::Codes8(c) => {
+                let [r, g, b] = c.texels[k];
+                Vec3A::new(
+                    c.table[r as usize],
+                    c.table[g as usize],
+                    c.table[b as usize],
+                )
+            }
+        }
+    }
+}
+
 impl PackedLevel {
-    /// The level `img` (which holds at least `width * height` pixels) as packed texels, for
-    /// lookups that wrap with `wrap`.
-    pub(crate) fn new(img: &Image, wrap: WrapMode) -> Self {
+    /// The level `img` (which holds at least `width * height` pixels) for lookups that wrap with
+    /// `wrap`: its `codes` when given and `img` holds exactly their values (an 8-bit image's
+    /// finest level), else 16-byte texels.
+    pub(crate) fn new(img: &Image, wrap: WrapMode, codes: Option<Codes8>) -> Self {
         let n = img.width as usize * img.height as usize;
         use rayon::prelude::*;
-        let texels: Box<[Vec3A]> = img.pixels[..n]
-            .par_iter()
-            .with_min_len(1 << 14)
-            .map(|&p| p.into())
-            .collect();
+        let codes = codes.filter(|c| {
+            c.texels.len() == n
+                && c.texels
+                    .par_iter()
+                    .zip(&img.pixels[..n])
+                    .with_min_len(1 << 14)
+                    .all(|(&[r, g, b], p)| {
+                        let t = c.table;
+                        // Bit for bit (a NaN never matches).
+                        [t[r as usize], t[g as usize], t[b as usize]]
+                            .iter()
+                            .zip(p.to_array())
+                            .all(|(a, b)| a.to_bits() == b.to_bits())
+                    })
+        });
+        let texels = match codes {
+            Some(c) => Texels::Codes8(c),
+            None => Texels::Float(
+                img.pixels[..n]
+                    .par_iter()
+                    .with_min_len(1 << 14)
+                    .map(|&p| p.into())
+                    .collect(),
+            ),
+        };
         Self {
             texels,
             width: img.width,
@@ -55,7 +129,7 @@ impl PackedLevel {
     }
 
     /// The `width * height` texels, row by row from the top.
-    pub(crate) fn texels(&self) -> &[Vec3A] {
+    pub(crate) fn texels(&self) -> &Texels {
         &self.texels
     }
 
@@ -75,10 +149,10 @@ impl PackedLevel {
         let w = self.width as usize;
         let (r0, r1) = (r0 * w, r1 * w);
         let px = &self.texels;
-        debug_assert!(r0.max(r1) + c0.max(c1) < px.len());
-        // SAFETY: `AxisWrap::pair` returns columns < width and rows < height, and `texels` holds exactly
-        // width * height texels.
-        let at = |k: usize| unsafe { *px.get_unchecked(k) };
+        debug_assert!(r0.max(r1) + c0.max(c1) < w * self.height as usize);
+        // SAFETY: `AxisWrap::pair` returns columns < width and rows < height, and `texels` holds
+        // exactly width * height texels.
+        let at = |k: usize| unsafe { px.get_unchecked(k) };
         let top = at(r0 + c0) * (1.0 - fx) + at(r0 + c1) * fx;
         let bottom = at(r1 + c0) * (1.0 - fx) + at(r1 + c1) * fx;
         Some(top * (1.0 - fy) + bottom * fy)

@@ -42,6 +42,16 @@ fn png_decodes_known_srgb_value() {
     assert!((p.z - 1.0).abs() < 1e-6);
     let raw = load_image(&path, true).unwrap();
     assert!((raw.image.get(0, 0).x - 128.0 / 255.0).abs() < 1e-6);
+    // The 8-bit codes come along, their table giving the image's values exactly.
+    for loaded in [&img, &raw] {
+        let codes = loaded
+            .codes
+            .as_ref()
+            .expect("an 8-bit image keeps its codes");
+        assert_eq!(codes.texels[5], [128, 0, 255]);
+        let from_codes = codes.texels[5].map(|c| codes.table[c as usize]);
+        assert_eq!(from_codes, loaded.image.get(2, 1).to_array());
+    }
 }
 
 #[test]
@@ -72,6 +82,7 @@ fn gray_rgba_and_16bit_inputs() {
     assert!((d.x - srgb_to_linear(32768.0 / 65535.0)).abs() < 1e-6);
     let d = load_image(&deep, true).unwrap().image.get(0, 0);
     assert!((d.x - 32768.0 / 65535.0).abs() < 1e-6);
+    assert!(load_image(&deep, false).unwrap().codes.is_none());
 }
 
 #[test]

@@ -92,7 +92,7 @@ pub(super) fn build_light(
             scale,
             to_world,
         } => {
-            let image = load_bitmap_image(bitmap, warnings)?;
+            let (image, _) = load_bitmap_image(bitmap, warnings)?;
             let rotation = Mat3::from_mat4(*to_world);
             Light::Env(Box::new(EnvLight {
                 map: EnvMap::new(image, *scale, rotation),

@@ -52,10 +52,12 @@ pub(super) fn build_camera(
     })
 }
 
+/// A bitmap's image, with its 8-bit codes when the file stores them (a pyramid keeps its finest
+/// level as those).
 pub(super) fn load_bitmap_image(
     bitmap: &desc::Bitmap,
     warnings: &mut Vec<String>,
-) -> Result<torrey_texture::Image, BuildError> {
+) -> Result<(torrey_texture::Image, Option<torrey_texture::Codes8>), BuildError> {
     let loaded = torrey_texture::load_image(&bitmap.filename, bitmap.raw).map_err(|e| {
         BuildError::Texture {
             location: bitmap.location.to_string(),
@@ -63,7 +65,7 @@ pub(super) fn load_bitmap_image(
         }
     })?;
     warnings.extend(loaded.warnings);
-    Ok(loaded.image)
+    Ok((loaded.image, loaded.codes))
 }
 
 /// A texture of the scene from its description, its bitmap loaded and mip-mapped.
@@ -132,7 +134,7 @@ pub(super) fn build_texture(
 ) -> Result<Texture, BuildError> {
     Ok(match &t.kind {
         desc::TextureKind::Bitmap(bitmap) => {
-            let image = load_bitmap_image(bitmap, warnings)?;
+            let (image, codes) = load_bitmap_image(bitmap, warnings)?;
             let wrap = match bitmap.wrap {
                 desc::WrapMode::Repeat => torrey_texture::WrapMode::Repeat,
                 desc::WrapMode::Mirror => torrey_texture::WrapMode::Mirror,
@@ -142,9 +144,10 @@ pub(super) fn build_texture(
                 desc::FilterType::Bilinear => torrey_texture::FilterType::Bilinear,
                 desc::FilterType::Nearest => torrey_texture::FilterType::Nearest,
             };
-            Texture::Bitmap(BitmapTexture::new(
+            Texture::Bitmap(BitmapTexture::with_codes(
                 MipMap::new(image, wrap, filter),
                 bitmap.to_uv,
+                codes,
             ))
         }
         desc::TextureKind::Checkerboard {
