@@ -48,3 +48,11 @@ pub struct Codes8 {
     /// The linear value of each code (sRGB-decoded, or code / 255 for raw data).
     pub table: &'static [f32; 256],
 }
+
+impl Codes8 {
+    /// The linear value of the texel with `codes`.
+    #[inline(always)]
+    pub fn value(&self, codes: [u8; 3]) -> [f32; 3] {
+        codes.map(|c| self.table[c as usize])
+    }
+}

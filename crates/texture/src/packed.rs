@@ -49,14 +49,7 @@ impl Texels {
         unsafe {
             match self {
                 Texels::Float(px) => *px.get_unchecked(k),
-                Texels::Codes8(c) => {
-                    let [r, g, b] = *c.texels.get_unchecked(k);
-                    Vec3A::new(
-                        c.table[r as usize],
-                        c.table[g as usize],
-                        c.table[b as usize],
-                    )
-                }
+                Texels::Codes8(c) => Vec3A::from_array(c.value(*c.texels.get_unchecked(k))),
             }
         }
     }
@@ -66,14 +59,7 @@ impl Texels {
     pub(crate) fn get(&self, k: usize) -> Vec3A {
         match self {
             Texels::Float(px) => px[k],
-            Texels::Codes8(c) => {
-                let [r, g, b] = c.texels[k];
-                Vec3A::new(
-                    c.table[r as usize],
-                    c.table[g as usize],
-                    c.table[b as usize],
-                )
-            }
+            Texels::Codes8(c) => Vec3A::from_array(c.value(c.texels[k])),
         }
     }
 }
@@ -91,13 +77,9 @@ impl PackedLevel {
                     .par_iter()
                     .zip(&img.pixels[..n])
                     .with_min_len(1 << 14)
-                    .all(|(&[r, g, b], p)| {
-                        let t = c.table;
-                        // Bit for bit (a NaN never matches).
-                        [t[r as usize], t[g as usize], t[b as usize]]
-                            .iter()
-                            .zip(p.to_array())
-                            .all(|(a, b)| a.to_bits() == b.to_bits())
+                    // Bit for bit (a NaN never matches).
+                    .all(|(&codes, p)| {
+                        c.value(codes).map(f32::to_bits) == p.to_array().map(f32::to_bits)
                     })
         });
         let texels = match codes {
