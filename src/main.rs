@@ -109,8 +109,8 @@ struct RenderArgs {
     #[arg(long)]
     denoise: bool,
     /// With --denoise, how the noisy guides are treated (Cycles' names): `accurate` denoises
-    /// each guide first (OIDN's recommended setting: 4-27% lower error at 16 spp, about four times the
-    /// denoiser's time), `fast` denoises them together with the image.
+    /// each guide first (OIDN's recommended setting: 4-27% lower error at 16 spp, about four
+    /// times the denoiser's time), `fast` denoises them together with the image.
     #[arg(long, value_name = "accurate|fast", default_value = "accurate")]
     denoise_prefilter: torrey_denoise::Prefilter,
     /// Adaptive sampling: each pixel stops once its relative standard error is predicted under

@@ -103,16 +103,14 @@ const BYTES_PER_PIXEL_BUDGET: u64 = 16;
 /// plus 64 MiB) are refused before decoding.
 pub fn load_image(path: &Path, raw: bool) -> Result<LoadedImage, TextureError> {
     let (mut image, mut warnings, source) = load_unchecked(path, raw)?;
-    let (float, codes) = match source {
-        Samples::Float => (true, None),
-        Samples::Integer => (false, None),
-        Samples::Codes8(codes) => (false, Some(codes)),
-    };
     // Integer texels decode to finite, non-negative values: only float images are checked.
-    let bad = if float {
-        sanitize(&mut image.pixels)
-    } else {
-        0
+    let bad = match source {
+        Samples::Float => sanitize(&mut image.pixels),
+        Samples::Integer | Samples::Codes8(_) => 0,
+    };
+    let codes = match source {
+        Samples::Codes8(codes) => Some(codes),
+        Samples::Float | Samples::Integer => None,
     };
     if bad > 0 {
         warnings.push(format!(
@@ -349,23 +347,25 @@ fn decode_with_image_crate(
     let mut samples = Samples::Float;
     let pixels: Vec<Vec3> = match dynimg {
         D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
-            let table = if raw { unorm8_lut() } else { srgb8_lut() };
-            let conv = |v: u8| table[v as usize];
+            // The texels are filled below; the table first, for their values.
+            let mut codes = Codes8 {
+                texels: Box::default(),
+                table: if raw { unorm8_lut() } else { srgb8_lut() },
+            };
             let rgb = dynimg.into_rgb8();
             use rayon::prelude::*;
-            let pixels = rgb
+            // One pass: each texel's codes, and its value through the table the lookups use.
+            let (texels, pixels): (Vec<[u8; 3]>, Vec<Vec3>) = rgb
                 .as_raw()
                 .par_chunks_exact(3)
                 .with_min_len(1 << 14)
-                .map(|p| Vec3::new(conv(p[0]), conv(p[1]), conv(p[2])))
-                .collect();
-            let texels = rgb
-                .as_raw()
-                .par_chunks_exact(3)
-                .with_min_len(1 << 14)
-                .map(|p| [p[0], p[1], p[2]])
-                .collect();
-            samples = Samples::Codes8(Codes8 { texels, table });
+                .map(|p| {
+                    let c = [p[0], p[1], p[2]];
+                    (c, Vec3::from_array(codes.value(c)))
+                })
+                .unzip();
+            codes.texels = texels.into_boxed_slice();
+            samples = Samples::Codes8(codes);
             pixels
         }
         D::ImageLuma16(_) | D::ImageLumaA16(_) | D::ImageRgb16(_) | D::ImageRgba16(_) => {
