@@ -1,7 +1,14 @@
 """A real Ray cluster on this machine for the tests and the speedup measurement: a head node and
-worker nodes started with `ray start --block` on 127.0.0.1, each in its own process group so that
-one node can be killed (all its processes: raylet, object store, workers) without touching the
-others, and everything is stopped by process group at the end (never by process name)."""
+worker nodes started with `ray start --block` on the loopback address 127.0.0.2, each in its own
+process group so that one node can be killed (all its processes: raylet, object store, workers)
+without touching the others, and everything is stopped by process group at the end (never by
+process name).
+
+Why 127.0.0.2 and not 127.0.0.1: Ray rewrites "127.0.0.1" and "localhost" (in `ray.init`'s
+address and in a node's IP) to the address this machine routes outward from, so a driver given
+127.0.0.1 connects to that interface; where it does not accept connections to itself (a CI
+sandbox did not) the driver never reaches the cluster. Any other loopback address is kept as
+given, so the whole cluster stays on the loopback interface."""
 
 from __future__ import annotations
 
@@ -17,9 +24,24 @@ import time
 from typing import Dict, List, Optional
 
 
+def _loopback_host() -> str:
+    """127.0.0.2 where it can be bound (Linux routes all of 127/8 to the loopback interface;
+    macOS configures 127.0.0.1 alone), else 127.0.0.1."""
+    try:
+        with socket.socket() as s:
+            s.bind(("127.0.0.2", 0))
+        return "127.0.0.2"
+    except OSError:
+        return "127.0.0.1"
+
+
+#: The loopback address every node and driver uses (see the module's doc).
+HOST = _loopback_host()
+
+
 def _free_port() -> int:
     with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
+        s.bind((HOST, 0))
         return s.getsockname()[1]
 
 
@@ -37,7 +59,7 @@ class LocalCluster:
         # Short: Ray's unix socket paths under it must stay below 107 characters.
         self.temp = tempfile.mkdtemp(prefix="trc-", dir="/tmp")
         self.port = _free_port()
-        self.address = f"127.0.0.1:{self.port}"
+        self.address = f"{HOST}:{self.port}"
         self.env = dict(
             os.environ,
             # The tests' tasks are small; do not let Ray's memory monitor kill workers because
@@ -50,7 +72,7 @@ class LocalCluster:
     def _start(self, args: List[str], name: str, env: Optional[Dict[str, str]]) -> subprocess.Popen:
         log = open(os.path.join(self.temp, f"{name}.log"), "w")
         proc = subprocess.Popen(
-            [self.ray_bin, "start", "--block", "--node-ip-address=127.0.0.1", "--disable-usage-stats",
+            [self.ray_bin, "start", "--block", f"--node-ip-address={HOST}", "--disable-usage-stats",
              "--object-store-memory=100000000", *args],
             env=dict(self.env, **(env or {})),
             stdout=log,
@@ -79,9 +101,9 @@ class LocalCluster:
         while not ray.is_initialized():
             try:
                 ray.init(address=self.address, log_to_driver=False, configure_logging=False)
-            except Exception:
+            except Exception as e:
                 if time.monotonic() > deadline:
-                    raise
+                    raise ConnectionError(f"no Ray driver connection to {self.address}: {self.logs()}") from e
                 time.sleep(0.5)
         self.wait_for_nodes(nodes, deadline - time.monotonic())
 

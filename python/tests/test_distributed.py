@@ -1,7 +1,7 @@
 """Distributed rendering on a real Ray cluster on this machine: a head and worker nodes started
-with `ray start` on 127.0.0.1 (one CPU each). A render split across the nodes equals the one-piece
-render; a node killed while it renders (its slices retried elsewhere) still gives the same image;
-a missing asset is a clear error with file:line:column."""
+with `ray start` on a loopback address (one CPU each; see cluster.py). A render split across the
+nodes equals the one-piece render; a node killed while it renders (its slices retried
+elsewhere) still gives the same image; a missing asset is a clear error with file:line:column."""
 
 import os
 import subprocess
