@@ -11,7 +11,7 @@ scenes' Mitsuba 3.9.1 references:
     standard error (the EXR's variance) is under it, and the mean spp;
   * the denoiser's time on a 1920x1080 image (--denoise-size).
 
-    python3 bench/clean_image.py [--only a,b] [--skip raw256,denoised16,noisy16,threshold,fullhd]
+    python3 bench/clean_image.py [--only a,b] [--skip raw256,denoised16,noisy16,adaptive,threshold,fullhd]
                                  [--threshold 0.05] [--no-build] [--torrey-bin PATH]
 
 Besides the mitsuba-real scenes, `interior-openings` (scenes/interior_openings.xml, a room lit
@@ -38,9 +38,8 @@ from common import REPO, SHARED, OUT, log  # noqa: E402
 from real_scenes import REAL_SCENES, rel_mse  # noqa: E402
 
 REAL = os.path.join(SHARED, "scenes", "mitsuba-real")
-# The scenes without media (volpath's media are another issue's work).
 SCENES = ["staircase", "matpreview-copper", "matpreview-glass", "stage-lights", "veach-direct",
-          "interior-openings"]
+          "volumetric-caustic", "bunny-sss", "clover-banner", "interior-openings"]
 # Scenes of this repository: scene, reference (made by bench/mitsuba_reference.py).
 OWN = {"interior-openings": (os.path.join(REPO, "scenes", "interior_openings.xml"),
                              os.path.join(REPO, "out", "refs", "interior_openings"))}
@@ -91,7 +90,7 @@ def torrey(scene, out, *args):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only")
-    ap.add_argument("--skip", default="", help="stages to leave out: raw256,denoised16,noisy16,threshold,fullhd")
+    ap.add_argument("--skip", default="", help="stages to leave out: raw256,denoised16,noisy16,adaptive,threshold,fullhd")
     ap.add_argument("--seeds", type=int, default=2, help="renders per setting (their mean relMSE)")
     ap.add_argument("--uniform-spp", type=int, default=64)
     ap.add_argument("--adaptive-cap", type=int, default=1024)
@@ -138,7 +137,7 @@ def main():
                 ("noisy16", ["--spp", 16], ""),
                 ("uniform", ["--spp", a.uniform_spp], ""),
             ]:
-                if tag in skip:
+                if tag in skip or (tag == "uniform" and "adaptive" in skip):
                     continue
                 runs, errs = [], []
                 for s in range(a.seeds):
@@ -153,6 +152,9 @@ def main():
                 log("   %-10s relMSE %.4g, render %.2f s%s" % (
                     tag, e[tag]["relmse"], e[tag]["render_s"],
                     ", denoise %.2f s" % runs[0]["denoise_s"] if runs[0]["denoise_s"] else ""))
+            if "adaptive" in skip:
+                result["scenes"][name] = e
+                continue
             budget = e["uniform"]["render_s"]
             runs, errs, spp = [], [], []
             for s in range(a.seeds):

@@ -220,12 +220,20 @@ pub struct PathState {
     pub guides: Guides,
 }
 
+/// The roughness ([`crate::bsdfs::Bsdf::roughness`], about the microfacet alpha) up to which a glossy lobe
+/// counts as specular for the denoiser's guides: they are taken further along, as Cycles does
+/// below the same value (a near-mirror's albedo is its reflection's).
+const GUIDE_SPECULAR_ROUGHNESS: f32 = 0.075;
+
 /// A path's guides for the denoiser, taken at its first hit whose BSDF has a non-delta lobe
-/// (through mirrors and glass, as Cycles takes them): the albedo, the weight of the BSDF sample
+/// wider than [`GUIDE_SPECULAR_ROUGHNESS`] (through mirrors, glass and near-mirrors, as Cycles
+/// takes them): the albedo, the weight of the BSDF sample
 /// drawn there (an unbiased estimate of the directional albedo: exactly the reflectance of a
 /// diffuse surface) times the delta chain's throughput, clamped to [0, 1]; and the shading
-/// normal. Zero where the path escapes or ends before such a hit. (Unaligned vectors: the
-/// path state, which every wavefront stage reads, stays small.)
+/// normal. A real scattering in a medium before such a hit takes them too, as Cycles does (a
+/// phase function counts as diffuse): the throughput with the medium's albedo in it, and the
+/// normal facing the ray that arrived. Zero where the path escapes or ends before either.
+/// (Unaligned vectors: the path state, which every wavefront stage reads, stays small.)
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Guides {
     pub albedo: Vec3,
@@ -377,15 +385,13 @@ impl PathState {
         // polynomial and square roots overlaps the light connection instead of waiting for it.
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
         self.valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
-        if ctx.settings.guides && !self.guides.taken && sp.bsdf.flags().has_smooth() {
+        if ctx.settings.guides
+            && !self.guides.taken
+            && sp.bsdf.flags().has_smooth()
+            && sp.bsdf.roughness() > GUIDE_SPECULAR_ROUGHNESS
+        {
             let weight = bsdf_sample.map_or(Vec3A::ZERO, |s| s.weight);
-            self.guides = Guides {
-                albedo: (self.throughput * weight)
-                    .clamp(Vec3A::ZERO, Vec3A::ONE)
-                    .into(),
-                normal: sp.frame.n.into(),
-                taken: true,
-            };
+            self.take_guides(self.throughput * weight, sp.frame.n);
         }
 
         let mut shadow = None;
@@ -486,6 +492,10 @@ impl PathState {
         pdf: f32,
         count_fully: bool,
     ) {
+        if ctx.settings.guides {
+            // The throughput carries the scattering's weight, the medium's albedo.
+            self.take_guides(self.throughput, -self.ray.dir);
+        }
         if ctx.track_cones {
             // Like a diffuse bounce: the widest lobe.
             self.cone = self.cone.at_distance(t);
@@ -505,6 +515,18 @@ impl PathState {
             dir: wi,
             tmax: f32::INFINITY,
         };
+    }
+
+    /// The denoiser's guides ([`Guides`]), unless the path took them already.
+    #[inline(always)]
+    fn take_guides(&mut self, albedo: Vec3A, normal: Vec3A) {
+        if !self.guides.taken {
+            self.guides = Guides {
+                albedo: albedo.clamp(Vec3A::ZERO, Vec3A::ONE).into(),
+                normal: normal.into(),
+                taken: true,
+            };
+        }
     }
 }
 

@@ -97,3 +97,46 @@ fn white_furnace_grid() {
     );
     assert_furnace("grid", &medium);
 }
+
+/// The denoiser's guides in a medium seen through an index-matched boundary (a `null` surface,
+/// which takes none): a dense medium scatters every ray that enters it, so where the whole pixel
+/// sees the sphere the albedo guide is the medium's albedo (the scattering's weight, exactly for
+/// a grey extinction) and the normal faces the camera; where it sees only the sky, both are 0.
+#[test]
+fn a_scattering_in_a_medium_takes_the_denoiser_guides() {
+    let xml = r#"<scene version="3.0.0">
+        <integrator type="volpath"/>
+        <sensor type="perspective">
+            <float name="fov" value="40"/>
+            <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="12"/>
+                <rfilter type="box"/></film>
+        </sensor>
+        <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+        <shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>
+            <medium type="homogeneous" name="interior"><float name="sigma_t" value="200"/>
+                <rgb name="albedo" value="0.2, 0.5, 0.8"/><phase type="isotropic"/></medium></shape>
+        </scene>"#;
+    let desc = torrey_parser::parse_scene_str(xml, std::path::Path::new("guides.xml"), &[])
+        .expect("scene");
+    let scene = crate::scene::RenderScene::build(&desc, 12, 12).expect("scene");
+    let mut settings = RenderSettings::new(
+        &desc,
+        &Overrides {
+            spp: Some(16),
+            ..Default::default()
+        },
+    );
+    settings.channels.guides = true;
+    let out = render(&scene, &settings, &|_, _| {});
+    assert_eq!(out.channels, crate::integrator::aov::GUIDE_CHANNELS);
+    let pixel = |x: usize, y: usize| &out.extras[(y * 12 + x) * 6..][..6];
+    for (x, y) in [(5, 5), (6, 6), (5, 6)] {
+        let g = pixel(x, y);
+        for (a, want) in g[..3].iter().zip([0.2, 0.5, 0.8]) {
+            assert!((a - want).abs() < 1e-4, "albedo {:?} at {x},{y}", &g[..3]);
+        }
+        assert!(g[5] > 0.99, "the normal faces the camera: {:?}", &g[3..]);
+    }
+    assert!(pixel(0, 0).iter().all(|&v| v == 0.0), "{:?}", pixel(0, 0));
+}
