@@ -121,37 +121,99 @@ fn adaptive_slices_hold_the_one_piece_samples() {
 
 /// A time limit stops at a pass boundary: the render ends within the limit plus its last pass
 /// (the pass it could not know would overrun), in several passes of samples added in index
-/// order, all pixels with the same count; the pass reports count up.
+/// order; the pass reports count up. With Sobol samples every count is a power of two: the last
+/// pass takes some pixels the whole way to the next level rather than all of them part of it
+/// (`last_pass_pixels`), with a noise threshold too; with independent samples all pixels end with
+/// the same count.
 #[test]
 fn time_limits_are_honoured_within_a_pass() {
     let scene = packet_scene();
     let limit = Duration::from_millis(400);
-    let set = RenderSettings {
-        time_limit: Some(limit),
-        ..settings(1 << 20, SamplerKind::Sobol, true)
-    };
-    let reports = std::sync::Mutex::new(Vec::new());
-    let slice = RenderSlice::full(24, 20, set.spp);
-    let out = render_slice_reporting(&scene, &set, &slice, &|_, _| {}, &|r| {
-        reports.lock().unwrap().push(r.clone())
-    })
-    .unwrap();
-    let reports = reports.into_inner().unwrap();
-    assert!(out.passes >= 3, "{} passes", out.passes);
-    assert_eq!(reports.len() as u32, out.passes);
-    let last_pass = reports[reports.len() - 1].elapsed - reports[reports.len() - 2].elapsed;
+    for (sampler, threshold) in [
+        (SamplerKind::Sobol, None),
+        (SamplerKind::Independent, None),
+        (SamplerKind::Sobol, Some(1e-4)),
+    ] {
+        let set = RenderSettings {
+            time_limit: Some(limit),
+            noise_threshold: threshold,
+            ..settings(1 << 20, sampler, true)
+        };
+        let reports = std::sync::Mutex::new(Vec::new());
+        let slice = RenderSlice::full(24, 20, set.spp);
+        let out = render_slice_reporting(&scene, &set, &slice, &|_, _| {}, &|r| {
+            reports.lock().unwrap().push(r.clone())
+        })
+        .unwrap();
+        let reports = reports.into_inner().unwrap();
+        assert!(out.passes >= 3, "{} passes", out.passes);
+        assert_eq!(reports.len() as u32, out.passes);
+        let last_pass = reports[reports.len() - 1].elapsed - reports[reports.len() - 2].elapsed;
+        assert!(
+            out.elapsed <= limit + last_pass + Duration::from_millis(50),
+            "{:?} for a limit of {limit:?} (last pass {last_pass:?})",
+            out.elapsed
+        );
+        let (lo, hi) = (
+            *out.counts.iter().min().unwrap(),
+            *out.counts.iter().max().unwrap(),
+        );
+        assert!(lo > 1, "{sampler:?}: {lo} samples");
+        match (sampler, threshold) {
+            (SamplerKind::Sobol, None) => assert!(
+                lo.is_power_of_two() && (hi == lo || hi == 2 * lo),
+                "counts {lo}..={hi}"
+            ),
+            // The pilot (64 samples here) first, whole doublings, then the noisiest pixels.
+            (SamplerKind::Sobol, Some(_)) => assert!(
+                out.counts.iter().all(|c| c.is_power_of_two()) && lo >= (hi / 2).min(64),
+                "counts {lo}..={hi}"
+            ),
+            _ => assert_eq!(lo, hi, "uniform counts"),
+        }
+        let total: u64 = out.counts.iter().map(|&c| c as u64).sum();
+        assert_eq!(reports.last().unwrap().samples, total);
+        assert!(reports.iter().all(|r| r.time_left.is_some()));
+    }
+}
+
+/// A time limit's last pass with Sobol samples takes the pixels of the highest counts first,
+/// then of the next ones; within the group it cannot take whole, as many as the budget allows,
+/// spread evenly over the pixel index (a quarter of the budget in each quarter of the image).
+/// Before it, every pixel goes through the whole doublings that fit.
+#[test]
+fn the_last_pass_takes_whole_pixels_spread_evenly() {
+    // 400 pixels with 64 to reach, 3600 with 32; from level 16 to 32.
+    let caps: Vec<u32> = (0..4000)
+        .map(|i| if i % 10 == 3 { 64 } else { 32 })
+        .collect();
+    let chosen = super::passes::last_pass_pixels(&caps, 16, 32, 16 * (400 + 1800));
+    let high = (0..4000).filter(|&i| chosen[i] && caps[i] == 64).count();
+    assert_eq!(high, 400, "every pixel of the highest count");
+    let low: Vec<usize> = (0..4000).filter(|&i| chosen[i] && caps[i] == 32).collect();
+    assert!((1795..=1805).contains(&low.len()), "{} of 1800", low.len());
+    for q in 0..4 {
+        let n = low.iter().filter(|&&i| i / 1000 == q).count();
+        assert!((445..=455).contains(&n), "quarter {q}: {n} of about 450");
+    }
+    assert!(!super::passes::last_pass_pixels(&caps, 16, 32, 15).contains(&true));
+
+    // From a pilot's first sample toward its 64: whole doublings for every pixel while they
+    // fit (20 samples per pixel: to 16), then the next doubling for part of them.
+    use super::passes::whole_prefix_pass;
+    let caps = vec![1024u32; 100];
+    assert_eq!(whole_prefix_pass(&caps, 0, 1, 64, 20 * 100), (16, None));
+    let (to, chosen) = whole_prefix_pass(&caps, 0, 16, 64, 10 * 100);
+    let chosen = chosen.expect("a part of the pixels");
+    assert_eq!(to, 32);
+    let n = chosen.iter().filter(|&&c| c).count();
     assert!(
-        out.elapsed <= limit + last_pass + Duration::from_millis(50),
-        "{:?} for a limit of {limit:?} (last pass {last_pass:?})",
-        out.elapsed
+        (60..=63).contains(&n),
+        "{n} pixels of 16 more samples in 1000"
     );
-    let n = out.counts[0];
-    assert!(
-        n > 1 && out.counts.iter().all(|&c| c == n),
-        "uniform counts"
-    );
-    assert_eq!(reports.last().unwrap().samples, n as u64 * 24 * 20);
-    assert!(reports.iter().all(|r| r.time_left.is_some()));
+    assert!(super::passes::last_pass_pixels(&caps, 16, 32, u64::MAX)
+        .iter()
+        .all(|&c| c));
 }
 
 /// The AOVs and the denoiser's guides are the same from the scalar and the wavefront loop, bit
