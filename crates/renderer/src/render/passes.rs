@@ -133,7 +133,7 @@ pub(super) fn run(
         next = next.min(top);
         // With Sobol samples, the pixels the last pass takes to `next` when the time left
         // cannot take them all (see `last_pass_pixels`).
-        let mut only: Option<Vec<bool>> = None;
+        let mut subset: Option<Vec<bool>> = None;
         if let (Some(deadline), true) = (deadline, passes > 0) {
             let per_sample = last_pass.0.as_secs_f64() / last_pass.1.max(1) as f64;
             let left = deadline
@@ -146,7 +146,7 @@ pub(super) fn run(
                 if chosen.as_ref().is_some_and(|c| !c.contains(&true)) {
                     break;
                 }
-                (next, only) = (to, chosen);
+                (next, subset) = (to, chosen);
             } else if cost(level + 1) > left {
                 break;
             } else if cost(next) > left {
@@ -166,7 +166,7 @@ pub(super) fn run(
         let ranges: Vec<Range<u32>> = caps
             .iter()
             .enumerate()
-            .map(|(i, &c)| match &only {
+            .map(|(i, &c)| match &subset {
                 Some(chosen) if !chosen[i] => level.min(c)..level.min(c),
                 _ => level.min(c)..next.min(c),
             })
@@ -191,7 +191,7 @@ pub(super) fn run(
         passes += 1;
         let mut values = vec![PixelValue::default(); pixels];
         adaptive::gather(rects, tiles, crop, &mut values);
-        if let (Some(n0), Some(t), None) = (pilot, settings.noise_threshold, &only) {
+        if let (Some(n0), Some(t), None) = (pilot, settings.noise_threshold, &subset) {
             if level == n0 {
                 let (window, all) =
                     adaptive::pilot(tracer, crop, n0, Some((rects, tiles)), start, progress);
@@ -217,7 +217,7 @@ pub(super) fn run(
             start,
             deadline,
         ));
-        if only.is_some() {
+        if subset.is_some() {
             // The pixels left out stay at the level before: the time is up.
             break;
         }
@@ -259,11 +259,11 @@ pub(super) fn whole_prefix_pass(
 /// which spreads them evenly over the image.
 pub(super) fn last_pass_pixels(caps: &[u32], level: u32, next: u32, budget: u64) -> Vec<bool> {
     let mut chosen = vec![false; caps.len()];
-    let mut counts: Vec<u32> = caps.iter().copied().filter(|&c| c > level).collect();
-    counts.sort_unstable_by(|a, b| b.cmp(a));
-    counts.dedup();
+    // The distinct counts still to reach (a few powers of two), highest first.
+    let counts: std::collections::BTreeSet<u32> =
+        caps.iter().copied().filter(|&c| c > level).collect();
     let mut left = budget;
-    for count in counts {
+    for count in counts.into_iter().rev() {
         let add = (next.min(count) - level) as u64;
         let group = caps.iter().filter(|&&c| c == count).count() as u64;
         // The share of the group the budget takes, as a threshold on the golden-ratio sequence
