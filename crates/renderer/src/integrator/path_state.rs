@@ -220,20 +220,20 @@ pub struct PathState {
     pub guides: Guides,
 }
 
-/// The roughness ([`crate::bsdfs::Bsdf::roughness`], about the microfacet alpha) up to which a glossy lobe
-/// counts as specular for the denoiser's guides: they are taken further along, as Cycles does
-/// below the same value (a near-mirror's albedo is its reflection's).
+/// The roughness ([`crate::bsdfs::Bsdf::roughness`], about the microfacet alpha) up to which a
+/// glossy lobe counts as specular for the denoiser's guides: they are taken further along, as
+/// Cycles does below the same value (a near-mirror's albedo is its reflection's).
 const GUIDE_SPECULAR_ROUGHNESS: f32 = 0.075;
 
 /// A path's guides for the denoiser, taken at its first hit whose BSDF has a non-delta lobe
 /// wider than [`GUIDE_SPECULAR_ROUGHNESS`] (through mirrors, glass and near-mirrors, as Cycles
-/// takes them): the albedo, the weight of the BSDF sample
-/// drawn there (an unbiased estimate of the directional albedo: exactly the reflectance of a
-/// diffuse surface) times the delta chain's throughput, clamped to [0, 1]; and the shading
-/// normal. A real scattering in a medium before such a hit takes them too, as Cycles does (a
-/// phase function counts as diffuse): the throughput with the medium's albedo in it, and the
-/// normal facing the ray that arrived. Zero where the path escapes or ends before either.
-/// (Unaligned vectors: the path state, which every wavefront stage reads, stays small.)
+/// takes them): the albedo, the weight of the BSDF sample drawn there (an unbiased estimate of
+/// the directional albedo: exactly the reflectance of a diffuse surface) times the delta chain's
+/// throughput, clamped to [0, 1]; and the shading normal. A real scattering in a medium before
+/// such a hit takes them too, as Cycles does (a phase function counts as diffuse): the
+/// throughput with the medium's albedo in it, and the normal facing the ray that arrived. Zero
+/// where the path escapes or ends before either. (Unaligned vectors: the path state, which every
+/// wavefront stage reads, stays small.)
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Guides {
     pub albedo: Vec3,
@@ -385,6 +385,7 @@ impl PathState {
         // polynomial and square roots overlaps the light connection instead of waiting for it.
         let bsdf_sample = sp.bsdf.sample(sp.wo, draws.u_dir, draws.u_lobe);
         self.valid |= !bsdf_sample.is_some_and(|bs| bs.is_null());
+        // (`taken` first: the roughness is not asked once the guides are in.)
         if ctx.settings.guides
             && !self.guides.taken
             && sp.bsdf.flags().has_smooth()

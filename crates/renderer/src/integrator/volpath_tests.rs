@@ -5,9 +5,12 @@
 use crate::render::{render, Overrides, RenderSettings};
 use crate::sampler::SamplerKind;
 
-/// The mean of each channel over the image and the largest |pixel − 1| relative to the pixel's
-/// standard error.
-fn furnace(medium: &str) -> ([f32; 3], f32) {
+/// A 12×12 view of a sphere of `radius` with a `null` (index-matched) boundary around `medium`,
+/// under a constant sky of radiance 1, rendered by `volpath`.
+fn null_sphere_scene(
+    radius: f32,
+    medium: &str,
+) -> (torrey_parser::Scene, crate::scene::RenderScene) {
     let xml = format!(
         r#"<scene version="3.0.0">
         <integrator type="volpath"/>
@@ -18,13 +21,20 @@ fn furnace(medium: &str) -> ([f32; 3], f32) {
                 <rfilter type="box"/></film>
         </sensor>
         <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-        <shape type="sphere"><float name="radius" value="1.2"/><bsdf type="null"/>
+        <shape type="sphere"><float name="radius" value="{radius}"/><bsdf type="null"/>
             {medium}</shape>
         </scene>"#
     );
-    let desc = torrey_parser::parse_scene_str(&xml, std::path::Path::new("furnace.xml"), &[])
-        .expect("furnace scene");
+    let desc = torrey_parser::parse_scene_str(&xml, std::path::Path::new("sphere.xml"), &[])
+        .expect("null-sphere scene");
     let scene = crate::scene::RenderScene::build(&desc, 12, 12).expect("scene");
+    (desc, scene)
+}
+
+/// The mean of each channel over the image and the largest |pixel − 1| relative to the pixel's
+/// standard error.
+fn furnace(medium: &str) -> ([f32; 3], f32) {
+    let (desc, scene) = null_sphere_scene(1.2, medium);
     let mut settings = RenderSettings::new(
         &desc,
         &Overrides {
@@ -104,22 +114,11 @@ fn white_furnace_grid() {
 /// a grey extinction) and the normal faces the camera; where it sees only the sky, both are 0.
 #[test]
 fn a_scattering_in_a_medium_takes_the_denoiser_guides() {
-    let xml = r#"<scene version="3.0.0">
-        <integrator type="volpath"/>
-        <sensor type="perspective">
-            <float name="fov" value="40"/>
-            <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-            <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="12"/>
-                <rfilter type="box"/></film>
-        </sensor>
-        <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-        <shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>
-            <medium type="homogeneous" name="interior"><float name="sigma_t" value="200"/>
-                <rgb name="albedo" value="0.2, 0.5, 0.8"/><phase type="isotropic"/></medium></shape>
-        </scene>"#;
-    let desc = torrey_parser::parse_scene_str(xml, std::path::Path::new("guides.xml"), &[])
-        .expect("scene");
-    let scene = crate::scene::RenderScene::build(&desc, 12, 12).expect("scene");
+    let (desc, scene) = null_sphere_scene(
+        1.0,
+        r#"<medium type="homogeneous" name="interior"><float name="sigma_t" value="200"/>
+            <rgb name="albedo" value="0.2, 0.5, 0.8"/><phase type="isotropic"/></medium>"#,
+    );
     let mut settings = RenderSettings::new(
         &desc,
         &Overrides {
