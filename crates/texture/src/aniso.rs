@@ -17,7 +17,8 @@
 //!
 //! The weights are normalised and every pyramid level keeps the image's mean, so a constant stays
 //! constant and the filter integrates to one. Every lookup costs at most [`MAX_PROBES`] trilinear
-//! probes, whatever the footprint.
+//! probes, whatever the footprint; an [`Footprint::isotropic`] one (after a rough bounce) costs
+//! one, at the level of the circle of the ellipse's area.
 
 use glam::{Vec2, Vec3A};
 
@@ -52,6 +53,9 @@ impl MipMap {
         // counts stop here without the eigen-decomposition.
         if texels.a.length_squared() + texels.b.length_squared() <= 1.0 {
             return self.lookup_level_a(0, uv);
+        }
+        if fp.isotropic {
+            return self.lookup_isotropic(uv, texels);
         }
         let (major, minor) = texels.principal_axes();
         let major_len = major.length();
@@ -89,6 +93,23 @@ impl MipMap {
             weights += 2.0 * w;
         }
         sum / weights
+    }
+
+    /// [`Footprint::isotropic`]'s lookup of `texels` (the footprint in level-0 texels) at `uv`:
+    /// one trilinear probe at the level of the radius `rho = sqrt(major · minor)`, the circle of
+    /// the ellipse's area; bilinear at level 0 for `rho <= 1`. A round footprint gets what the
+    /// anisotropic lookup gives it (its probes reduce to the centre one).
+    fn lookup_isotropic(&self, uv: Vec2, texels: Footprint) -> Vec3A {
+        let rho = texels.a.perp_dot(texels.b).abs().sqrt();
+        // Not above one texel (NaN too): bilinear.
+        if !(rho > 1.0) {
+            return self.lookup_level_a(0, uv);
+        }
+        let lod = rho.log2();
+        if lod >= (self.levels() - 1) as f32 {
+            return self.lookup_level_a(self.levels() - 1, uv);
+        }
+        self.lookup_lod_a(uv, lod)
     }
 }
 
@@ -227,6 +248,8 @@ mod tests {
             Footprint::new(Vec2::new(0.0, 0.4), Vec2::new(0.03, 0.0)),
             Footprint::circle(0.15),
             Footprint::new(Vec2::new(3.0, 2.0), Vec2::new(0.0, 0.1)),
+            Footprint::new(Vec2::new(0.2, 0.05), Vec2::new(-0.01, 0.02)).isotropic(),
+            Footprint::new(Vec2::new(0.0, 0.4), Vec2::new(0.03, 0.0)).isotropic(),
         ] {
             let g = 256;
             let mut sum = 0.0f64;
@@ -251,6 +274,47 @@ mod tests {
             let want = mip.lookup_lod(uv, r.log2());
             assert!(got.abs_diff_eq(want, 1e-5), "{r}: {got} vs {want}");
         }
+    }
+
+    /// An isotropic footprint (after a rough bounce) is one trilinear probe at the radius of the
+    /// circle of its area, whatever its stretch; round, it is what the anisotropic lookup gives.
+    #[test]
+    fn isotropic_lookups_take_one_probe_at_the_area_radius() {
+        let mip = MipMap::new(pattern(64, 32), WrapMode::Repeat, FilterType::Bilinear)
+            .with_packed_texels();
+        let size = Vec2::new(64.0, 32.0);
+        let uv = Vec2::new(0.31, 0.62);
+        for (major, minor, angle) in [(40.0f32, 2.5f32, 0.3f32), (9.0, 4.0, 1.2), (3.0, 0.2, 2.0)] {
+            let dir = Vec2::from_angle(angle);
+            let fp = Footprint::new(dir * major / size, dir.perp() * minor / size);
+            let got = mip.aniso(uv, fp.isotropic());
+            let rho = (major * minor).sqrt();
+            let want = if rho > 1.0 {
+                mip.lookup_lod(uv, rho.log2())
+            } else {
+                mip.lookup_level(0, uv)
+            };
+            assert!(
+                got.abs_diff_eq(want, 1e-4),
+                "{major}x{minor}: {got} vs {want}"
+            );
+            // The stretched footprint's anisotropic lookup filters differently.
+            if major / minor > 2.0 {
+                assert!(
+                    !mip.aniso(uv, fp).abs_diff_eq(want, 1e-3),
+                    "{major}x{minor}"
+                );
+            }
+        }
+        for r in [0.5f32, 2.0, 7.5] {
+            let fp = Footprint::circle(r / 64.0)
+                .transformed(glam::Mat2::from_diagonal(Vec2::new(1.0, 2.0)));
+            let (iso, aniso) = (mip.aniso(uv, fp.isotropic()), mip.aniso(uv, fp));
+            assert!(iso.abs_diff_eq(aniso, 1e-5), "{r}: {iso} vs {aniso}");
+        }
+        // The flag survives the maps a bitmap applies (its uv transform, the spp scale).
+        let fp = Footprint::circle(0.1).isotropic();
+        assert!(fp.scaled(0.5).isotropic && fp.transformed(glam::Mat2::IDENTITY).isotropic);
     }
 
     #[test]

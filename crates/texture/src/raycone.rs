@@ -26,6 +26,9 @@ pub struct RayCone {
     pub spread: f32,
     /// The pixel centre the first hit's lookups move towards, if any.
     centre: Centre,
+    /// A rough bounce has widened the cone ([`RayCone::widened`]): its footprints are
+    /// [`Footprint::isotropic`].
+    rough: bool,
 }
 
 /// [`RayCone::toward_pixel_centre`]'s state: set on the camera ray, active at its first hit (with
@@ -45,6 +48,17 @@ impl RayCone {
             width: 0.0,
             spread: pixel_spread_angle,
             centre: Centre::None,
+            rough: false,
+        }
+    }
+
+    /// The cone leaving a rough bounce: its spread grows by `extra` (the lobe's width), and its
+    /// footprints from now on are filtered as circles ([`Footprint::isotropic`]).
+    pub fn widened(self, extra: f32) -> Self {
+        Self {
+            spread: self.spread + extra,
+            rough: true,
+            ..self
         }
     }
 
@@ -68,8 +82,8 @@ impl RayCone {
         };
         Self {
             width: self.width + self.spread * t,
-            spread: self.spread,
             centre,
+            ..self
         }
     }
 
@@ -83,12 +97,24 @@ impl RayCone {
     /// dpdu du + dpdv dv = w in the least-squares sense (exact for w in the tangent plane).
     /// Where dpdu and dpdv are (nearly) parallel or zero (sphere poles) the footprint falls back
     /// to a circle of radius |major| / max(|dpdu|, |dpdv|); with no usable derivatives it is a
-    /// point. Never NaN.
+    /// point. Never NaN. After a rough bounce ([`RayCone::widened`]) it is
+    /// [`Footprint::isotropic`].
     ///
     /// In `Vec3A`s (whole-vector multiplies; glam's SSE dot and cross add in the scalar
     /// order, so the result is the same to the bit as with `Vec3`, as long as the build does not
     /// enable the `fma` target feature, with which glam fuses the cross product).
     pub fn footprint(&self, ray_dir: Vec3A, normal: Vec3A, dpdu: Vec3A, dpdv: Vec3A) -> Footprint {
+        let fp = self.ellipse(ray_dir, normal, dpdu, dpdv);
+        if self.rough {
+            fp.isotropic()
+        } else {
+            fp
+        }
+    }
+
+    /// [`RayCone::footprint`]'s ellipse.
+    #[inline(always)]
+    fn ellipse(&self, ray_dir: Vec3A, normal: Vec3A, dpdu: Vec3A, dpdv: Vec3A) -> Footprint {
         let r = self.width.abs() * RADIUS_PER_WIDTH;
         if !(r.is_finite() && r > 0.0) {
             return Footprint::POINT;
@@ -288,5 +314,23 @@ mod tests {
         let c8 = c5.at_distance(3.0);
         assert!((c8.width - 0.016).abs() < 1e-7);
         assert_eq!(c8.spread, 0.002);
+    }
+
+    /// A rough bounce widens the cone by the lobe's width and makes every later footprint
+    /// isotropic (the same ellipse, filtered as a circle); before it, footprints are anisotropic.
+    #[test]
+    fn a_rough_bounce_makes_footprints_isotropic() {
+        let (d, du, dv) = (Vec3A::new(0.6, 0.0, -0.8), Vec3A::X, Vec3A::Y);
+        let camera = RayCone::from_pixel(0.002).at_distance(4.0);
+        let before = camera.footprint(d, Vec3A::Z, du, dv);
+        assert!(!before.isotropic && !before.is_point());
+        let rough = camera.widened(0.25);
+        assert_eq!(rough.spread, 0.002 + 0.25);
+        assert_eq!(rough.width, camera.width);
+        let after = rough.footprint(d, Vec3A::Z, du, dv);
+        assert!(after.isotropic);
+        assert_eq!((after.a, after.b), (before.a, before.b));
+        let later = rough.at_distance(2.0).footprint(d, Vec3A::Z, du, dv);
+        assert!(later.isotropic && later.a.length() > after.a.length());
     }
 }

@@ -23,7 +23,9 @@
 //! footprint on a surface filters textures anisotropically. Delta (mirror) bounces keep the spread;
 //! a rough bounce adds its lobe width (`Bsdf::roughness`, about one radian for diffuse) times
 //! the same 1/sqrt(spp), so textures seen through diffuse interreflection are looked up prefiltered
-//! and every filter vanishes as the sample count grows. Environment maps are filtered by the
+//! and every filter vanishes as the sample count grows. After a rough bounce the footprint is
+//! filtered as the circle of its area (`RayCone::widened`): one trilinear probe, not up to 33
+//! along the ellipse, where the lobe's blur hides the ellipse's stretch. Environment maps are filtered by the
 //! cone only along purely specular chains; after a rough bounce they are read at full resolution so
 //! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
 
@@ -448,7 +450,9 @@ impl PathState {
         }
         if !bs.is_delta() {
             if ctx.track_cones {
-                self.cone.spread += sp.bsdf.roughness() * ctx.settings.footprint_scale;
+                self.cone = self
+                    .cone
+                    .widened(sp.bsdf.roughness() * ctx.settings.footprint_scale);
             }
             self.specular_chain = false;
         }
@@ -499,8 +503,10 @@ impl PathState {
         }
         if ctx.track_cones {
             // Like a diffuse bounce: the widest lobe.
-            self.cone = self.cone.at_distance(t);
-            self.cone.spread += ctx.settings.footprint_scale;
+            self.cone = self
+                .cone
+                .at_distance(t)
+                .widened(ctx.settings.footprint_scale);
         }
         self.specular_chain = false;
         self.prev_bsdf_pdf = pdf;
