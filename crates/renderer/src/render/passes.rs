@@ -12,9 +12,10 @@
 //!   around it too and gives the one-piece render's pixels bit for bit; a `--sample-range` part
 //!   renders the whole pilot for its decisions (counting in its image only the samples of its
 //!   range) and holds exactly the one-piece render's samples of that range.
-//! - A time limit: passes grow geometrically (1 sample, then doubling the samples rendered), each
-//!   shrunk to what the time left allows at the last pass's speed; the render stops at a
-//!   pass boundary when the next pass would not fit (or every pixel has its samples). The first
+//! - A time limit: passes grow geometrically (1 sample, then 16 ([`MIN_PASS_LEVEL`]), then
+//!   doubling the samples rendered), each shrunk to what the time left allows at the last pass's
+//!   speed; the render stops at a pass boundary when the next pass would not fit (or every pixel
+//!   has its samples). The first
 //!   pass always runs. With adaptive sampling, the passes after the pilot raise each pixel to
 //!   min(its count, the level), so the time left goes to the pixels that need the most
 //!   samples: the noisiest.
@@ -25,6 +26,13 @@ use crate::film::{Film, PixelValue, TileFilm};
 use crate::sampler::SamplerKind;
 use std::ops::Range;
 use std::time::{Duration, Instant};
+
+/// The samples per pixel a time limit's second pass aims for (then doubling; it still shrinks
+/// to what the time allows). A pass costs more per sample the fewer samples it takes: a pixel's
+/// Sobol columns are computed in vectors of 8 or 16 samples, its camera rays traced in packets
+/// of 8 or 16. Passes 1, 2, 4, ..., 64 cost 6.0% more render instructions than one 64-sample
+/// pass; 1, 16, 32, 64 cost 2.3% more (matpreview-copper, callgrind).
+const MIN_PASS_LEVEL: u32 = 16;
 
 /// What a render in passes reports after each pass.
 #[derive(Clone, Debug)]
@@ -123,7 +131,7 @@ pub(super) fn run(
             (Some(n0), _) if level < n0 => n0,
             (_, None) => top,
             (_, Some(_)) if passes == 0 => level + 1,
-            (_, Some(_)) => level + (level - first).max(1),
+            (_, Some(_)) => first + (2 * (level - first)).max(MIN_PASS_LEVEL),
         };
         if let (Some(n0), Some(_)) = (pilot, deadline) {
             if level < n0 {

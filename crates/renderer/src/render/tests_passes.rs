@@ -148,6 +148,15 @@ fn time_limits_are_honoured_within_a_pass() {
         let reports = reports.into_inner().unwrap();
         assert!(out.passes >= 3, "{} passes", out.passes);
         assert_eq!(reports.len() as u32, out.passes);
+        if threshold.is_none() {
+            // One sample, then straight to 16 (`MIN_PASS_LEVEL`): small passes cost more per
+            // sample. (The time easily allows it here.)
+            let pixels = 24 * 20;
+            assert_eq!(
+                (reports[0].samples, reports[1].samples),
+                (pixels, 16 * pixels)
+            );
+        }
         let last_pass = reports[reports.len() - 1].elapsed - reports[reports.len() - 2].elapsed;
         assert!(
             out.elapsed <= limit + last_pass + Duration::from_millis(50),
