@@ -60,7 +60,7 @@ impl Footprint {
     /// The same footprint filtered as the circle of its area: one trilinear probe at the level of
     /// its geometric-mean radius (`MipMap::lookup_aniso`). After a rough bounce the cone is wide
     /// and blurred by the lobe anyway, and how its ellipse is stretched no longer shows; the
-    /// probes along the major axis (up to 33) cost a tenth of a textured scene's render.
+    /// probes along the major axis (up to 33) were 7% of staircase's render instructions.
     #[inline]
     pub fn isotropic(self) -> Self {
         Self {
