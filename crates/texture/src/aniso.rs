@@ -102,7 +102,7 @@ impl MipMap {
     fn lookup_isotropic(&self, uv: Vec2, texels: Footprint) -> Vec3A {
         let rho = texels.a.perp_dot(texels.b).abs().sqrt();
         // Not above one texel (NaN too): bilinear.
-        if !(rho > 1.0) {
+        if rho.is_nan() || rho <= 1.0 {
             return self.lookup_level_a(0, uv);
         }
         let lod = rho.log2();
