@@ -25,9 +25,10 @@
 //! the same 1/sqrt(spp), so textures seen through diffuse interreflection are looked up prefiltered
 //! and every filter vanishes as the sample count grows. After a rough bounce the footprint is
 //! filtered as the circle of its area (`RayCone::widened`): one trilinear probe, not up to 33
-//! along the ellipse, where the lobe's blur hides the ellipse's stretch. Environment maps are filtered by the
-//! cone only along purely specular chains; after a rough bounce they are read at full resolution so
-//! that light sampling and BSDF sampling see the same radiance (their MIS combination stays unbiased).
+//! along the ellipse, where the lobe's blur hides the ellipse's stretch. Environment maps are
+//! filtered by the cone only along purely specular chains; after a rough bounce they are read at
+//! full resolution so that light sampling and BSDF sampling see the same radiance (their MIS
+//! combination stays unbiased).
 
 use super::shading::{emission_pdf, hit_emission, ShadingPoint};
 use super::{EnvStrategy, PathSettings};

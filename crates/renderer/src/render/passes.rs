@@ -15,10 +15,9 @@
 //! - A time limit: passes grow geometrically (1 sample, then 16 ([`MIN_PASS_LEVEL`]), then
 //!   doubling the samples rendered), each shrunk to what the time left allows at the last pass's
 //!   speed; the render stops at a pass boundary when the next pass would not fit (or every pixel
-//!   has its samples). The first
-//!   pass always runs. With adaptive sampling, the passes after the pilot raise each pixel to
-//!   min(its count, the level), so the time left goes to the pixels that need the most
-//!   samples: the noisiest.
+//!   has its samples). The first pass always runs. With adaptive sampling, the passes after the
+//!   pilot raise each pixel to min(its count, the level), so the time left goes to the pixels
+//!   that need the most samples: the noisiest.
 
 use super::adaptive;
 use super::{Ranges, RenderSlice, Tracer};
