@@ -159,7 +159,7 @@ def main():
             budget = e["uniform"]["render_s"]
 
             def timed(tag, *extra):
-                """Renders within the uniform render's time (two seeds), `extra` the options."""
+                """Renders within the uniform render's time, one per seed; `extra`: the options."""
                 runs, errs, spp = [], [], []
                 for s in range(a.seeds):
                     runs.append(torrey(xml, out(tag), "--spp", a.adaptive_cap, "--time-limit",
