@@ -180,7 +180,9 @@ def run_mitsuba(variant, xml, spp, threads, seed, plugins, warm=True, out_exr=No
             shutil.rmtree(home, ignore_errors=True)
     if p.returncode != 0:
         raise RuntimeError("mitsuba %s failed:\n%s" % (variant, p.stderr[-3000:]))
-    r = json.loads(p.stdout.strip().splitlines()[-1])
+    # The last line, from its brace: a Mitsuba warning ends with a colour reset that can precede it.
+    last = p.stdout.strip().splitlines()[-1]
+    r = json.loads(last[last.index("{"):])
     r.update(renderer="mitsuba-" + variant, peak_rss_mb=rss, process_wall_s=round(wall, 3),
              loadavg_before=la, seed=seed)
     return r

@@ -7,7 +7,9 @@ One command, from the repository root:
     python3 bench/real_scenes.py                         # every scene, 3 runs each, 64 spp
     python3 bench/real_scenes.py --only veach-direct,cbox --runs 5 --spp 256
 Other options: --threads N (default: all cores, both renderers), --no-build, --torrey-bin PATH,
---torrey-arg ARG (repeatable, e.g. --torrey-arg=--sampler=independent), --json PATH.
+--torrey-arg ARG (repeatable, e.g. --torrey-arg=--sampler=independent), --json PATH,
+--mitsuba-scalar (Mitsuba's scalar_rgb variant too, one render per run: how much of the gap is
+Mitsuba's 16-lane kernels rather than its algorithms).
 
 What it measures (the numbers of docs/performance.md's table):
   * speed: torrey's whole process (wall: parse, build, render, EXR + PNG writing) against
@@ -104,6 +106,14 @@ def mitsuba_run(xml, spp, seed, threads, out_exr, plugins):
             "load_s": r["load_s"], "loadavg": r["loadavg_before"]}
 
 
+def mitsuba_scalar_run(xml, spp, seed, threads, plugins):
+    """Mitsuba's scalar_rgb variant (one path at a time, as torrey's scalar loop): load + render,
+    in a fresh process (no kernel to compile, so one render)."""
+    r = common.run_mitsuba("scalar_rgb", xml, spp, threads, seed, plugins=plugins, warm=False)
+    return {"s": r["load_s"] + r["first_render_s"], "load_s": r["load_s"],
+            "loadavg": r["loadavg_before"]}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=3)
@@ -115,6 +125,7 @@ def main():
     ap.add_argument("--torrey-bin")
     ap.add_argument("--torrey-arg", action="append", default=[])
     ap.add_argument("--json")
+    ap.add_argument("--mitsuba-scalar", action="store_true")
     a = ap.parse_args()
     common.setup_mitsuba()
     common.reexec_in_venv()
@@ -156,7 +167,8 @@ def main():
 
     for name, scene, mxml, size, depth, ref, var in jobs:
         log("== %s" % name)
-        entry = {"torrey": [], "mitsuba": [], "torrey_relmse": [], "mitsuba_relmse": []}
+        entry = {"torrey": [], "mitsuba": [], "torrey_relmse": [], "mitsuba_relmse": [],
+                 "mitsuba_scalar": []}
         ref_img = common.read_exr(ref)
         var_img = common.read_exr(var) if var and os.path.exists(var) else None
         for run in range(a.runs):
@@ -170,6 +182,15 @@ def main():
                 log("   torrey failed: %s" % entry["torrey_error"])
                 break
             m = mitsuba_run(mxml, a.spp, seed, a.threads, m_out, plugins=mxml != scene)
+            if a.mitsuba_scalar:
+                try:
+                    entry["mitsuba_scalar"].append(
+                        mitsuba_scalar_run(mxml, a.spp, seed, a.threads, plugins=mxml != scene))
+                except RuntimeError as e:
+                    # torrey's course BSDFs as Python plugins divide Python floats in scalar
+                    # variants, where a zero pdf raises (drjit's lanes give inf and select it away).
+                    entry["mitsuba_scalar_error"] = str(e).splitlines()[-1]
+                    log("   mitsuba scalar failed: %s" % entry["mitsuba_scalar_error"])
             entry["torrey"].append(t)
             entry["mitsuba"].append(m)
             entry["torrey_relmse"].append(rel_mse(common.read_exr(t_out), ref_img, var_img))
@@ -187,6 +208,9 @@ def main():
                          speed_warm=warm / tt, speed_cold=cold / tt,
                          eff_ratio_warm=(me * warm) / max(te * tt, 1e-30),
                          simd=entry["torrey"][0]["simd"])
+            if entry["mitsuba_scalar"]:
+                scalar = med([r["s"] for r in entry["mitsuba_scalar"]])
+                entry.update(mitsuba_scalar_s=scalar, speed_scalar=scalar / tt)
         result["scenes"][name] = entry
         # Written after every scene, so that a failure later keeps what was measured.
         path = a.json or os.path.join(OUT, "real_%s.json" % datetime.date.today().isoformat())
@@ -201,17 +225,22 @@ def print_table(result):
     print("CPU: %s; %d threads; %d spp; Mitsuba llvm_ad_rgb kernels: %s; torrey args %s; rev %s"
           % (result["cpu"], result["threads"], result["spp"], result["mitsuba_simd"],
              result["torrey_args"] or "(defaults)", result["rev"]))
+    scalar = any("mitsuba_scalar_s" in e for e in result["scenes"].values())
     print("| scene | torrey SIMD | torrey s | Mitsuba s (warm / cold) | speed warm (cold) | "
-          "relMSE torrey / Mitsuba | equal-time ratio |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+          "relMSE torrey / Mitsuba | equal-time ratio |"
+          + (" Mitsuba scalar s | speed vs scalar |" if scalar else ""))
+    print("| --- | --- | --- | --- | --- | --- | --- |" + (" --- | --- |" if scalar else ""))
     for name, e in result["scenes"].items():
         if "torrey_s" not in e:
             print("| %s | - | %s | | | | |" % (name, e.get("torrey_error", "no run")))
             continue
-        print("| %s | %s | %.2f | %.2f / %.2f | **%.2f** (%.2f) | %.3g / %.3g | **%.2f** |" % (
+        row = "| %s | %s | %.2f | %.2f / %.2f | **%.2f** (%.2f) | %.3g / %.3g | **%.2f** |" % (
             name, e["simd"], e["torrey_s"], e["mitsuba_warm_s"], e["mitsuba_cold_s"],
             e["speed_warm"], e["speed_cold"], statistics.mean(e["torrey_relmse"]),
-            statistics.mean(e["mitsuba_relmse"]), e["eff_ratio_warm"]))
+            statistics.mean(e["mitsuba_relmse"]), e["eff_ratio_warm"])
+        if "mitsuba_scalar_s" in e:
+            row += " %.2f | %.2f |" % (e["mitsuba_scalar_s"], e["speed_scalar"])
+        print(row)
 
 
 if __name__ == "__main__":
