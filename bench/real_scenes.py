@@ -240,6 +240,8 @@ def print_table(result):
             statistics.mean(e["mitsuba_relmse"]), e["eff_ratio_warm"])
         if "mitsuba_scalar_s" in e:
             row += " %.2f | %.2f |" % (e["mitsuba_scalar_s"], e["speed_scalar"])
+        elif scalar:
+            row += " - | - |"
         print(row)
 
 
